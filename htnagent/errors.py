@@ -1,0 +1,56 @@
+"""The exceptions htnagent raises, all rooted at :class:`HtnAgentError`.
+
+::
+
+    HtnAgentError
+    ├── TextFormError        a task, action or fact text is not ``name(arg,...)``
+    ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
+    ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
+    ├── PlanningError        a goal cannot be planned for in a way the caller asked for
+    └── RuntimeFault         the agent runtime met a fault it cannot turn into a result
+        └── ExecutorFault    an executor raised or broke its protocol
+
+Planning that finds no plan is a result (:class:`htnagent.planner.PlanStatus`),
+not an exception; exceptions are for misuse and invalid input.
+"""
+
+from __future__ import annotations
+
+
+class HtnAgentError(Exception):
+    """Base class of every error htnagent raises on purpose."""
+
+
+class TextFormError(HtnAgentError, ValueError):
+    """Raised when a text form such as ``goto(n1)`` cannot be parsed."""
+
+
+class DomainError(HtnAgentError):
+    """Raised when an operator, method or domain is built inconsistently."""
+
+
+class ScenarioError(HtnAgentError):
+    """Raised when a scenario or map file is invalid.
+
+    ``file`` is the file, ``where`` the key path or line in it, ``reason`` what is wrong;
+    ``str()`` gives the one line the CLI prints.
+    """
+
+    def __init__(self, file: str, where: str, reason: str) -> None:
+        self.file = file
+        self.where = where
+        self.reason = reason
+        place = f"{file}: {where}" if where else file
+        super().__init__(f"{place}: {reason}")
+
+
+class PlanningError(HtnAgentError):
+    """Raised when a task names something the domain does not know."""
+
+
+class RuntimeFault(HtnAgentError):
+    """Raised inside the runtime when a fault cannot be reported as a result."""
+
+
+class ExecutorFault(RuntimeFault):
+    """Raised when an executor raises or breaks the message protocol."""

@@ -1,0 +1,267 @@
+"""Maps: areas, nodes with coordinates, and arcs; loading, checking, generating.
+
+The file format is that of ``scenarios/museum_map.yaml`` (CONTRACTS.md):
+``areas`` (name → optional ``col``/``row``), ``nodes`` (name → ``area``, ``x``,
+``y``) and ``arcs`` (id → ``[a, b]`` or ``{ends: [a, b], length: L}``).  An
+arc's length defaults to the Euclidean distance of its ends, in metres.
+"""
+
+from __future__ import annotations
+
+import math
+import random
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from functools import cached_property
+from typing import Any
+
+from htnagent.errors import ScenarioError
+
+
+@dataclass(frozen=True, slots=True)
+class Node:
+    """A place the robot can stand at."""
+
+    name: str
+    area: str
+    x: float
+    y: float
+
+
+@dataclass(frozen=True, slots=True)
+class Arc:
+    """A two-way passage between two nodes."""
+
+    name: str
+    a: str
+    b: str
+    length: float
+
+
+@dataclass(frozen=True)
+class WorldMap:
+    """A checked map: every arc joins two known nodes, every node is in a known area."""
+
+    areas: tuple[str, ...]
+    nodes: Mapping[str, Node]
+    arcs: Mapping[str, Arc]
+    area_grid: Mapping[str, tuple[int, int]] = field(default_factory=dict)
+
+    @cached_property
+    def area_nodes(self) -> dict[str, list[str]]:
+        """The nodes of each area."""
+        out: dict[str, list[str]] = {a: [] for a in self.areas}
+        for n in self.nodes.values():
+            out[n.area].append(n.name)
+        return out
+
+    @cached_property
+    def centroids(self) -> dict[str, tuple[float, float]]:
+        """The mean position of each area's nodes."""
+        out: dict[str, tuple[float, float]] = {}
+        for a, names in self.area_nodes.items():
+            if names:
+                out[a] = (
+                    sum(self.nodes[n].x for n in names) / len(names),
+                    sum(self.nodes[n].y for n in names) / len(names),
+                )
+            else:
+                out[a] = (0.0, 0.0)
+        return out
+
+    @cached_property
+    def doors(self) -> list[tuple[str, str, Arc]]:
+        """Arcs joining two areas, each as ``(from area, to area, arc)``, both ways."""
+        out: list[tuple[str, str, Arc]] = []
+        for arc in self.arcs.values():
+            aa, ab = self.nodes[arc.a].area, self.nodes[arc.b].area
+            if aa != ab:
+                out.append((aa, ab, arc))
+                out.append((ab, aa, arc))
+        return out
+
+    def distance(self, a: str, b: str) -> float:
+        """The straight-line distance between two nodes."""
+        na, nb = self.nodes[a], self.nodes[b]
+        return math.hypot(na.x - nb.x, na.y - nb.y)
+
+    def arc_between(self, a: str, b: str) -> Arc | None:
+        """An arc joining the two nodes, if there is one."""
+        for arc in self.arcs.values():
+            if {arc.a, arc.b} == {a, b}:
+                return arc
+        return None
+
+
+def parse_map(data: Any, file: str, where: str = "map") -> WorldMap:
+    """Check a map given as parsed YAML; raise ScenarioError naming the key path."""
+    if not isinstance(data, Mapping):
+        raise ScenarioError(
+            file, where, f"a map must be a mapping with areas, nodes and arcs, not {_kind(data)}"
+        )
+    for key in data:
+        if key not in ("areas", "nodes", "arcs"):
+            raise ScenarioError(
+                file, f"{where}.{key}" if where else str(key), "unknown key; a map has areas, nodes and arcs"
+            )
+    pre = f"{where}." if where else ""
+    areas_raw = data.get("areas")
+    if not isinstance(areas_raw, Mapping) or not areas_raw:
+        raise ScenarioError(file, f"{pre}areas", "expected a non-empty mapping of area names")
+    grid: dict[str, tuple[int, int]] = {}
+    for name, info in areas_raw.items():
+        if info is None:
+            continue
+        if not isinstance(info, Mapping) or set(info) - {"col", "row"}:
+            raise ScenarioError(file, f"{pre}areas.{name}", "expected {col: int, row: int} or nothing")
+        if "col" in info and "row" in info:
+            col, row = info["col"], info["row"]
+            if (
+                not isinstance(col, int)
+                or not isinstance(row, int)
+                or isinstance(col, bool)
+                or isinstance(row, bool)
+            ):
+                raise ScenarioError(file, f"{pre}areas.{name}", "col and row must be whole numbers")
+            grid[str(name)] = (col, row)
+    areas = tuple(str(a) for a in areas_raw)
+    nodes_raw = data.get("nodes")
+    if not isinstance(nodes_raw, Mapping) or not nodes_raw:
+        raise ScenarioError(file, f"{pre}nodes", "expected a non-empty mapping of node names")
+    nodes: dict[str, Node] = {}
+    for name, info in nodes_raw.items():
+        path = f"{pre}nodes.{name}"
+        _check_name(str(name), file, path)
+        if not isinstance(info, Mapping):
+            raise ScenarioError(file, path, "expected {area: A, x: X, y: Y}")
+        extra = set(info) - {"area", "x", "y"}
+        if extra:
+            raise ScenarioError(file, f"{path}.{sorted(extra)[0]}", "unknown key; a node has area, x and y")
+        area = info.get("area")
+        if area not in areas_raw:
+            raise ScenarioError(file, f"{path}.area", f"unknown area {area!r}")
+        x, y = info.get("x"), info.get("y")
+        for axis, v in (("x", x), ("y", y)):
+            if not _is_number(v):
+                raise ScenarioError(file, f"{path}.{axis}", f"expected a number, got {v!r}")
+        nodes[str(name)] = Node(str(name), str(area), float(x), float(y))  # type: ignore[arg-type]
+    arcs_raw = data.get("arcs")
+    if not isinstance(arcs_raw, Mapping) or not arcs_raw:
+        raise ScenarioError(file, f"{pre}arcs", "expected a non-empty mapping of arc ids")
+    arcs: dict[str, Arc] = {}
+    for name, info in arcs_raw.items():
+        path = f"{pre}arcs.{name}"
+        _check_name(str(name), file, path)
+        length: Any = None
+        if isinstance(info, Mapping):
+            extra = set(info) - {"ends", "length"}
+            if extra:
+                raise ScenarioError(
+                    file, f"{path}.{sorted(extra)[0]}", "unknown key; an arc has ends and length"
+                )
+            ends = info.get("ends")
+            length = info.get("length")
+        else:
+            ends = info
+        if not isinstance(ends, list) or len(ends) != 2:
+            raise ScenarioError(file, path, "expected [node, node] or {ends: [node, node], length: L}")
+        a, b = (str(e) for e in ends)
+        for e in (a, b):
+            if e not in nodes:
+                raise ScenarioError(file, path, f"unknown node {e!r}")
+        if a == b:
+            raise ScenarioError(file, path, f"an arc must join two different nodes, not {a} to itself")
+        if length is None:
+            length = math.hypot(nodes[a].x - nodes[b].x, nodes[a].y - nodes[b].y)
+        elif not _is_number(length) or length <= 0:
+            raise ScenarioError(file, f"{path}.length", f"expected a positive number, got {length!r}")
+        arcs[str(name)] = Arc(str(name), a, b, float(length))
+    return WorldMap(areas, nodes, arcs, grid)
+
+
+def _check_name(name: str, file: str, path: str) -> None:
+    if not name or any(c in name for c in "(), \t\"'?"):
+        raise ScenarioError(
+            file, path, f"{name!r} is not a valid name (no spaces, parentheses, commas, quotes or '?')"
+        )
+
+
+def _is_number(v: object) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def _kind(v: object) -> str:
+    return "nothing" if v is None else type(v).__name__
+
+
+def generate_map(cols: int, rows: int, side: int, seed: int = 0) -> WorldMap:
+    """A museum of ``cols × rows`` areas, each a ``side × side`` grid of nodes.
+
+    Nodes are jittered, some inner arcs dropped and diagonals added at random,
+    so routes differ; neighbouring areas are joined by one to two doors.  Every
+    node stays reachable.
+    """
+    rng = random.Random(seed)
+    spacing = 4.0
+    area_size = side * spacing + 2.0
+    areas: list[str] = []
+    grid: dict[str, tuple[int, int]] = {}
+    nodes: dict[str, Node] = {}
+    arcs: dict[str, Arc] = {}
+    cell: dict[tuple[int, int, int, int], str] = {}
+
+    def add_arc(a: str, b: str) -> None:
+        name = f"arc{len(arcs) + 1}"
+        arcs[name] = Arc(name, a, b, math.hypot(nodes[a].x - nodes[b].x, nodes[a].y - nodes[b].y))
+
+    for r in range(rows):
+        for c in range(cols):
+            area = f"area{r * cols + c + 1}"
+            areas.append(area)
+            grid[area] = (c, r)
+            for j in range(side):
+                for i in range(side):
+                    name = f"n{len(nodes) + 1}"
+                    x = c * area_size + 1 + i * spacing + rng.uniform(-1.0, 1.0)
+                    y = r * area_size + 1 + j * spacing + rng.uniform(-1.0, 1.0)
+                    nodes[name] = Node(name, area, round(x, 2), round(y, 2))
+                    cell[(c, r, i, j)] = name
+            # Row 0 and every column form a comb that connects the area; extra arcs make cycles.
+            for j in range(side):
+                for i in range(side):
+                    here = cell[(c, r, i, j)]
+                    if i + 1 < side and (j == 0 or rng.random() < 0.7):
+                        add_arc(here, cell[(c, r, i + 1, j)])
+                    if j + 1 < side:
+                        add_arc(here, cell[(c, r, i, j + 1)])
+                    if i + 1 < side and j + 1 < side and rng.random() < 0.15:
+                        add_arc(here, cell[(c, r, i + 1, j + 1)])
+    for r in range(rows):
+        for c in range(cols):
+            if c + 1 < cols:
+                for _ in range(rng.randint(1, 2)):
+                    j = rng.randrange(side)
+                    add_arc(cell[(c, r, side - 1, j)], cell[(c + 1, r, 0, j)])
+            if r + 1 < rows:
+                for _ in range(rng.randint(1, 2)):
+                    i = rng.randrange(side)
+                    add_arc(cell[(c, r, i, side - 1)], cell[(c, r + 1, i, 0)])
+    # Duplicate doors (same two nodes) collapse to one.
+    unique: dict[frozenset[str], Arc] = {}
+    for arc in arcs.values():
+        unique.setdefault(frozenset((arc.a, arc.b)), arc)
+    return WorldMap(tuple(areas), nodes, {a.name: a for a in unique.values()}, grid)
+
+
+def map_to_yaml_data(world: WorldMap) -> dict[str, Any]:
+    """The map as plain data in the file format (for writing generated maps)."""
+    return {
+        "areas": {
+            a: (
+                {"col": world.area_grid[a][0], "row": world.area_grid[a][1]} if a in world.area_grid else None
+            )
+            for a in world.areas
+        },
+        "nodes": {n.name: {"area": n.area, "x": n.x, "y": n.y} for n in world.nodes.values()},
+        "arcs": {a.name: [a.a, a.b] for a in world.arcs.values()},
+    }

@@ -1,0 +1,129 @@
+"""Plans as values: the steps, their cost, and the decomposition record.
+
+Every step of a plan remembers which compound task (and which of its methods)
+produced it, through a chain of :class:`Decomposition` records up to the goal.
+Plan repair (ALGORITHMS.md §2 item 4) walks that chain.  Steps inserted by plan
+maintenance — ``resume``/``rollback``/undo actions — belong to no compound task
+and have no record.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+from htnagent.domain import Domain, State
+from htnagent.terms import Atom
+
+
+@dataclass(frozen=True, slots=True, eq=False)
+class Decomposition:
+    """One link of a decomposition record: ``task`` was decomposed by ``method``.
+
+    Records compare by identity: two equal tasks decomposed at two places are two
+    records.
+    """
+
+    task: Atom
+    method: str
+    parent: Decomposition | None
+
+    def chain(self) -> list[Decomposition]:
+        """This record and its ancestors, lowest first."""
+        out: list[Decomposition] = []
+        node: Decomposition | None = self
+        while node is not None:
+            out.append(node)
+            node = node.parent
+        return out
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """One action of a plan, its cost, and the record of the task that produced it."""
+
+    action: Atom
+    cost: float
+    record: Decomposition | None = None
+
+    def __str__(self) -> str:
+        return str(self.action)
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """A totally ordered sequence of steps and their total cost."""
+
+    steps: tuple[Step, ...]
+
+    @property
+    def cost(self) -> float:
+        """The sum of the step costs."""
+        return sum(s.cost for s in self.steps)
+
+    @property
+    def actions(self) -> tuple[Atom, ...]:
+        """The actions, in order."""
+        return tuple(s.action for s in self.steps)
+
+    def text(self) -> list[str]:
+        """The actions in the text form of CONTRACTS.md."""
+        return [str(s.action) for s in self.steps]
+
+    def __len__(self) -> int:
+        return len(self.steps)
+
+    def __bool__(self) -> bool:
+        return True
+
+    def __str__(self) -> str:
+        return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
+
+
+def first_failure(domain: Domain, state: State, actions: Iterable[Atom]) -> tuple[int, State] | None:
+    """Progress the state through the actions; where the first precondition fails.
+
+    Returns ``(index, state before that action)``, or None when every action applies.
+    """
+    current = state
+    for i, a in enumerate(actions):
+        nxt = domain.apply(current, a)
+        if nxt is None:
+            return i, current
+        current = nxt
+    return None
+
+
+def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | None:
+    """The state after all the actions, or None if one of them is not applicable."""
+    current: State | None = state
+    for a in actions:
+        assert current is not None
+        current = domain.apply(current, a)
+        if current is None:
+            return None
+    return current
+
+
+def tidy(domain: Domain, steps: Sequence[Step]) -> tuple[Step, ...]:
+    """Apply the tidy-up rules of ALGORITHMS.md §2 item 6 until none applies.
+
+    - an action directly followed by its own undo: both go;
+    - ``rollback(A)`` directly followed by ``A``: they become ``resume(A)``.
+    """
+    out: list[Step] = []
+    for step in steps:
+        if out:
+            prev = out[-1].action
+            # §2.6: an action directly followed by its own undo vanishes with it.
+            if domain.undo_of(prev) == step.action:
+                out.pop()
+                continue
+            # §2.6: rollback(A) directly followed by A is resume(A).
+            if prev.name == "rollback" and prev.args and prev.args[0] == step.action:
+                resume = domain.resume_of(step.action)
+                if resume is not None:
+                    out[-1] = Step(resume, domain.cost(resume), step.record)
+                    continue
+        out.append(step)
+    return tuple(out)

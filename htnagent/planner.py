@@ -1,0 +1,238 @@
+"""The SHOP-style forward-decomposition HTN planner (ALGORITHMS.md §1).
+
+Pure, synchronous code.  The first task of the task list is always the one
+decomposed or applied, so the state is known at every step.  Search is
+best-first A* over ``(state, remaining tasks)`` with ``f = g + h``: ``g`` the
+cost of the actions so far, ``h`` the sum of the domain's estimates of the
+compound tasks left.  The planner returns up to ``alternatives`` complete plans
+in cost order; each key may be expanded that many times, and a plan never
+returns to a ``(state, tasks)`` it already passed through, so alternatives are
+genuinely different routes rather than detours with loops.
+
+When the state holds a half-done action (the facts a suspension left), the
+planner also tries, before the first task, every applicable ``resume`` and
+``rollback`` operator — that is how a plan from scratch gets off the arc.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from enum import Enum
+
+from htnagent.domain import Domain, State, satisfiers
+from htnagent.errors import PlanningError
+from htnagent.plan import Decomposition, Plan, Step, tidy
+from htnagent.terms import Atom, Bindings, substitute, unify
+
+TaskEntry = tuple[Atom, Decomposition | None]
+
+
+class PlanStatus(Enum):
+    """How a planning call ended."""
+
+    SOLVED = "solved"
+    """At least one complete plan was found."""
+    UNSOLVABLE = "unsolvable"
+    """The whole search space was explored and holds no plan."""
+    BUDGET_EXHAUSTED = "budget_exhausted"
+    """The expansion budget ran out before any plan was found."""
+
+
+@dataclass(frozen=True, slots=True)
+class PlannerSettings:
+    """How hard the planner tries: alternatives kept (K) and the expansion budget."""
+
+    alternatives: int = 4
+    budget: int = 200_000
+
+    def __post_init__(self) -> None:
+        if self.alternatives < 1:
+            raise ValueError("alternatives must be at least 1")
+        if self.budget < 1:
+            raise ValueError("budget must be at least 1")
+
+
+@dataclass(frozen=True, slots=True)
+class PlanResult:
+    """Plans found (cheapest first), why the search stopped, and what it cost."""
+
+    status: PlanStatus
+    plans: tuple[Plan, ...] = ()
+    expansions: int = 0
+    seconds: float = 0.0
+
+    @property
+    def best(self) -> Plan | None:
+        """The cheapest plan, if any."""
+        return self.plans[0] if self.plans else None
+
+
+@dataclass(slots=True, eq=False)
+class _Node:
+    g: float
+    dynamic: frozenset[Atom]
+    tasks: tuple[Atom, ...]
+    records: tuple[Decomposition | None, ...]
+    step: Step | None
+    parent: _Node | None
+    key: tuple[frozenset[Atom], tuple[Atom, ...]] = field(init=False)
+    key_hash: int = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.key = (self.dynamic, self.tasks)
+        self.key_hash = hash(self.key)
+
+    def revisits(self) -> bool:
+        """Whether an ancestor had the same state and task list (a loop)."""
+        node = self.parent
+        while node is not None:
+            if node.key_hash == self.key_hash and node.key == self.key:
+                return True
+            node = node.parent
+        return False
+
+    def plan(self) -> list[Step]:
+        steps: list[Step] = []
+        node: _Node | None = self
+        while node is not None:
+            if node.step is not None:
+                steps.append(node.step)
+            node = node.parent
+        steps.reverse()
+        return steps
+
+
+def plan(
+    domain: Domain,
+    state: State,
+    tasks: Sequence[Atom | TaskEntry],
+    settings: PlannerSettings | None = None,
+    *,
+    recover: bool = True,
+) -> PlanResult:
+    """Plan the task list from the state: up to K plans in cost order.
+
+    ``tasks`` are atoms or ``(atom, record)`` pairs (a record places re-planned
+    tasks under an existing decomposition, for repair).  With ``recover`` the
+    planner may start with an applicable ``resume``/``rollback``.  Raises
+    :class:`PlanningError` for a task name the domain does not know.
+    """
+    settings = settings or PlannerSettings()
+    started = time.perf_counter()
+    entries: list[TaskEntry] = [(t, None) if isinstance(t, Atom) else t for t in tasks]
+    for t, _ in entries:
+        if not domain.knows(t):
+            raise PlanningError(f"domain {domain.name} has no operator or method for {t}")
+    static = state.static
+    dyn_preds = state.dynamic_predicates
+    root = _Node(0.0, state.dynamic, tuple(t for t, _ in entries), tuple(r for _, r in entries), None, None)
+    counter = itertools.count()
+    heap: list[tuple[float, float, int, _Node]] = []
+    k = settings.alternatives
+    check_loops = k > 1
+
+    def push(node: _Node, st: State) -> None:
+        h = domain.h(node.tasks, st) if node.tasks else 0.0
+        heapq.heappush(heap, (node.g + h, -node.g, next(counter), node))
+
+    push(root, state)
+    if recover:
+        # A suspended action's facts are in the state: try finishing or undoing it first.
+        for op in domain.recovery_operators():
+            for b in satisfiers(op.pre, state, {}):
+                action = substitute(op.head, b)
+                if not action.is_ground:
+                    continue
+                child = _Node(
+                    op.action_cost(action),
+                    op.progress(state.dynamic, b),
+                    root.tasks,
+                    root.records,
+                    Step(action, op.action_cost(action), None),
+                    root,
+                )
+                push(child, state.with_dynamic(child.dynamic))
+
+    popped: dict[tuple[frozenset[Atom], tuple[Atom, ...]], int] = {}
+    found: list[Plan] = []
+    seen_plans: set[tuple[Atom, ...]] = set()
+    expansions = 0
+    while heap and len(found) < k:
+        if expansions >= settings.budget:
+            found.sort(key=lambda p: p.cost)
+            status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
+            return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
+        _, _, _, node = heapq.heappop(heap)
+        count = popped.get(node.key, 0)
+        if count >= k:
+            continue
+        popped[node.key] = count + 1
+        if not node.tasks:
+            steps = tidy(domain, node.plan())
+            actions = tuple(s.action for s in steps)
+            if actions not in seen_plans:
+                seen_plans.add(actions)
+                found.append(Plan(steps))
+            continue
+        expansions += 1
+        st = State(static, node.dynamic, dyn_preds)
+        task = node.tasks[0]
+        record = node.records[0]
+        rest_t = node.tasks[1:]
+        rest_r = node.records[1:]
+        if domain.is_primitive(task):
+            for op in domain.operators[task.name]:
+                hb = _unify_head(op.head, task)
+                if hb is None:
+                    continue
+                applicable = op.applicable(st, hb)
+                if applicable is None:
+                    continue
+                b = applicable
+                action = substitute(op.head, b)
+                c = op.action_cost(action)
+                child = _Node(
+                    node.g + c, op.progress(node.dynamic, b), rest_t, rest_r, Step(action, c, record), node
+                )
+                if check_loops and child.revisits():
+                    continue
+                push(child, st.with_dynamic(child.dynamic))
+            continue
+        methods = domain.methods.get(task.name, ())
+        children: set[tuple[Atom, ...]] = set()
+        for m in methods:
+            hb = _unify_head(m.head, task)
+            if hb is None:
+                continue
+            for b in satisfiers(m.pre, st, hb):
+                subtasks = tuple(substitute(s, b) for s in m.subtasks)
+                if subtasks in children:
+                    continue
+                children.add(subtasks)
+                rec = Decomposition(task, m.name, record)
+                child = _Node(
+                    node.g,
+                    node.dynamic,
+                    subtasks + rest_t,
+                    (rec,) * len(subtasks) + rest_r,
+                    None,
+                    node,
+                )
+                push(child, st)
+    # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
+    found.sort(key=lambda p: p.cost)
+    if found:
+        status = PlanStatus.SOLVED
+    elif heap:
+        status = PlanStatus.BUDGET_EXHAUSTED
+    else:
+        status = PlanStatus.UNSOLVABLE
+    return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
+
+
+def _unify_head(head: Atom, task: Atom) -> Bindings | None:
+    return unify(head, task, {})

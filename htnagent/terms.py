@@ -1,0 +1,164 @@
+"""Atoms, variables and the text form ``name(arg1,arg2,...)``.
+
+Facts, tasks and actions are all :class:`Atom` values: an immutable name and a
+tuple of arguments, each argument a constant (``str``) or a nested atom
+(``resume(move(n40,n35,arc59))``).  In domain definitions a constant that starts
+with ``?`` is a variable.  This module parses and prints the text form of
+CONTRACTS.md and unifies patterns with ground atoms (SHOP-style binding).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+from typing import NamedTuple, Union
+
+from htnagent.errors import TextFormError
+
+Term = Union[str, "Atom"]
+Bindings = dict[str, Term]
+
+
+class Atom(NamedTuple):
+    """A fact, task or action: ``name(args...)``; immutable and hashable."""
+
+    name: str
+    args: tuple[Term, ...] = ()
+
+    def __str__(self) -> str:
+        if not self.args:
+            return self.name
+        return f"{self.name}({','.join(str(a) for a in self.args)})"
+
+    def __repr__(self) -> str:
+        return f"Atom({str(self)!r})"
+
+    @property
+    def is_ground(self) -> bool:
+        """True when no argument, at any depth, is a variable."""
+        return all((not a.startswith("?")) if isinstance(a, str) else a.is_ground for a in self.args)
+
+    def variables(self) -> set[str]:
+        """The variables of the atom, at any depth."""
+        out: set[str] = set()
+        for a in self.args:
+            if isinstance(a, str):
+                if a.startswith("?"):
+                    out.add(a)
+            else:
+                out |= a.variables()
+        return out
+
+
+def is_variable(term: Term) -> bool:
+    """True for a variable such as ``?x``."""
+    return isinstance(term, str) and term.startswith("?")
+
+
+_DELIMS = frozenset("(),")
+
+
+def parse(text: str) -> Atom:
+    """Parse ``name(arg,...)`` into an :class:`Atom`; raise TextFormError if malformed."""
+    if not isinstance(text, str):
+        raise TextFormError(f"expected text like name(arg,...), got {type(text).__name__}")
+    src = text.strip()
+    if not src:
+        raise TextFormError("empty text; expected name(arg,...)")
+    atom, pos = _parse_at(src, 0, text)
+    if pos != len(src):
+        raise TextFormError(f"{text!r}: unexpected {src[pos:]!r} after the closing parenthesis")
+    return atom
+
+
+def _parse_at(src: str, pos: int, whole: str) -> tuple[Atom, int]:
+    name, pos = _read_name(src, pos, whole)
+    if pos >= len(src) or src[pos] != "(":
+        return Atom(name), pos
+    pos += 1
+    args: list[Term] = []
+    if pos < len(src) and src[pos] == ")":
+        return Atom(name), pos + 1
+    while True:
+        start = pos
+        token, pos = _read_name(src, pos, whole)
+        if pos < len(src) and src[pos] == "(":
+            nested, pos = _parse_at(src, start, whole)
+            args.append(nested)
+        else:
+            args.append(token)
+        if pos >= len(src):
+            raise TextFormError(f"{whole!r}: missing ')'")
+        if src[pos] == ",":
+            pos += 1
+            continue
+        if src[pos] == ")":
+            return Atom(name, tuple(args)), pos + 1
+        raise TextFormError(f"{whole!r}: unexpected {src[pos]!r} at position {pos}")
+
+
+def _read_name(src: str, pos: int, whole: str) -> tuple[str, int]:
+    start = pos
+    while pos < len(src) and src[pos] not in _DELIMS:
+        if src[pos].isspace() or src[pos] in "\"'":
+            raise TextFormError(f"{whole!r}: no spaces or quotes allowed in the text form (position {pos})")
+        pos += 1
+    if pos == start:
+        raise TextFormError(f"{whole!r}: a name is missing at position {pos}")
+    return src[start:pos], pos
+
+
+def atom(text: str | Atom) -> Atom:
+    """Accept an atom or its text form."""
+    return text if isinstance(text, Atom) else parse(text)
+
+
+def atoms(items: Iterable[str | Atom]) -> tuple[Atom, ...]:
+    """Parse several text forms at once."""
+    return tuple(atom(i) for i in items)
+
+
+def substitute(pattern: Atom, bindings: Mapping[str, Term]) -> Atom:
+    """The pattern with its bound variables replaced by their values."""
+    if not pattern.args:
+        return pattern
+    return Atom(pattern.name, tuple(_subst_term(a, bindings) for a in pattern.args))
+
+
+def _subst_term(term: Term, bindings: Mapping[str, Term]) -> Term:
+    if isinstance(term, str):
+        return bindings.get(term, term) if term.startswith("?") else term
+    return substitute(term, bindings)
+
+
+def unify(pattern: Atom, ground: Atom, bindings: Bindings) -> Bindings | None:
+    """Match ``pattern`` against the ground atom, extending a copy of ``bindings``.
+
+    Returns the extended bindings, or None when they do not match.
+    """
+    if pattern.name != ground.name or len(pattern.args) != len(ground.args):
+        return None
+    out = bindings
+    copied = False
+    for p, g in zip(pattern.args, ground.args, strict=True):
+        if isinstance(p, str):
+            if p.startswith("?"):
+                bound = out.get(p)
+                if bound is None:
+                    if not copied:
+                        out = dict(out)
+                        copied = True
+                    out[p] = g
+                elif bound != g:
+                    return None
+            elif p != g:
+                return None
+        else:
+            if isinstance(g, str):
+                return None
+            sub = unify(p, g, out)
+            if sub is None:
+                return None
+            if sub is not out:
+                out = sub
+                copied = True
+    return out
