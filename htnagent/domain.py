@@ -524,6 +524,14 @@ class Domain:
         full = next(satisfiers(op.pre, state, b), b)
         return state.with_dynamic(op.suspended(state.dynamic, full))
 
+    def clear(self, state: State, action: Atom) -> State:
+        """The belief once a suspended action will never be resumed: its half-done facts go."""
+        op, b = self.ground(action)
+        gone = {substitute(a, b) for a in op.suspend_add}
+        if not gone & state.dynamic:
+            return state
+        return state.with_dynamic(state.dynamic - gone)
+
     def undo_of(self, action: Atom) -> Atom | None:
         """The action that undoes a finished action, if the domain declares one."""
         if action.name in ("resume", "rollback"):

@@ -55,7 +55,7 @@ def areas_domain(world: WorldMap) -> Domain:
 
     d.operator(
         "move_area(?a,?b)",
-        pre=["at(?a)"],
+        pre=["at(?a)", "door(?a,?b,?arc)", "not closed(?arc)"],
         add=["at(?b)"],
         delete=["at(?a)", "moving(?a,?b)"],
         cost=move_cost,

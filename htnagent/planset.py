@@ -1,0 +1,395 @@
+"""Keeping a goal's alternative plans valid while the agent acts (ALGORITHMS.md §2–§3).
+
+A :class:`PlanSet` holds the alternative plans of one goal — the active goal or
+one waiting on the suspension stack — and updates them after every event
+instead of planning again:
+
+- :meth:`PlanSet.action_succeeded` (§2.1), :meth:`PlanSet.action_failed` (§2.2),
+  :meth:`PlanSet.action_suspended` (§3, the published Algorithm 1),
+  :meth:`PlanSet.belief_changed` (§2.3);
+- each of them re-checks every plan by progressing the belief through it and
+  *repairs* a broken plan by re-decomposing only the lowest compound task above
+  the failing action that can be decomposed again (§2.4);
+- plans removed because a fact was false are kept, indexed by that fact, and
+  revived when it becomes true again (§2.5);
+- the tidy-up rules run after every update (§2.6);
+- :meth:`PlanSet.ensure` plans from scratch when nothing is left (§2.7).
+
+In **naive** mode the set keeps only the plan being executed: suspension drops
+it, and whenever a plan is needed again it is made from scratch.
+
+Pure and synchronous: the agent runtime calls it; no event loop inside.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterator, Sequence
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from enum import Enum
+
+from htnagent.domain import Domain, State, satisfiers
+from htnagent.plan import Decomposition, Plan, Step, tidy
+from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, TaskEntry, plan
+from htnagent.terms import Atom, substitute
+
+
+class Replanning(Enum):
+    """How an agent keeps its plans."""
+
+    ONLINE = "online"
+    """Keep every alternative plan and modify it incrementally (Dynagent style)."""
+    NAIVE = "naive"
+    """Drop kept plans and plan from scratch whenever a plan is needed again."""
+
+
+@dataclass(slots=True)
+class PlanningStats:
+    """Counters and wall-clock time of one agent's planning and plan maintenance."""
+
+    rechecks: int = 0
+    repairs: int = 0
+    failed_repairs: int = 0
+    revivals: int = 0
+    from_scratch: int = 0
+    removed: int = 0
+    expansions: int = 0
+    seconds: float = 0.0
+
+    def as_dict(self) -> dict[str, float]:
+        """The figures, for traces and benchmarks."""
+        return {
+            "rechecks": self.rechecks,
+            "repairs": self.repairs,
+            "failed_repairs": self.failed_repairs,
+            "revivals": self.revivals,
+            "from_scratch": self.from_scratch,
+            "removed": self.removed,
+            "expansions": self.expansions,
+            "ms": round(self.seconds * 1000, 3),
+        }
+
+
+@dataclass(slots=True)
+class _Removed:
+    plan: Plan
+    key: tuple[Atom, bool]
+    update: int
+
+
+@dataclass
+class PlanSet:
+    """The alternative plans of one goal, cheapest first, kept valid from the belief.
+
+    ``revival_window`` bounds how many updates a removed plan waits for its fact,
+    and ``revival_capacity`` how many removed plans are kept at once.
+    """
+
+    domain: Domain
+    goal: Atom
+    mode: Replanning = Replanning.ONLINE
+    settings: PlannerSettings = field(default_factory=PlannerSettings)
+    stats: PlanningStats = field(default_factory=PlanningStats)
+    revival_window: int = 64
+    revival_capacity: int = 32
+    plans: list[Plan] = field(default_factory=list)
+    last_status: PlanStatus | None = None
+    _removed: list[_Removed] = field(default_factory=list)
+    _updates: int = 0
+
+    # -- queries --------------------------------------------------------------
+
+    @property
+    def best(self) -> Plan | None:
+        """The cheapest kept plan, if any."""
+        return self.plans[0] if self.plans else None
+
+    @property
+    def finished(self) -> bool:
+        """Whether some kept plan has nothing left to do: the goal is achieved."""
+        return any(not p.steps for p in self.plans)
+
+    def __len__(self) -> int:
+        return len(self.plans)
+
+    # -- making plans ---------------------------------------------------------
+
+    def make(self, state: State) -> PlanResult:
+        """Plan the goal from scratch, replacing whatever was kept."""
+        with self._timed():
+            return self._from_scratch(state)
+
+    def ensure(self, state: State) -> bool:
+        """Make sure there is a plan; plan from scratch if none is kept (§2.7).
+
+        Returns False when the goal cannot be planned from the belief.
+        """
+        if self.plans:
+            return True
+        with self._timed():
+            self._from_scratch(state)
+        return bool(self.plans)
+
+    def drop(self) -> None:
+        """Forget every plan (naive mode's "plan needed again")."""
+        self.plans = []
+        self._removed.clear()
+
+    def _from_scratch(self, state: State) -> PlanResult:
+        self.stats.from_scratch += 1
+        result = plan(self.domain, state, [self.goal], self._settings())
+        self.stats.expansions += result.expansions
+        self.last_status = result.status
+        self.plans = list(result.plans)
+        if self.mode is Replanning.NAIVE:
+            self.plans = self.plans[:1]
+        return result
+
+    def _settings(self) -> PlannerSettings:
+        if self.mode is Replanning.NAIVE:
+            return PlannerSettings(alternatives=1, budget=self.settings.budget)
+        return self.settings
+
+    # -- events ---------------------------------------------------------------
+
+    def action_succeeded(self, action: Atom, before: State, after: State) -> None:
+        """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
+        with self._timed():
+            undo = self.domain.undo_of(action)
+            kept: list[Plan] = []
+            for p in self.plans:
+                if p.steps and p.steps[0].action == action:
+                    # §2.1: the plan that ran the action moves on.
+                    kept.append(Plan(p.steps[1:]))
+                elif self.mode is Replanning.NAIVE:
+                    continue
+                elif undo is not None:
+                    # §2.1: another plan stays valid by undoing the action first.
+                    kept.append(Plan((Step(undo, self.domain.cost(undo), None), *p.steps)))
+                else:
+                    kept.append(p)
+            self.plans = kept
+            self._revise(before, after)
+
+    def action_failed(self, action: Atom, before: State, after: State) -> None:
+        """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
+        with self._timed():
+            if self.mode is Replanning.NAIVE:
+                self.plans = []
+                return
+            self.plans = [p for p in self.plans if not (p.steps and p.steps[0].action == action)]
+            self._revise(before, after)
+
+    def action_suspended(self, action: Atom, before: State, after: State) -> None:
+        """The running action was stopped half way (§3, Algorithm 1, steps 2–3).
+
+        ``after`` is the belief with the suspension effect (step 1, done by the caller).
+        """
+        with self._timed():
+            if self.mode is Replanning.NAIVE:
+                self.plans = []
+                return
+            resume = self.domain.resume_of(action)
+            rollback = self.domain.rollback_of(action)
+            updated: list[Plan] = []
+            for p in self.plans:
+                if p.steps and p.steps[0].action == action:
+                    if resume is None:
+                        continue
+                    # Algorithm 1, step 3: resume(A) takes A's place (and its record).
+                    first = Step(resume, self.domain.cost(resume), p.steps[0].record)
+                    updated.append(Plan((first, *p.steps[1:])))
+                elif rollback is not None:
+                    # Algorithm 1, step 3: undo the half-done A before the other plan.
+                    updated.append(Plan((Step(rollback, self.domain.cost(rollback), None), *p.steps)))
+                else:
+                    updated.append(p)
+            self.plans = updated
+            # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
+            self._revise(before, after)
+
+    def belief_changed(self, before: State, after: State) -> None:
+        """The world changed from outside (§2.3): every plan is re-checked."""
+        with self._timed():
+            if self.mode is Replanning.NAIVE:
+                if self.plans and not self._valid(self.plans[0], after):
+                    self.plans = []
+                return
+            self._revise(before, after)
+
+    # -- the machinery --------------------------------------------------------
+
+    def _revise(self, before: State, after: State) -> None:
+        """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first."""
+        self._updates += 1
+        if self.mode is Replanning.NAIVE:
+            self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
+            return
+        candidates = self._revivable(before, after)
+        out: list[Plan] = []
+        seen: set[tuple[Atom, ...]] = set()
+        cache: dict[tuple[object, ...], Plan | None] = {}
+        kept = len(self.plans)
+        for n, p in enumerate([*self.plans, *candidates]):
+            revived = n >= kept
+            p = Plan(tidy(self.domain, p.steps))
+            checked = self._recheck(p, after, cache, allow_repair=not revived)
+            if checked is None:
+                continue
+            if revived:
+                self.stats.revivals += 1
+            key = checked.actions
+            if key not in seen:
+                seen.add(key)
+                out.append(checked)
+        out.sort(key=lambda q: q.cost)
+        self.plans = out[: max(self.settings.alternatives, 1)]
+        self._removed = [r for r in self._removed if self._updates - r.update <= self.revival_window]
+
+    def _valid(self, p: Plan, state: State) -> bool:
+        self.stats.rechecks += 1
+        return self._first_failure(p, state) is None
+
+    def _first_failure(self, p: Plan, state: State) -> tuple[int, State, list[State]] | None:
+        states = [state]
+        current = state
+        for i, step in enumerate(p.steps):
+            nxt = self.domain.apply(current, step.action)
+            if nxt is None:
+                return i, current, states
+            current = nxt
+            states.append(current)
+        return None
+
+    def _recheck(
+        self, p: Plan, state: State, cache: dict[tuple[object, ...], Plan | None], *, allow_repair: bool
+    ) -> Plan | None:
+        """The plan if valid, else its repair, else None (and it is kept for revival)."""
+        self.stats.rechecks += 1
+        failure = self._first_failure(p, state)
+        if failure is None:
+            return p
+        if not allow_repair:
+            return None
+        index, at_failure, states = failure
+        repaired = self._repair(p, index, states, cache)
+        if repaired is not None:
+            self.stats.repairs += 1
+            return repaired
+        self.stats.failed_repairs += 1
+        self.stats.removed += 1
+        self._remember(p, p.steps[index].action, at_failure)
+        return None
+
+    def _repair(
+        self,
+        p: Plan,
+        index: int,
+        states: list[State],
+        cache: dict[tuple[object, ...], Plan | None],
+    ) -> Plan | None:
+        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4)."""
+        step = p.steps[index]
+        chain = step.record.chain() if step.record is not None else []
+        settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
+        for record in chain:
+            start, end = _span(p.steps, record)
+            if start > index:
+                continue
+            tasks: list[TaskEntry] = [(record.task, record.parent)]
+            tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
+            result = self._plan_cached(states[start], tasks, settings, cache)
+            if result is not None:
+                return Plan(tidy(self.domain, (*p.steps[:start], *result.steps)))
+        if chain and chain[-1].task == self.goal:
+            return None
+        # Inserted steps (rollback, undo) belong to no task: the goal is the last ancestor.
+        result = self._plan_cached(states[0], [(self.goal, None)], settings, cache)
+        return result
+
+    def _plan_cached(
+        self,
+        state: State,
+        tasks: Sequence[TaskEntry],
+        settings: PlannerSettings,
+        cache: dict[tuple[object, ...], Plan | None],
+    ) -> Plan | None:
+        key: tuple[object, ...] = (state.dynamic, *(t for t, _ in tasks), *(id(r) for _, r in tasks))
+        if key in cache:
+            return cache[key]
+        result = plan(self.domain, state, tasks, settings)
+        self.stats.expansions += result.expansions
+        found = result.best
+        cache[key] = found
+        return found
+
+    def _remember(self, p: Plan, action: Atom, state: State) -> None:
+        """Keep a removed plan, indexed by a fact that broke it (§2.5)."""
+        key = _broken_by(self.domain, action, state)
+        if key is None:
+            return
+        self._removed.append(_Removed(p, key, self._updates))
+        if len(self._removed) > self.revival_capacity:
+            del self._removed[0]
+
+    def _revivable(self, before: State, after: State) -> list[Plan]:
+        """Removed plans whose breaking fact changed the right way between the states."""
+        if not self._removed:
+            return []
+        added = after.dynamic - before.dynamic
+        deleted = before.dynamic - after.dynamic
+        if after.static is not before.static:
+            added |= after.static.facts - before.static.facts
+            deleted |= before.static.facts - after.static.facts
+        out: list[Plan] = []
+        keep: list[_Removed] = []
+        for r in self._removed:
+            fact, positive = r.key
+            if (positive and fact in added) or (not positive and fact in deleted):
+                out.append(r.plan)
+            else:
+                keep.append(r)
+        self._removed = keep
+        return out
+
+    @contextmanager
+    def _timed(self) -> Iterator[None]:
+        started = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.stats.seconds += time.perf_counter() - started
+
+
+def _span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
+    """The first and last index of the steps that ``record``'s task produced."""
+    start = end = -1
+    for i, s in enumerate(steps):
+        node = s.record
+        while node is not None:
+            if node is record:
+                if start < 0:
+                    start = i
+                end = i
+                break
+            node = node.parent
+    return start, end
+
+
+def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:
+    """The precondition literal of the action that fails: ``(fact, must be true)``.
+
+    SHOP binding makes later literals depend on earlier ones, so the culprit is
+    the first literal with which the precondition's prefix has no satisfier;
+    it is made ground with the first satisfier of the prefix before it.
+    """
+    op, bindings = domain.ground(action)
+    prefix_binding = bindings
+    for i, lit in enumerate(op.pre):
+        extended = next(satisfiers(op.pre[: i + 1], state, bindings), None)
+        if extended is None:
+            fact = substitute(lit.atom, prefix_binding)
+            return (fact, lit.positive) if fact.is_ground else None
+        prefix_binding = extended
+    return None

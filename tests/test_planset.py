@@ -1,0 +1,383 @@
+"""Plan maintenance (ALGORITHMS.md §2–§3): one test per rule, each failing without it."""
+
+from __future__ import annotations
+
+import itertools
+from pathlib import Path
+
+import pytest
+import yaml
+
+from htnagent.domain import Domain, State
+from htnagent.domains import areas_domain, nodes_domain
+from htnagent.maps import WorldMap, parse_map
+from htnagent.plan import Plan, Step, replay, tidy
+from htnagent.planner import PlannerSettings, plan
+from htnagent.planset import PlanSet, Replanning
+from htnagent.terms import Atom, parse
+from tests.stratified_sync import run_situation
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+@pytest.fixture(scope="module")
+def world() -> WorldMap:
+    return parse_map(yaml.safe_load((ROOT / "scenarios" / "museum_map.yaml").read_text()), "museum_map.yaml")
+
+
+@pytest.fixture(scope="module")
+def nav(world: WorldMap) -> Domain:
+    return nodes_domain(world)
+
+
+def a(text: str) -> Atom:
+    return parse(text)
+
+
+def texts(p: Plan | None) -> list[str]:
+    assert p is not None
+    return p.text()
+
+
+def execute(ps: PlanSet, domain: Domain, belief: State, action: str) -> State:
+    act = a(action)
+    after = domain.apply(belief, act)
+    assert after is not None, f"{action} is not applicable"
+    ps.action_succeeded(act, belief, after)
+    return after
+
+
+def line_domain(undo: bool) -> Domain:
+    """Nodes p0..p4 on a line plus a shortcut p0-p2; step(X,Y) moves; goal reach(X)."""
+    d = Domain("line")
+    d.operator(
+        "step(?x,?y)",
+        pre=["at(?x)", "link(?x,?y)"],
+        add=["at(?y)"],
+        delete=["at(?x)"],
+        cost=1.0,
+        undo="step(?y,?x)" if undo else None,
+    )
+    d.method("reach(?n)", "here", when=["at(?n)"], do=[])
+    d.method("reach(?n)", "go", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"])
+    links = [("p0", "p1"), ("p1", "p2"), ("p2", "p3"), ("p3", "p4"), ("p0", "p2")]
+    d.facts = tuple(Atom("link", pair) for x, y in links for pair in ((x, y), (y, x)))
+    return d
+
+
+def line_state(d: Domain, at: str) -> State:
+    return State.from_facts([*d.facts, Atom("at", (at,))], d)
+
+
+# -- §2.1 an action finished with success ------------------------------------------------
+
+
+def test_success_removes_the_executed_first_action(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    ps = PlanSet(nav, a("goto_node(n10)"))
+    ps.make(belief)
+    assert texts(ps.best) == ["move(n1,n6,arc5)", "move(n6,n10,arc12)"]
+    belief = execute(ps, nav, belief, "move(n1,n6,arc5)")
+    assert texts(ps.best) == ["move(n6,n10,arc12)"]
+    belief = execute(ps, nav, belief, "move(n6,n10,arc12)")
+    assert ps.finished
+
+
+def test_success_puts_the_undo_in_front_of_other_plans() -> None:
+    d = line_domain(undo=True)
+    belief = line_state(d, "p0")
+    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=3))
+    ps.make(belief)
+    # An action no plan starts with (an emergency's move) is undone in front of every plan.
+    after = d.apply(belief, a("step(p0,p1)"))
+    assert after is not None
+    other = [p for p in ps.plans if p.steps[0].action != a("step(p0,p1)")]
+    assert other
+    ps.action_succeeded(a("step(p0,p1)"), belief, after)
+    assert ps.stats.repairs == 0
+    assert any(p.text()[:1] == ["step(p1,p0)"] for p in ps.plans)
+    for p in ps.plans:
+        assert replay(d, after, p.actions) is not None
+
+
+def test_success_without_undo_rechecks_and_repairs() -> None:
+    d = line_domain(undo=False)
+    belief = line_state(d, "p0")
+    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)"]
+    after = d.apply(belief, a("step(p0,p1)"))
+    assert after is not None
+    ps.action_succeeded(a("step(p0,p1)"), belief, after)
+    # No undo: the plan was re-checked, found broken at its first step, and repaired.
+    assert ps.stats.repairs == 1
+    assert ps.stats.from_scratch == 1
+    assert texts(ps.best) == ["step(p1,p2)", "step(p2,p3)"]
+
+
+# -- §2.2 an action failed -------------------------------------------------------------------
+
+
+def test_failure_removes_plans_starting_with_the_failed_action(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    ps = PlanSet(nav, a("goto_node(n10)"))
+    ps.make(belief)
+    starts = {p.steps[0].action for p in ps.plans}
+    assert a("move(n1,n6,arc5)") in starts and len(starts) > 1
+    ps.action_failed(a("move(n1,n6,arc5)"), belief, belief)
+    assert ps.plans and all(p.steps[0].action != a("move(n1,n6,arc5)") for p in ps.plans)
+
+
+# -- §2.3 and §2.4 the belief changed; re-check and repair ------------------------------------
+
+
+def test_belief_change_repairs_the_plan_around_a_closed_arc(nav: Domain) -> None:
+    belief = nav.initial_state("n40")
+    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert "move(n10,n6,arc12)" in texts(ps.best)
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    best = ps.best
+    assert best is not None and "move(n10,n6,arc12)" not in best.text()
+    # Repaired, not planned again: the part before the closed arc is kept as it was.
+    assert ps.stats.repairs == 1 and ps.stats.from_scratch == 1
+    assert best.text()[:6] == [
+        "move(n40,n35,arc59)",
+        "move(n35,n31,arc51)",
+        "move(n31,n29,arc50)",
+        "move(n29,n22,arc44)",
+        "move(n22,n18,arc38)",
+        "move(n18,n12,arc22)",
+    ]
+    assert replay(nav, closed, best.actions) is not None
+
+
+def test_repair_redecomposes_the_lowest_task_only(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert texts(ps.best) == [
+        "move_area(area8,area7)",
+        "move_area(area7,area5)",
+        "move_area(area5,area3)",
+        "move_area(area3,area1)",
+        "goto_node(n1)",
+    ]
+    # Shut the door area3 -> area1 (arc12): the step from area3 breaks.
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    # Only goto(n1) as decomposed in area3 was planned again; the first three steps stay.
+    assert texts(ps.best) == [
+        "move_area(area8,area7)",
+        "move_area(area7,area5)",
+        "move_area(area5,area3)",
+        "move_area(area3,area4)",
+        "move_area(area4,area2)",
+        "move_area(area2,area1)",
+        "goto_node(n1)",
+    ]
+    assert ps.stats.repairs == 1 and ps.stats.from_scratch == 1
+    best = ps.best
+    assert best is not None
+    records = [s.record for s in best.steps]
+    assert all(r is not None and r.chain()[-1].task == a("goto(n1)") for r in records)
+
+
+def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n1")
+    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    # area8 is reachable only through arc51: every ancestor up to the goal fails.
+    closed = belief.updated(add=[a("closed(arc51)")])
+    ps.belief_changed(belief, closed)
+    assert ps.plans == []
+    assert ps.stats.failed_repairs == 1 and ps.stats.removed == 1
+
+
+# -- §2.5 revival ---------------------------------------------------------------------------------
+
+
+def test_plan_removed_by_a_closed_door_is_revived_when_it_opens(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n1")
+    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    original = texts(ps.best)
+    closed = belief.updated(add=[a("closed(arc51)")])
+    ps.belief_changed(belief, closed)
+    assert ps.plans == []
+    reopened = closed.updated(delete=[a("closed(arc51)")])
+    from_scratch = ps.stats.from_scratch
+    ps.belief_changed(closed, reopened)
+    assert texts(ps.best) == original
+    assert ps.stats.revivals == 1
+    assert ps.stats.from_scratch == from_scratch
+
+
+def test_revival_is_bounded_in_time(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n1")
+    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1), revival_window=2)
+    ps.make(belief)
+    closed = belief.updated(add=[a("closed(arc51)")])
+    ps.belief_changed(belief, closed)
+    for _ in range(3):
+        ps.belief_changed(closed, closed)
+    reopened = closed.updated(delete=[a("closed(arc51)")])
+    ps.belief_changed(closed, reopened)
+    assert ps.plans == [] and ps.stats.revivals == 0
+
+
+# -- §2.6 tidy-up -----------------------------------------------------------------------------------
+
+
+def test_tidy_removes_an_action_followed_by_its_undo(nav: Domain) -> None:
+    steps = [Step(a(t), 1.0) for t in ("move(n1,n6,arc5)", "move(n6,n1,arc5)", "move(n1,n2,arc1)")]
+    assert [str(s) for s in tidy(nav, steps)] == ["move(n1,n2,arc1)"]
+
+
+def test_tidy_turns_rollback_then_action_into_resume(nav: Domain) -> None:
+    steps = [Step(a("rollback(move(n1,n6,arc5))"), 1.0), Step(a("move(n1,n6,arc5)"), 1.0)]
+    assert [str(s) for s in tidy(nav, steps)] == ["resume(move(n1,n6,arc5))"]
+
+
+def test_success_then_tidy_cancels_undo_against_the_plan(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    ps = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    # An emergency goes n1 -> n4: the undo n4 -> n1 is put in front of [n1 -> n6, n6 -> n10].
+    belief = execute(ps, nav, belief, "move(n1,n4,arc3)")
+    assert texts(ps.best) == ["move(n4,n1,arc3)", "move(n1,n6,arc5)", "move(n6,n10,arc12)"]
+    # Coming back n4 -> n1 is the first action of that plan: it moves on, no undo left.
+    belief = execute(ps, nav, belief, "move(n4,n1,arc3)")
+    assert texts(ps.best) == ["move(n1,n6,arc5)", "move(n6,n10,arc12)"]
+
+
+# -- §2.7 from scratch ----------------------------------------------------------------------------------
+
+
+def test_plans_from_scratch_when_nothing_is_left(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    ps = PlanSet(nav, a("goto_node(n10)"))
+    assert ps.ensure(belief)
+    assert ps.stats.from_scratch == 1
+    assert ps.ensure(belief) and ps.stats.from_scratch == 1
+    unreachable = PlanSet(nav, a("goto_node(n10)"))
+    walled = belief.updated(add=[a("closed(arc5)"), a("closed(arc3)"), a("closed(arc1)")])
+    assert not unreachable.ensure(walled)
+
+
+# -- §3 Algorithm 1 -----------------------------------------------------------------------------------
+
+
+def test_suspension_replaces_the_running_action_by_resume(nav: Domain) -> None:
+    belief = nav.initial_state("n40")
+    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=2))
+    ps.make(belief)
+    running = a("move(n40,n35,arc59)")
+    assert all(p.steps[0].action == running for p in ps.plans)
+    after = nav.suspend(belief, running)
+    assert a("on_arc(arc59,n40,n35)") in after.dynamic  # step 1, done by the agent
+    ps.action_suspended(running, belief, after)
+    assert all(p.text()[0] == "resume(move(n40,n35,arc59))" for p in ps.plans)
+    assert ps.stats.repairs == 0
+    for p in ps.plans:
+        assert replay(nav, after, p.actions) is not None
+
+
+def test_suspension_puts_rollback_in_front_of_other_plans(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    ps = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=3))
+    ps.make(belief)
+    running = a("move(n1,n6,arc5)")
+    others = [p for p in ps.plans if p.steps[0].action != running]
+    assert others
+    after = nav.suspend(belief, running)
+    ps.action_suspended(running, belief, after)
+    firsts = {p.text()[0] for p in ps.plans}
+    assert firsts == {"resume(move(n1,n6,arc5))", "rollback(move(n1,n6,arc5))"}
+    for p in ps.plans:
+        assert replay(nav, after, p.actions) is not None
+
+
+def test_suspension_drops_plans_in_naive_mode(nav: Domain) -> None:
+    belief = nav.initial_state("n40")
+    ps = PlanSet(nav, a("goto_node(n1)"), Replanning.NAIVE)
+    ps.make(belief)
+    assert len(ps.plans) == 1
+    running = a("move(n40,n35,arc59)")
+    after = nav.suspend(belief, running)
+    ps.action_suspended(running, belief, after)
+    assert ps.plans == []
+    assert ps.ensure(after) and ps.stats.from_scratch == 2
+    assert texts(ps.best)[0] == "resume(move(n40,n35,arc59))"
+
+
+def test_clearing_a_suspended_action_removes_its_half_done_facts(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    running = a("move_area(area8,area7)")
+    suspended = areas.suspend(belief, running)
+    assert a("moving(area8,area7)") in suspended.dynamic
+    assert a("moving(area8,area7)") not in areas.clear(suspended, running).dynamic
+
+
+# -- the published situations, both levels, stacked plans updated throughout ---------------------------
+
+SITUATIONS = [
+    ("n40", "n1", "move(n40,n35,arc59)", "n38"),
+    ("n40", "n1", "move(n40,n35,arc59)", "n28"),
+    ("n40", "n1", "move(n40,n35,arc59)", "n29"),
+    ("n1", "n40", "move(n1,n6,arc5)", "n13"),
+    ("n1", "n40", "move(n1,n6,arc5)", "n4"),
+    ("n1", "n40", "move(n1,n6,arc5)", "n12"),
+]
+
+
+@pytest.mark.parametrize(("start", "goal", "interrupted", "emergency"), SITUATIONS)
+def test_published_situations_resume_at_the_cost_of_planning_from_scratch(
+    world: WorldMap, start: str, goal: str, interrupted: str, emergency: str
+) -> None:
+    areas, nodes = areas_domain(world), nodes_domain(world)
+    online = run_situation(areas, nodes, start, goal, interrupted, emergency, Replanning.ONLINE)
+    naive = run_situation(areas, nodes, start, goal, interrupted, emergency, Replanning.NAIVE)
+    assert online.parent_kept == pytest.approx(online.parent_scratch)
+    if online.child_kept is not None:
+        assert online.child_kept == pytest.approx(online.child_scratch)
+    assert online.robot_path[-1] == goal and emergency in online.robot_path
+    assert naive.robot_path[-1] == goal
+    assert _length(world, online.robot_path) <= _length(world, naive.robot_path) + 1e-9
+
+
+def _length(world: WorldMap, path: list[str]) -> float:
+    total = 0.0
+    for x, y in itertools.pairwise(path):
+        if x != y:
+            arc = world.arc_between(x, y)
+            assert arc is not None
+            total += arc.length
+    return total
+
+
+def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None:
+    """The n38 situation at the child: the kept alternative through n38 becomes the best plan."""
+    belief = nav.initial_state("n40")
+    stacked = PlanSet(nav, a("move_area(area8,area7)"))
+    stacked.make(belief)
+    running = a("move(n40,n35,arc59)")
+    after = nav.suspend(belief, running)
+    stacked.action_suspended(running, belief, after)
+    belief = after
+    emergency = plan(nav, belief, [a("goto_node(n38)")]).best
+    assert emergency is not None
+    assert emergency.text() == ["rollback(move(n40,n35,arc59))", "move(n40,n38,arc58)"]
+    for action in emergency.actions:
+        nxt = nav.apply(belief, action)
+        assert nxt is not None
+        stacked.action_succeeded(action, belief, nxt)
+        belief = nxt
+    assert texts(stacked.best) == ["move(n38,n35,arc52)", "move(n35,n31,arc51)"]
+    assert stacked.stats.from_scratch == 1

@@ -1,0 +1,119 @@
+"""Property tests of plan maintenance on random maps and random update sequences."""
+
+from __future__ import annotations
+
+import random
+
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from htnagent.domain import Domain, State
+from htnagent.domains import nodes_domain
+from htnagent.maps import generate_map
+from htnagent.plan import replay
+from htnagent.planner import PlannerSettings, plan
+from htnagent.planset import PlanSet, Replanning
+from htnagent.terms import Atom
+
+OPS = st.sampled_from(["follow", "wander", "suspend", "close", "open", "fail"])
+
+
+def _at(belief: State) -> str | None:
+    for f in belief.dynamic:
+        if f.name == "at":
+            return str(f.args[0])
+    return None
+
+
+def _moves(domain: Domain, belief: State, node: str) -> list[Atom]:
+    out = []
+    for f in belief.static.candidates("arc", 0, node):
+        action = Atom("move", f.args)
+        if domain.apply(belief, action) is not None:
+            out.append(action)
+    return sorted(out)
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(
+    shape=st.tuples(st.integers(1, 2), st.integers(1, 3), st.integers(2, 3)),
+    seed=st.integers(0, 10_000),
+    ops=st.lists(OPS, min_size=1, max_size=25),
+    k=st.integers(1, 4),
+)
+def test_kept_plans_stay_valid_and_agree_with_naive(
+    shape: tuple[int, int, int], seed: int, ops: list[str], k: int
+) -> None:
+    cols, rows, side = shape
+    world = generate_map(cols, rows, side, seed)
+    domain = nodes_domain(world)
+    rng = random.Random(seed)
+    names = sorted(world.nodes)
+    start, target = rng.choice(names), rng.choice(names)
+    goal = Atom("goto_node", (target,))
+    belief = domain.initial_state(start)
+    online = PlanSet(domain, goal, Replanning.ONLINE, PlannerSettings(alternatives=k))
+    naive = PlanSet(domain, goal, Replanning.NAIVE)
+    online.make(belief)
+    naive.make(belief)
+    arcs = sorted(world.arcs)
+
+    def everyone(event: str, *args: object) -> None:
+        for ps in (online, naive):
+            getattr(ps, event)(*args)
+
+    for op in ops:
+        here = _at(belief)
+        if here is None:
+            # The robot is on an arc: a suspended move must be resumed or rolled back first.
+            half = next(f for f in belief.dynamic if f.name == "on_arc")
+            arc, frm, to = (str(x) for x in half.args)
+            inner = Atom("move", (frm, to, arc))
+            options = [Atom("rollback", (inner,)), Atom("resume", (inner,))]
+            action = next(o for o in options[:: rng.choice([1, -1])] if domain.apply(belief, o))
+            after = domain.apply(belief, action)
+            assert after is not None
+            everyone("action_succeeded", action, belief, after)
+            belief = after
+        elif op == "follow" and online.best is not None and online.best.steps:
+            action = online.best.steps[0].action
+            after = domain.apply(belief, action)
+            assert after is not None
+            everyone("action_succeeded", action, belief, after)
+            belief = after
+        elif op in ("wander", "follow", "suspend", "fail"):
+            moves = _moves(domain, belief, here)
+            if not moves:
+                continue
+            action = rng.choice(moves)
+            if op == "suspend":
+                after = domain.suspend(belief, action)
+                everyone("action_suspended", action, belief, after)
+            elif op == "fail":
+                after = belief
+                everyone("action_failed", action, belief, after)
+            else:
+                after = domain.apply(belief, action)
+                assert after is not None
+                everyone("action_succeeded", action, belief, after)
+            belief = after
+        else:
+            fact = Atom("closed", (rng.choice(arcs),))
+            after = belief.updated(add=[fact]) if op == "close" else belief.updated(delete=[fact])
+            everyone("belief_changed", belief, after)
+            belief = after
+
+        reachable = online.ensure(belief)
+        assert naive.ensure(belief) == reachable
+        optimum = plan(domain, belief, [goal], PlannerSettings(alternatives=1)).best
+        assert (optimum is not None) == reachable
+        for p in online.plans:
+            end = replay(domain, belief, p.actions)
+            assert end is not None, f"kept plan {p} is not valid from {belief}"
+            assert Atom("at", (target,)) in end.dynamic
+        if reachable:
+            best = online.best
+            assert best is not None and optimum is not None
+            assert best.cost >= optimum.cost - 1e-9
+            costs = [p.cost for p in online.plans]
+            assert costs == sorted(costs)
