@@ -18,6 +18,7 @@ that applying an action copies only what actions can change.
 
 from __future__ import annotations
 
+import itertools
 from collections import defaultdict
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -30,12 +31,17 @@ Estimate = Callable[[Atom, "State"], float]
 
 
 class FactBase:
-    """An immutable set of ground facts, indexed by predicate and argument on demand."""
+    """An immutable set of ground facts, indexed by predicate and argument on demand.
 
-    __slots__ = ("_by_arg", "_by_name", "_facts", "_indexed")
+    Facts keep the order they were given in: SHOP tries them in that order, so ties
+    between equal-cost plans are broken the same way in every run.
+    """
+
+    __slots__ = ("_by_arg", "_by_name", "_facts", "_indexed", "_order")
 
     def __init__(self, facts: Iterable[Atom] = ()) -> None:
-        self._facts: frozenset[Atom] = frozenset(facts)
+        self._order: tuple[Atom, ...] = tuple(dict.fromkeys(facts))
+        self._facts: frozenset[Atom] = frozenset(self._order)
         self._by_name: dict[str, list[Atom]] | None = None
         self._by_arg: dict[tuple[str, int, Term], list[Atom]] = {}
         self._indexed: set[tuple[str, int]] = set()
@@ -44,7 +50,7 @@ class FactBase:
         return fact in self._facts
 
     def __iter__(self) -> Iterator[Atom]:
-        return iter(self._facts)
+        return iter(self._order)
 
     def __len__(self) -> int:
         return len(self._facts)
@@ -56,13 +62,14 @@ class FactBase:
 
     def with_changes(self, add: Iterable[Atom] = (), delete: Iterable[Atom] = ()) -> FactBase:
         """A new fact base with ``delete`` removed and ``add`` added."""
-        return FactBase((self._facts - frozenset(delete)) | frozenset(add))
+        gone = frozenset(delete)
+        return FactBase(itertools.chain((f for f in self._order if f not in gone), add))
 
     def candidates(self, name: str, position: int | None, value: Term) -> list[Atom]:
         """Facts named ``name`` (whose argument ``position`` is ``value``, if given)."""
         if self._by_name is None:
             by_name: dict[str, list[Atom]] = defaultdict(list)
-            for f in self._facts:
+            for f in self._order:
                 by_name[f.name].append(f)
             self._by_name = dict(by_name)
         if position is None:
@@ -128,11 +135,14 @@ class State:
     def match(self, pattern: Atom, bindings: Bindings) -> Iterator[Bindings]:
         """Every extension of ``bindings`` under which ``pattern`` is a fact of the state."""
         if pattern.name in self.dynamic_predicates:
-            for f in self.dynamic:
-                if f.name == pattern.name:
-                    b = unify(pattern, f, bindings)
-                    if b is not None:
-                        yield b
+            found = [f for f in self.dynamic if f.name == pattern.name]
+            if len(found) > 1:
+                # A frozenset's order changes with the hash seed: bind in text order instead.
+                found.sort(key=str)
+            for f in found:
+                b = unify(pattern, f, bindings)
+                if b is not None:
+                    yield b
             return
         position: int | None = None
         value: Term = ""
@@ -509,6 +519,16 @@ class Domain:
         full = op.applicable(state, b)
         if full is None:
             return None
+        return state.with_dynamic(op.progress(state.dynamic, full))
+
+    def progress(self, state: State, action: Atom) -> State:
+        """The state after an action reported done, even if the belief doubted it could run.
+
+        The executor is the authority on what happened: the effects are applied
+        with the precondition's bindings when it holds, the head's otherwise.
+        """
+        op, b = self.ground(action)
+        full = op.applicable(state, b) or b
         return state.with_dynamic(op.progress(state.dynamic, full))
 
     def cost(self, action: Atom) -> float:

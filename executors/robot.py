@@ -1,0 +1,224 @@
+"""The simulated museum robot: travels arcs at its speed, in simulated time.
+
+It serves ``move(From,To,Arc)`` and, for a suspended move, ``resume(...)`` and
+``rollback(...)``.  A move can be suspended half way: the robot stops on the
+arc, keeps what it needs to resume (or roll back) until told to clear it.  A
+move over a closed arc fails, and so does a move when the robot is not where
+the move starts; with a ``failure_rate`` a move also fails at random (seeded).
+"""
+
+from __future__ import annotations
+
+import random
+from dataclasses import dataclass, field
+from typing import Any
+
+import anyio
+from anyio.abc import TaskStatus
+
+from htnagent.clock import Clock, TimerHandle
+from htnagent.executor import ExecutorActor
+from htnagent.maps import WorldMap
+from htnagent.messages import Clear, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.terms import Atom
+from htnagent.trace import Trace
+
+
+@dataclass
+class Motion:
+    """The robot is travelling ``arc`` from fraction ``start`` to ``end`` (0 = ``frm``, 1 = ``to``)."""
+
+    order: Execute | Resume
+    arc: str
+    frm: str
+    to: str
+    start: float
+    end: float
+    started_at: float
+    duration: float
+    timer: TimerHandle
+
+    def fraction_at(self, now: float) -> float:
+        if self.duration <= 0:
+            return self.end
+        done = min(max((now - self.started_at) / self.duration, 0.0), 1.0)
+        return self.start + (self.end - self.start) * done
+
+
+@dataclass
+class Arrived:
+    """The timer message that ends a motion."""
+
+    motion: Motion
+    kind: str = "arrived"
+
+
+@dataclass
+class RobotWorld:
+    """The physical truth the simulation keeps: where the robot is, what is shut."""
+
+    world: WorldMap
+    at: str | None
+    on_arc: tuple[str, str, str, float] | None = None  # (arc, from, to, fraction from 'from')
+    closed: set[str] = field(default_factory=set)
+    visited: list[str] = field(default_factory=list)
+    distance: float = 0.0
+
+    def where(self) -> dict[str, str]:
+        """``{"at": node}`` or ``{"on": arc}`` (the summary's ``robot``)."""
+        if self.on_arc is not None:
+            return {"on": self.on_arc[0]}
+        return {"at": self.at or ""}
+
+
+class Robot(ExecutorActor):
+    """The simulated robot, an executor actor at the bottom of the agent chain."""
+
+    def __init__(
+        self,
+        name: str,
+        clock: Clock,
+        trace: Trace,
+        world: RobotWorld,
+        speed: float,
+        failure_rate: float = 0.0,
+        seed: int = 0,
+    ) -> None:
+        super().__init__(name, clock, trace)
+        self.state = world
+        self.speed = speed
+        self.failure_rate = failure_rate
+        self._rng = random.Random(seed)
+        self.motion: Motion | None = None
+        if world.at is not None and not world.visited:
+            world.visited.append(world.at)
+
+    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
+        task_status.started()
+        while True:
+            message: Any = await self.inbox.receive()
+            if isinstance(message, Arrived):
+                self._arrive(message.motion)
+            elif isinstance(message, Execute):
+                self._execute(message)
+            elif isinstance(message, Resume):
+                self._resume(message)
+            elif isinstance(message, Suspend):
+                self._suspend(message)
+            elif isinstance(message, Clear):
+                self._clear(message)
+
+    # -- orders --------------------------------------------------------------------
+
+    def _execute(self, order: Execute) -> None:
+        action = order.action
+        if action.name == "rollback" and action.args and isinstance(action.args[0], Atom):
+            self._rollback(order, action.args[0])
+            return
+        if action.name != "move" or len(action.args) != 3:
+            self._fail(order, f"the robot cannot do {action}")
+            return
+        frm, to, arc = (str(a) for a in action.args)
+        problem = self._check_move(frm, to, arc)
+        if problem:
+            self._fail(order, problem)
+            return
+        if self.failure_rate and self._rng.random() < self.failure_rate:
+            self._fail(order, "the move failed (simulated fault)")
+            return
+        self._start(order, arc, frm, to, 0.0, 1.0)
+
+    def _check_move(self, frm: str, to: str, arc: str) -> str | None:
+        world = self.state.world
+        if self.motion is not None:
+            return "the robot is already moving"
+        if self.state.on_arc is not None:
+            return f"the robot is on {self.state.on_arc[0]}, not at {frm}"
+        if self.state.at != frm:
+            return f"the robot is at {self.state.at}, not at {frm}"
+        known = world.arcs.get(arc)
+        if known is None or {known.a, known.b} != {frm, to}:
+            return f"{arc} does not join {frm} and {to}"
+        if arc in self.state.closed:
+            return f"{arc} is closed"
+        return None
+
+    def _resume(self, order: Resume) -> None:
+        half = self._half(order.action)
+        if half is None:
+            self._fail(order, f"nothing to resume for {order.action}")
+            return
+        arc, frm, to, fraction = half
+        if arc in self.state.closed:
+            self._fail(order, f"{arc} is closed")
+            return
+        self._start(order, arc, frm, to, fraction, 1.0)
+
+    def _rollback(self, order: Execute, inner: Atom) -> None:
+        half = self._half(inner)
+        if half is None:
+            self._fail(order, f"nothing to roll back for {inner}")
+            return
+        arc, frm, to, fraction = half
+        self._start(order, arc, frm, to, fraction, 0.0)
+
+    def _half(self, action: Atom) -> tuple[str, str, str, float] | None:
+        if self.motion is not None or self.state.on_arc is None:
+            return None
+        arc, frm, to, fraction = self.state.on_arc
+        if action.name != "move" or tuple(str(a) for a in action.args) != (frm, to, arc):
+            return None
+        return arc, frm, to, fraction
+
+    def _suspend(self, order: Suspend) -> None:
+        motion = self.motion
+        running = motion.order.action if motion is not None else None
+        # Only a plain move may stop half way; finishing or undoing a half is done at once.
+        if motion is None or running != order.action or running.name != "move":
+            self.reply(Refused(action=order.action, seq=order.seq))
+            return
+        now = self.clock.now()
+        fraction = motion.fraction_at(now)
+        motion.timer.cancel()
+        self.state.distance += abs(fraction - motion.start) * self._length(motion.arc)
+        self.motion = None
+        self.state.on_arc = (motion.arc, motion.frm, motion.to, fraction)
+        self.state.at = None
+        self.reply(Suspended(action=order.action, seq=motion.order.seq))
+
+    def _clear(self, order: Clear) -> None:
+        # Forget the resume context; where the robot physically is does not change.
+        pass
+
+    # -- motion ----------------------------------------------------------------------
+
+    def _length(self, arc: str) -> float:
+        return self.state.world.arcs[arc].length
+
+    def _start(self, order: Execute | Resume, arc: str, frm: str, to: str, start: float, end: float) -> None:
+        duration = abs(end - start) * self._length(arc) / self.speed
+        now = self.clock.now()
+        motion_box: list[Motion] = []
+        timer = self.clock.call_at(now + duration, lambda: self.inbox.send(Arrived(motion_box[0])))
+        motion = Motion(order, arc, frm, to, start, end, now, duration, timer)
+        motion_box.append(motion)
+        self.motion = motion
+        self.state.on_arc = (arc, frm, to, start)
+        self.state.at = None
+        self.trace.emit(
+            self.name, "robot_moving", action=str(order.action), arc=arc, duration=round(duration, 6)
+        )
+
+    def _arrive(self, motion: Motion) -> None:
+        if self.motion is not motion:
+            return  # a stale timer of a suspended motion
+        self.motion = None
+        self.state.distance += abs(motion.end - motion.start) * self._length(motion.arc)
+        node = motion.to if motion.end >= 1.0 else motion.frm
+        self.state.on_arc = None
+        self.state.at = node
+        self.state.visited.append(node)
+        self.reply(Success(action=motion.order.action, seq=motion.order.seq))
+
+    def _fail(self, order: Execute | Resume, reason: str) -> None:
+        self.reply(Failure(action=order.action, seq=order.seq, reason=reason))

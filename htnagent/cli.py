@@ -1,0 +1,183 @@
+"""The command line: ``python -m htnagent run|plan|check SCENARIO`` (CONTRACTS.md).
+
+The CLI owns the console.  Exit codes: 0 success, 1 no plan / a goal failed,
+2 invalid input or usage.  Every error of kind 2 is exactly one line on stderr,
+``htnagent: error: <file>: <key path or line>: <reason>`` (usage errors have no
+file), never a traceback.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Sequence
+from typing import NoReturn, TextIO
+
+from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.plan import Plan
+from htnagent.planner import PlanStatus, plan
+from htnagent.scenario import Scenario, load_scenario
+from htnagent.terms import parse
+
+PROG = "htnagent"
+
+EXIT_OK = 0
+EXIT_FAILED = 1
+EXIT_INVALID = 2
+
+
+class _UsageError(Exception):
+    """A command line that argparse refused."""
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, but a usage error is one line and leaves the exiting to :func:`main`."""
+
+    def error(self, message: str) -> NoReturn:
+        raise _UsageError(f"{message} (see {self.prog} --help)")
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    """The argument parser of the ``htnagent`` command."""
+    parser = _Parser(
+        prog=PROG,
+        description="On-line HTN planning agents that handle emergency goals.",
+    )
+    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check}", required=True)
+
+    run = sub.add_parser("run", help="execute the scenario to the end")
+    run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    run.add_argument(
+        "--replanning", choices=("online", "naive"), help="override the scenario's replanning mode"
+    )
+    run.add_argument("--json", action="store_true", help="JSON Lines on stdout, the last line a summary")
+    run.add_argument(
+        "--speed",
+        type=_positive_float,
+        metavar="X",
+        help="simulated seconds per real second (default: as fast as possible)",
+    )
+    run.add_argument("--plot", metavar="FILE", help="draw the robot's path into FILE")
+
+    pl = sub.add_parser("plan", help="print the plan an agent would make, without executing it")
+    pl.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    pl.add_argument("--agent", required=True, metavar="NAME", help="the agent that plans")
+    pl.add_argument("--task", required=True, metavar="TASK", help='the task, e.g. "goto(n1)"')
+    pl.add_argument("--json", action="store_true", help='one JSON line: {"plan", "cost", "alternatives"}')
+
+    check = sub.add_parser("check", help="validate the scenario; print ok")
+    check.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Run the command line with ``argv`` (default: ``sys.argv[1:]``); return the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except _UsageError as e:
+        return _fail(str(e))
+    except SystemExit as e:  # --help and --version exit through argparse
+        return e.code if isinstance(e.code, int) else EXIT_OK
+    try:
+        if args.command == "check":
+            return _check(args)
+        if args.command == "plan":
+            return _plan(args)
+        return _run(args)
+    except HtnAgentError as e:
+        return _fail(str(e))
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+def _fail(message: str, code: int = EXIT_INVALID) -> int:
+    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
+    return code
+
+
+def _one_line(text: str) -> str:
+    return " ".join(text.split())
+
+
+def _check(args: argparse.Namespace) -> int:
+    load_scenario(args.scenario)
+    print("ok")
+    return EXIT_OK
+
+
+def _plan(args: argparse.Namespace) -> int:
+    scenario = load_scenario(args.scenario)
+    file = scenario.file
+    if args.agent not in scenario.agent_names:
+        raise ScenarioError(
+            file,
+            "--agent",
+            f"no agent named {args.agent!r}; the agents are {', '.join(scenario.agent_names)}",
+        )
+    try:
+        task = parse(args.task)
+    except TextFormError as e:
+        raise ScenarioError(file, "--task", str(e)) from None
+    scenario.check_task(args.agent, task, "--task")
+    domain = scenario.domain_for(args.agent)
+    try:
+        result = plan(domain, scenario.initial_state(args.agent), [task], scenario.settings)
+    except HtnAgentError:
+        raise
+    except Exception as e:  # a user's domain code failed while planning
+        raise ScenarioError(
+            file, "--task", f"planning failed in domain {domain.name}: {type(e).__name__}: {e}"
+        ) from None
+    best = result.best
+    if best is None:
+        why = {
+            PlanStatus.UNSOLVABLE: "no plan exists",
+            PlanStatus.BUDGET_EXHAUSTED: f"the budget of {scenario.settings.budget} expansions ran out",
+        }.get(result.status, result.status.value)
+        print(
+            f"{PROG}: no plan: {args.agent} cannot do {task} from {scenario.robot.start} ({why})",
+            file=sys.stderr,
+        )
+        return EXIT_FAILED
+    if args.json:
+        line = {"plan": best.text(), "cost": best.cost, "alternatives": len(result.plans)}
+        print(json.dumps(line))
+        return EXIT_OK
+    _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans)
+    return EXIT_OK
+
+
+def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan]) -> None:
+    best = found[0]
+    domain = scenario.domain_for(agent).name
+    print(f"{agent} ({domain}) plans {task} from {scenario.robot.start}:", file=out)
+    width = len(str(len(best)))
+    for i, action in enumerate(best.text(), start=1):
+        print(f"  {i:>{width}}. {action}", file=out)
+    print(f"cost {best.cost:.2f}", file=out)
+    costs = ", ".join(f"{p.cost:.2f}" for p in found)
+    noun = "plan" if len(found) == 1 else "plans"
+    print(f"{len(found)} {noun} found (the best first), costs {costs}", file=out)
+
+
+def _run(args: argparse.Namespace) -> int:
+    # Placeholder until the runtime lands; the lead replaces this.
+    print("run: not available yet", file=sys.stderr)
+    return EXIT_INVALID
+
+
+if __name__ == "__main__":  # pragma: no cover
+    raise SystemExit(main())

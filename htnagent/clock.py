@@ -1,0 +1,211 @@
+"""One clock for the whole runtime, and the mailboxes whose traffic it watches.
+
+Simulated time advances only when the runtime is idle: every message sent to a
+:class:`Mailbox` counts as work until its receiver comes back for the next one,
+so when nothing is in flight the clock jumps to the next timer (virtual time:
+as fast as the machine allows, the same trace every run).  With a ``speed`` it
+first waits for the matching wall-clock time (``speed`` simulated seconds per
+real second); either way only the time keeper moves ``now``, so results do not
+depend on the pace.
+
+Timers are messages too: :meth:`Clock.call_at` delivers a message into a
+mailbox at a simulated time.
+"""
+
+from __future__ import annotations
+
+import heapq
+import itertools
+import math
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Generic, TypeVar
+
+import anyio
+from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
+
+T = TypeVar("T")
+
+
+@dataclass(order=True)
+class _Timer:
+    when: float
+    seq: int
+    deliver: Callable[[], None] = field(compare=False)
+    cancelled: bool = field(default=False, compare=False)
+
+
+class TimerHandle:
+    """Cancels a pending timer."""
+
+    __slots__ = ("_timer",)
+
+    def __init__(self, timer: _Timer) -> None:
+        self._timer = timer
+
+    def cancel(self) -> None:
+        """The timer will not fire (no effect if it already has)."""
+        self._timer.cancelled = True
+
+
+class Clock:
+    """Simulated time, advanced by :meth:`keep_time` whenever the runtime is idle."""
+
+    def __init__(self, speed: float | None = None) -> None:
+        if speed is not None and not (speed > 0 and math.isfinite(speed)):
+            raise ValueError(f"speed must be a positive number, not {speed}")
+        self.speed = speed
+        self._now = 0.0
+        self._timers: list[_Timer] = []
+        self._seq = itertools.count()
+        self._busy = 0
+        self._idle = anyio.Event()
+        self._changed = anyio.Event()
+        self._idle_callbacks: list[Callable[[], None]] = []
+
+    # -- time ---------------------------------------------------------------------
+
+    def now(self) -> float:
+        """The simulated time in seconds."""
+        return self._now
+
+    def call_at(self, when: float, deliver: Callable[[], None]) -> TimerHandle:
+        """Run ``deliver`` (which sends a message) at simulated time ``when``."""
+        timer = _Timer(max(when, self._now), next(self._seq), deliver)
+        heapq.heappush(self._timers, timer)
+        self._poke()
+        return TimerHandle(timer)
+
+    def call_later(self, delay: float, deliver: Callable[[], None]) -> TimerHandle:
+        """Run ``deliver`` after ``delay`` simulated seconds."""
+        return self.call_at(self._now + max(delay, 0.0), deliver)
+
+    def pending_timers(self) -> int:
+        """How many timers are still to fire."""
+        return sum(1 for t in self._timers if not t.cancelled)
+
+    def on_idle(self, callback: Callable[[], None]) -> None:
+        """Call ``callback`` whenever the runtime is idle with no timer left."""
+        self._idle_callbacks.append(callback)
+
+    # -- work accounting ------------------------------------------------------------
+
+    def add_work(self, n: int = 1) -> None:
+        """A message is in flight (or a receiver holds one)."""
+        self._busy += n
+        self._poke()
+
+    def done_work(self, n: int = 1) -> None:
+        """A receiver finished with messages it held."""
+        self._busy -= n
+        assert self._busy >= 0, "work accounting went negative"
+        if self._busy == 0:
+            self._idle.set()
+        self._poke()
+
+    @property
+    def busy(self) -> int:
+        """Messages in flight or being handled."""
+        return self._busy
+
+    def _poke(self) -> None:
+        self._changed.set()
+
+    async def keep_time(self) -> None:
+        """Advance time forever: when idle, fire the next timer (the runtime's time keeper)."""
+        while True:
+            if self._busy > 0:
+                self._idle = anyio.Event()
+                if self._busy > 0:
+                    await self._idle.wait()
+                continue
+            # Let tasks that are ready but have not yet picked up their work run first.
+            for _ in range(3):
+                await anyio.lowlevel.checkpoint()
+            if self._busy > 0:
+                continue
+            while self._timers and self._timers[0].cancelled:
+                heapq.heappop(self._timers)
+            if not self._timers:
+                for cb in list(self._idle_callbacks):
+                    cb()
+                if self._busy > 0 or self._timers:
+                    continue
+                self._changed = anyio.Event()
+                await self._changed.wait()
+                continue
+            nxt = self._timers[0]
+            if self.speed is not None and nxt.when > self._now:
+                self._changed = anyio.Event()
+                wait = (nxt.when - self._now) / self.speed
+                started = time.monotonic()
+                with anyio.move_on_after(wait):
+                    await self._changed.wait()
+                if time.monotonic() - started < wait - 1e-6:
+                    continue  # something happened first; look again
+            heapq.heappop(self._timers)
+            if nxt.cancelled:
+                continue
+            self._now = max(self._now, nxt.when)
+            nxt.deliver()
+
+
+class Mailbox(Generic[T]):
+    """An unbounded message queue whose traffic the clock counts as work.
+
+    A message counts from :meth:`send` until its receiver asks for the next
+    one (or calls :meth:`settle`), so the clock never advances while a message
+    is being handled.
+    """
+
+    def __init__(self, clock: Clock, name: str) -> None:
+        self.clock = clock
+        self.name = name
+        send, receive = anyio.create_memory_object_stream[T](math.inf)
+        self._send: MemoryObjectSendStream[T] = send
+        self._receive: MemoryObjectReceiveStream[T] = receive
+        self._held = 0
+        self.closed = False
+
+    def send(self, message: T) -> None:
+        """Queue a message (never blocks). Sending to a closed mailbox drops it."""
+        if self.closed:
+            return
+        self.clock.add_work()
+        try:
+            self._send.send_nowait(message)
+        except (anyio.ClosedResourceError, anyio.BrokenResourceError):
+            self.clock.done_work()
+            self.closed = True
+
+    async def receive(self) -> T:
+        """The next message; what was received before counts as handled."""
+        self.settle()
+        message = await self._receive.receive()
+        self._held += 1
+        return message
+
+    def settle(self) -> None:
+        """The receiver has finished with what it holds (it will block next)."""
+        if self._held:
+            self.clock.done_work(self._held)
+            self._held = 0
+
+    def close(self) -> None:
+        """No more messages; pending ones are dropped and their work released."""
+        if self.closed:
+            return
+        self.closed = True
+        self.settle()
+        dropped = 0
+        while True:
+            try:
+                self._receive.receive_nowait()
+            except (anyio.WouldBlock, anyio.EndOfStream, anyio.ClosedResourceError):
+                break
+            dropped += 1
+        if dropped:
+            self.clock.done_work(dropped)
+        self._send.close()
+        self._receive.close()

@@ -1,0 +1,158 @@
+"""The executor side of the message protocol, and the interface for writing executors.
+
+Whatever carries out an agent's actions — the simulated robot, a scripted
+executor in tests, a child agent, a real robot — is an *executor actor*: it
+reads orders (:class:`~htnagent.messages.Execute`, ``Suspend``, ``Resume``,
+``Clear``) from its mailbox and answers each order with one result on its
+parent's mailbox.
+
+Most users need not speak messages: subclass :class:`Executor` (small, like an
+httpx transport) and the runtime wraps it in an :class:`AdapterActor`.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from enum import Enum
+from types import TracebackType
+from typing import Any
+
+import anyio
+from anyio.abc import TaskStatus
+
+from htnagent.clock import Clock, Mailbox
+from htnagent.messages import Clear, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.terms import Atom
+from htnagent.trace import Trace
+
+
+class Outcome(Enum):
+    """How an executor's action ended."""
+
+    SUCCESS = "success"
+    """The action was carried out."""
+    FAILURE = "failure"
+    """The action could not be carried out; nothing else changed."""
+    SUSPENDED = "suspended"
+    """The action was stopped half way by :meth:`Executor.suspend`."""
+
+
+class Executor(ABC):
+    """What carries out actions; subclass it to connect a real robot or service.
+
+    ``execute`` returns when the action is over.  If ``can_suspend`` says yes,
+    ``suspend`` must make the running ``execute`` return ``Outcome.SUSPENDED``;
+    later ``resume`` finishes the action, or ``clear`` forgets it.
+    """
+
+    def can_suspend(self, action: Atom) -> bool:
+        """Whether the running ``action`` may be stopped half way."""
+        return False
+
+    @abstractmethod
+    async def execute(self, action: Atom) -> Outcome:
+        """Carry out the action."""
+
+    async def suspend(self, action: Atom) -> None:  # pragma: no cover - default refuses
+        """Stop the running action half way (only called if ``can_suspend``)."""
+        raise RuntimeError(f"{type(self).__name__} cannot suspend {action}")
+
+    async def resume(self, action: Atom) -> Outcome:
+        """Finish a suspended action."""
+        return Outcome.FAILURE
+
+    async def clear(self, action: Atom) -> None:  # noqa: B027 - an optional hook
+        """Forget a suspended action."""
+
+    async def aclose(self) -> None:  # noqa: B027 - an optional hook
+        """Release what the executor holds."""
+
+    async def __aenter__(self) -> Executor:
+        return self
+
+    async def __aexit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        await self.aclose()
+
+
+class ExecutorActor(ABC):
+    """An executor that speaks the message protocol directly."""
+
+    def __init__(self, name: str, clock: Clock, trace: Trace) -> None:
+        self.name = name
+        self.clock = clock
+        self.trace = trace
+        self.inbox: Mailbox[Any] = Mailbox(clock, name)
+        self.reply_to: Mailbox[Any] | None = None
+
+    def connect(self, reply_to: Mailbox[Any]) -> None:
+        """Send results to this mailbox (the parent agent's)."""
+        self.reply_to = reply_to
+
+    def reply(self, message: Any) -> None:
+        """Send a result up."""
+        if self.reply_to is not None:
+            self.reply_to.send(message)
+
+    @abstractmethod
+    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
+        """Serve orders until cancelled; report ``started`` once the mailbox exists."""
+
+
+class AdapterActor(ExecutorActor):
+    """Runs a user's :class:`Executor` behind the message protocol.
+
+    An executor that raises becomes a :class:`~htnagent.messages.Failure` with
+    the exception's text; the actor goes on serving.
+    """
+
+    def __init__(self, name: str, clock: Clock, trace: Trace, executor: Executor) -> None:
+        super().__init__(name, clock, trace)
+        self.executor = executor
+        self._running: tuple[int, Atom] | None = None
+
+    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
+        async with self.executor, anyio.create_task_group() as tg:
+            task_status.started()
+            while True:
+                order = await self.inbox.receive()
+                if isinstance(order, Execute | Resume):
+                    self._running = (order.seq, order.action)
+                    tg.start_soon(self._carry_out, order)
+                elif isinstance(order, Suspend):
+                    await self._suspend(order)
+                elif isinstance(order, Clear):
+                    try:
+                        await self.executor.clear(order.action)
+                    except Exception as exc:  # a faulty executor must not stop the runtime
+                        self.trace.emit(self.name, "executor_error", error=f"clear: {exc}")
+
+    async def _suspend(self, order: Suspend) -> None:
+        try:
+            ok = self._running is not None and self.executor.can_suspend(order.action)
+            if ok:
+                await self.executor.suspend(order.action)
+                return  # the running execute answers Suspended
+        except Exception as exc:
+            self.trace.emit(self.name, "executor_error", error=f"suspend: {exc}")
+        self.reply(Refused(action=order.action, seq=order.seq))
+
+    async def _carry_out(self, order: Execute | Resume) -> None:
+        # The adapter holds no work while the user's code runs: time may pass meanwhile.
+        try:
+            if isinstance(order, Resume):
+                outcome = await self.executor.resume(order.action)
+            else:
+                outcome = await self.executor.execute(order.action)
+        except Exception as exc:
+            self.reply(Failure(action=order.action, seq=order.seq, reason=f"executor raised {exc!r}"))
+            return
+        finally:
+            self._running = None
+        if outcome is Outcome.SUCCESS:
+            self.reply(Success(action=order.action, seq=order.seq))
+        elif outcome is Outcome.SUSPENDED:
+            self.reply(Suspended(action=order.action, seq=order.seq))
+        else:
+            self.reply(Failure(action=order.action, seq=order.seq, reason="the executor reported failure"))

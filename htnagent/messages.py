@@ -1,0 +1,122 @@
+"""The typed messages agents and executors exchange (ALGORITHMS.md §4–§5).
+
+Frozen pydantic models, each with a literal ``kind`` as discriminator.  Going
+down to an executor: :class:`Execute`, :class:`Suspend`, :class:`Resume`,
+:class:`Clear`.  Coming back: :class:`Success`, :class:`Failure`,
+:class:`Suspended`, :class:`Refused` (the running action cannot be suspended:
+it goes on).  Into an agent from outside: :class:`Submit` (a goal) and
+:class:`BeliefUpdate` (the world changed).  ``seq`` ties a result to the order
+it answers, so a late answer to an abandoned order is recognised and ignored.
+"""
+
+from __future__ import annotations
+
+from typing import Annotated, Literal
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from htnagent.terms import Atom
+
+
+class _Message(BaseModel):
+    model_config = ConfigDict(frozen=True, arbitrary_types_allowed=True)
+
+
+class Execute(_Message):
+    """Carry out ``action`` (for an agent executor: achieve it as a goal)."""
+
+    kind: Literal["execute"] = "execute"
+    action: Atom
+    seq: int
+
+
+class Suspend(_Message):
+    """Stop ``action`` half way if it can be; answer Suspended or Refused."""
+
+    kind: Literal["suspend"] = "suspend"
+    action: Atom
+    seq: int
+
+
+class Resume(_Message):
+    """Finish the suspended ``action`` (the parent's ``resume(action)``)."""
+
+    kind: Literal["resume"] = "resume"
+    action: Atom
+    seq: int
+
+
+class Clear(_Message):
+    """Forget what was kept to resume ``action``: it will not be resumed."""
+
+    kind: Literal["clear"] = "clear"
+    action: Atom
+
+
+class Success(_Message):
+    """The order ``seq`` (``action``) finished with success."""
+
+    kind: Literal["success"] = "success"
+    action: Atom
+    seq: int
+
+
+class Failure(_Message):
+    """The order ``seq`` (``action``) failed, and why."""
+
+    kind: Literal["failure"] = "failure"
+    action: Atom
+    seq: int
+    reason: str = ""
+
+
+class Suspended(_Message):
+    """The order ``seq`` (``action``) was stopped half way and can be resumed."""
+
+    kind: Literal["suspended"] = "suspended"
+    action: Atom
+    seq: int
+
+
+class Refused(_Message):
+    """The order ``seq`` (``action``) cannot be suspended; it goes on."""
+
+    kind: Literal["refused"] = "refused"
+    action: Atom
+    seq: int
+
+
+class Submit(_Message):
+    """A goal for the agent; ``ticket`` names it in the outcome."""
+
+    kind: Literal["submit"] = "submit"
+    goal: Atom
+    emergency: bool = False
+    ticket: int
+
+
+class BeliefUpdate(_Message):
+    """Facts the agent learns from outside (a door shut or opened)."""
+
+    kind: Literal["belief"] = "belief"
+    add: tuple[Atom, ...] = ()
+    delete: tuple[Atom, ...] = ()
+
+
+class Timeout(_Message):
+    """The order ``seq`` took longer than the action timeout (a timer to oneself)."""
+
+    kind: Literal["timeout"] = "timeout"
+    seq: int
+
+
+Order = Annotated[Execute | Suspend | Resume | Clear, Field(discriminator="kind")]
+Result = Annotated[Success | Failure | Suspended | Refused, Field(discriminator="kind")]
+AgentMessage = Annotated[
+    Order | Result | Submit | BeliefUpdate | Timeout,
+    Field(discriminator="kind"),
+]
+"""Everything an agent's mailbox can hold."""
+
+ORDERS = (Execute, Suspend, Resume, Clear)
+RESULTS = (Success, Failure, Suspended, Refused)

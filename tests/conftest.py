@@ -1,0 +1,47 @@
+"""Shared fixtures: the museum map of the published experiment and its two domains."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+import yaml
+
+from htnagent.domain import Domain, State
+from htnagent.domains.museum import areas_domain, nodes_domain
+from htnagent.maps import WorldMap, parse_map
+
+REPO = Path(__file__).resolve().parents[1]
+MUSEUM_MAP = REPO / "scenarios" / "museum_map.yaml"
+
+StateAt = Callable[[Domain, str], State]
+
+
+@pytest.fixture(scope="session")
+def museum_map() -> WorldMap:
+    """The 8-area, 40-node, 59-arc museum (ALGORITHMS.md §6)."""
+    return parse_map(yaml.safe_load(MUSEUM_MAP.read_text()), str(MUSEUM_MAP))
+
+
+@pytest.fixture
+def areas(museum_map: WorldMap) -> Domain:
+    """The parent's (guide's) domain over the museum's areas."""
+    return areas_domain(museum_map)
+
+
+@pytest.fixture
+def nodes(museum_map: WorldMap) -> Domain:
+    """The child's (navigator's) domain over the museum's nodes and arcs."""
+    return nodes_domain(museum_map)
+
+
+def robot_at(domain: Domain, node: str) -> State:
+    """The domain's belief with the robot standing at ``node``."""
+    return domain.initial_state(node)
+
+
+@pytest.fixture
+def state_at() -> StateAt:
+    """``state_at(domain, "n40")``: the belief with the robot at a node."""
+    return robot_at
