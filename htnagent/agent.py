@@ -302,7 +302,7 @@ class Agent(ExecutorActor):
         if pending is None:
             return
         entry.suspended_action = None
-        self.executor.inbox.send(Clear(action=pending))
+        self.order(self.executor, Clear(action=pending))
         before = self.belief
         self.belief = self.domain.clear(before, pending)
         if self.belief is not before:
@@ -315,9 +315,9 @@ class Agent(ExecutorActor):
         seq = next(self._seq)
         inner = action.args[0] if action.name == "resume" and action.args else None
         if isinstance(inner, Atom):
-            self.executor.inbox.send(Resume(action=inner, seq=seq))
+            self.order(self.executor, Resume(action=inner, seq=seq))
         else:
-            self.executor.inbox.send(Execute(action=action, seq=seq))
+            self.order(self.executor, Execute(action=action, seq=seq))
         running = _Running(seq, action)
         if self.config.action_timeout is not None:
             running.timer = self.clock.call_later(
@@ -358,7 +358,7 @@ class Agent(ExecutorActor):
                 # A hung executor: the action counts as failed; a late answer is ignored.
                 target = running.action.args[0] if running.action.name == "resume" else running.action
                 if isinstance(target, Atom):
-                    self.executor.inbox.send(Clear(action=target))
+                    self.order(self.executor, Clear(action=target))
                 return Failure(
                     action=running.action,
                     seq=running.seq,
@@ -454,7 +454,7 @@ class Agent(ExecutorActor):
         if not op.suspendable:
             self._refused()
             return
-        self.executor.inbox.send(Suspend(action=running.action, seq=running.seq))
+        self.order(self.executor, Suspend(action=running.action, seq=running.seq))
 
     def _refused(self) -> None:
         """The running action goes on; a parent asking to suspend is told so."""

@@ -9,16 +9,25 @@ file), never a traceback.
 from __future__ import annotations
 
 import argparse
+import functools
 import json
+import os
 import sys
 from collections.abc import Sequence
 from typing import NoReturn, TextIO
 
+import anyio
+from rich.console import Console
+
+from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
 from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, plan
+from htnagent.plot import check_plot_target, draw_run
 from htnagent.scenario import Scenario, load_scenario
+from htnagent.simulation import run_scenario
 from htnagent.terms import parse
+from htnagent.trace import Observer
 
 PROG = "htnagent"
 
@@ -101,6 +110,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except KeyboardInterrupt:
         print(f"{PROG}: interrupted", file=sys.stderr)
         return 130
+    except BrokenPipeError:
+        # The reader of our output went away (| head): stop quietly.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_FAILED
 
 
 def _fail(message: str, code: int = EXIT_INVALID) -> int:
@@ -174,10 +188,30 @@ def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: S
 
 
 def _run(args: argparse.Namespace) -> int:
-    # Placeholder until the runtime lands; the lead replaces this.
-    print("run: not available yet", file=sys.stderr)
-    return EXIT_INVALID
-
-
-if __name__ == "__main__":  # pragma: no cover
-    raise SystemExit(main())
+    scenario = load_scenario(args.scenario)
+    if args.plot:
+        check_plot_target(args.plot)
+    observers: list[Observer] = []
+    console = Console(highlight=False)
+    if args.json:
+        observers.append(JsonLines(sys.stdout))
+    else:
+        console.print(f"[bold]{scenario.name}[/bold]  ({args.replanning or scenario.replanning} replanning)")
+        observers.append(LiveTrace(console, scenario.agent_names))
+    report = anyio.run(
+        functools.partial(
+            run_scenario,
+            scenario,
+            replanning=args.replanning,
+            speed=args.speed,
+            observers=observers,
+            keep_events=bool(args.plot),
+        )
+    )
+    if not args.json:
+        print_summary(console, report.summary)
+    if args.plot:
+        draw_run(scenario, report.events, args.plot)
+        if not args.json:
+            console.print(f"picture saved to {args.plot}")
+    return EXIT_OK if report.succeeded else EXIT_FAILED

@@ -93,7 +93,15 @@ class ExecutorActor(ABC):
     def reply(self, message: Any) -> None:
         """Send a result up."""
         if self.reply_to is not None:
+            self.trace.emit(
+                self.name, "message", to=self.reply_to.name, kind=message.kind, action=str(message.action)
+            )
             self.reply_to.send(message)
+
+    def order(self, below: ExecutorActor, message: Any) -> None:
+        """Send an order down to ``below``."""
+        self.trace.emit(self.name, "message", to=below.name, kind=message.kind, action=str(message.action))
+        below.inbox.send(message)
 
     @abstractmethod
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:

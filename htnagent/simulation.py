@@ -41,9 +41,9 @@ class RunReport:
         return all(g["status"] == GoalStatus.SUCCESS.value for g in self.summary["goals"])
 
 
-def build_runtime(scenario: Scenario, *, replanning: str | None = None, speed: float | None = None) -> tuple[
-    Runtime, RobotWorld
-]:
+def build_runtime(
+    scenario: Scenario, *, replanning: str | None = None, speed: float | None = None
+) -> tuple[Runtime, RobotWorld]:
     """The scenario's agents over a simulated robot, ready to enter."""
     mode = Replanning(replanning or scenario.replanning)
     world = RobotWorld(scenario.world, at=scenario.robot.start)
@@ -61,7 +61,13 @@ def build_runtime(scenario: Scenario, *, replanning: str | None = None, speed: f
 
     def robot(clock: Clock, trace: Trace) -> Robot:
         return Robot(
-            "robot", clock, trace, world, scenario.robot.speed, scenario.robot.failure_rate, scenario.robot.seed
+            "robot",
+            clock,
+            trace,
+            world,
+            scenario.robot.speed,
+            scenario.robot.failure_rate,
+            scenario.robot.seed,
         )
 
     return Runtime(configs, robot, speed=speed), world
@@ -147,7 +153,9 @@ async def run_scenario(
     return RunReport(summary=events[-1] if keep_events else {"event": "summary", **summary}, events=events)
 
 
-def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]) -> dict[str, Any]:
+def _summary(
+    scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]
+) -> dict[str, Any]:
     goals = []
     for goal, ticket in zip(scenario.goals, tickets, strict=True):
         if ticket is None:

@@ -40,5 +40,10 @@ class Trace:
         record: Event = {"t": round(self.clock.now(), 6), "agent": agent, "event": event, **fields}
         log.debug("%s", record)
         for observer in list(self.observers):
-            observer(record)
+            try:
+                observer(record)
+            except (Exception, SystemExit) as exc:  # a broken observer must not stop the agents
+                log.warning("dropping trace observer %r: %r", observer, exc)
+                if observer in self.observers:
+                    self.observers.remove(observer)
         return record

@@ -1,0 +1,102 @@
+"""A picture of a run: the map, the robot's path, the emergency detours marked (``--plot``).
+
+Needs matplotlib (``pip install 'htnagent[plot]'``); without it ``--plot`` is a
+clear usage error.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from htnagent.errors import HtnAgentError
+from htnagent.scenario import Scenario
+from htnagent.trace import Event
+
+
+class PlotError(HtnAgentError):
+    """Raised when the picture cannot be drawn (no matplotlib, unwritable file)."""
+
+
+def check_plot_target(file: str) -> None:
+    """Fail early, before the run, if the picture could not be saved."""
+    try:
+        import matplotlib  # noqa: F401
+    except ImportError:
+        raise PlotError(f"{file}: --plot needs matplotlib: pip install 'htnagent[plot]'") from None
+    path = Path(file)
+    if path.suffix.lower() != ".png":
+        raise PlotError(f"{file}: --plot writes PNG; give a file name ending in .png")
+    if not path.parent.exists() or not path.parent.is_dir():
+        raise PlotError(f"{file}: the folder {path.parent} does not exist")
+
+
+def draw_run(scenario: Scenario, events: list[Event], file: str) -> None:
+    """Draw the map and the path the robot travelled, emergency legs in red."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    world = scenario.world
+    top = scenario.agent_names[0]
+    fig, ax = plt.subplots(figsize=(7, 9))
+    for arc in world.arcs.values():
+        a, b = world.nodes[arc.a], world.nodes[arc.b]
+        ax.plot([a.x, b.x], [a.y, b.y], color="#cccccc", linewidth=1, zorder=1)
+    for area, names in world.area_nodes.items():
+        xs = [world.nodes[n].x for n in names]
+        ys = [world.nodes[n].y for n in names]
+        if xs:
+            ax.text(sum(xs) / len(xs), max(ys) + 0.6, area, ha="center", fontsize=8, color="#888888")
+    for node in world.nodes.values():
+        ax.plot(node.x, node.y, "o", color="#999999", markersize=3, zorder=2)
+        ax.text(node.x + 0.2, node.y + 0.2, node.name, fontsize=6, color="#666666")
+    depth = 0
+    normal_drawn = emergency_drawn = False
+    for e in events:
+        if e["agent"] == top and e["event"] == "goal_received" and e.get("emergency"):
+            depth += 1
+        elif e["agent"] == top and e["event"] == "goal_suspended":
+            pass
+        elif e["agent"] == top and e["event"] == "goal_finished" and depth and _is_emergency(events, e):
+            depth -= 1
+        elif e["event"] == "robot_moving" and e.get("arc") in world.arcs:
+            arc = world.arcs[e["arc"]]
+            a, b = world.nodes[arc.a], world.nodes[arc.b]
+            red = depth > 0
+            ax.plot(
+                [a.x, b.x],
+                [a.y, b.y],
+                color="#d62728" if red else "#1f77b4",
+                linewidth=3 if red else 2.5,
+                alpha=0.8,
+                zorder=3 if red else 2,
+                label=None
+                if (red and emergency_drawn) or (not red and normal_drawn)
+                else ("emergency" if red else "first goal"),
+            )
+            emergency_drawn |= red
+            normal_drawn |= not red
+    start = world.nodes[scenario.robot.start]
+    ax.plot(start.x, start.y, "s", color="black", markersize=8, zorder=4, label="start")
+    ax.set_aspect("equal")
+    ax.invert_yaxis()
+    ax.set_title(scenario.name)
+    ax.legend(loc="lower right", fontsize=8)
+    try:
+        fig.savefig(file, dpi=120, bbox_inches="tight")
+    except OSError as exc:
+        raise PlotError(f"{file}: cannot write the picture: {exc.strerror or exc}") from None
+    finally:
+        plt.close(fig)
+
+
+def _is_emergency(events: list[Event], finished: Event) -> bool:
+    goal = finished["goal"]
+    return any(
+        e["event"] == "goal_received"
+        and e["agent"] == finished["agent"]
+        and e["goal"] == goal
+        and e.get("emergency")
+        for e in events
+    )
