@@ -56,7 +56,11 @@ def test_fact_base_answers_membership_and_candidates() -> None:
     assert parse("edge(b,a)") not in fb
     assert len(fb) == 4
     assert set(fb) == fb.facts
-    assert set(fb.candidates("edge", None, "")) == {parse("edge(a,b)"), parse("edge(a,c)"), parse("edge(b,c)")}
+    assert set(fb.candidates("edge", None, "")) == {
+        parse("edge(a,b)"),
+        parse("edge(a,c)"),
+        parse("edge(b,c)"),
+    }
     assert set(fb.candidates("edge", 0, "a")) == {parse("edge(a,b)"), parse("edge(a,c)")}
     assert set(fb.candidates("edge", 1, "c")) == {parse("edge(a,c)"), parse("edge(b,c)")}
     assert fb.candidates("edge", 0, "z") == []
@@ -177,7 +181,10 @@ def test_negative_literal_before_its_variables_are_bound_means_no_such_fact() ->
     s = _state(d, "at(a)", "edge(a,b)", "edge(a,c)", "closed(a,b)")
     # `not closed(?x,?y)` with ?x, ?y unbound: "no closed fact at all", which is false here.
     assert _all(["not closed(?x,?y)", "at(?x)", "edge(?x,?y)"], s) == []
-    assert len(_all(["not closed(?x,?y)", "at(?x)", "edge(?x,?y)"], s.updated(delete=[parse("closed(a,b)")]))) == 2
+    assert (
+        len(_all(["not closed(?x,?y)", "at(?x)", "edge(?x,?y)"], s.updated(delete=[parse("closed(a,b)")])))
+        == 2
+    )
 
 
 def test_negative_literal_on_dynamic_facts() -> None:
@@ -358,7 +365,9 @@ def test_resume_precondition_defaults_to_the_suspension_facts() -> None:
     d.operator(
         "fill(?tank)",
         add=["full(?tank)"],
-        suspend=Suspension(add=("filling(?tank)",), resume=Effect(add=("full(?tank)",), delete=("filling(?tank)",))),
+        suspend=Suspension(
+            add=("filling(?tank)",), resume=Effect(add=("full(?tank)",), delete=("filling(?tank)",))
+        ),
     )
     (resume,) = d.operators["resume"]
     assert resume.pre == (Literal.parse("filling(?tank)"),)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import os
 import subprocess
@@ -237,7 +238,9 @@ def test_equal_cost_plans_come_in_the_same_order_whatever_the_hash_seed() -> Non
     outputs = set()
     for seed in ("0", "1", "2", "3"):
         env = {**os.environ, "PYTHONHASHSEED": seed}
-        run = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True)
+        run = subprocess.run(
+            [sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True
+        )
         outputs.add(run.stdout)
     assert len(outputs) == 1, outputs
     # SHOP order: the edges are tried in the order of the belief.
@@ -337,11 +340,9 @@ def test_parent_routes_goto_through_the_areas(areas: Domain, museum_map: WorldMa
     result = _plan(areas, s, "goto(n40)")
     route = ["area1", "area3", "area5", "area7", "area8"]
     best = result.plans[0]
-    assert best.text() == [f"move_area({a},{b})" for a, b in zip(route, route[1:], strict=False)] + [
-        "goto_node(n40)"
-    ]
+    assert best.text() == [f"move_area({a},{b})" for a, b in itertools.pairwise(route)] + ["goto_node(n40)"]
     centre = museum_map.centroids
-    hops = sum(math.dist(centre[a], centre[b]) for a, b in zip(route, route[1:], strict=False))
+    hops = sum(math.dist(centre[a], centre[b]) for a, b in itertools.pairwise(route))
     assert best.cost == pytest.approx(hops)
     _check_alternatives(areas, s, result)
     assert all(p.actions[-1] == parse("goto_node(n40)") for p in result.plans)

@@ -53,7 +53,10 @@ def _graph(world: WorldMap) -> nx.Graph:
 def generated_trips(draw: st.DrawFn) -> Trip:
     """A museum from ``generate_map`` (each area a jittered grid), and two of its nodes."""
     world = generate_map(
-        draw(st.integers(1, 3)), draw(st.integers(1, 3)), draw(st.integers(2, 4)), draw(st.integers(0, 10_000))
+        draw(st.integers(1, 3)),
+        draw(st.integers(1, 3)),
+        draw(st.integers(2, 4)),
+        draw(st.integers(0, 10_000)),
     )
     return _trip(draw, world)
 
