@@ -279,6 +279,7 @@ class Agent(ExecutorActor):
         if self.mode is Replanning.NAIVE:
             ps.drop()
         ps.ensure(self.belief)
+        ps.shorten_detours(self.belief)
         pending = entry.suspended_action
         if pending is not None:
             best = ps.best
@@ -287,6 +288,7 @@ class Agent(ExecutorActor):
                 # Algorithm 2: the selected plan will not resume the action: clear it below.
                 self._clear_suspended(entry)
                 ps.ensure(self.belief)
+                ps.shorten_detours(self.belief)
         replan_ms = (self.stats.seconds - seconds) * 1000
         self.trace.emit(
             self.name,

@@ -180,6 +180,10 @@ class Literal:
 
     atom: Atom
     positive: bool = True
+    variables: frozenset[str] = field(init=False, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "variables", frozenset(self.atom.variables()))
 
     @classmethod
     def parse(cls, text: str | Literal | Atom) -> Literal:
@@ -204,21 +208,29 @@ def satisfiers(
 
     A negative literal holds when no fact matches it under the bindings so far.
     """
-    if start == len(pre):
+    # Literals whose variables are all bound are plain look-ups: check them in a row.
+    n = len(pre)
+    i = start
+    while i < n:
+        lit = pre[i]
+        names = lit.variables
+        if names and not all(v in bindings for v in names):
+            break
+        fact = substitute(lit.atom, bindings) if names else lit.atom
+        if state.holds(fact) != lit.positive:
+            return
+        i += 1
+    if i == n:
         yield bindings
         return
-    lit = pre[start]
+    lit = pre[i]
     if lit.positive:
         for b in state.match(lit.atom, bindings):
-            yield from satisfiers(pre, state, b, start + 1)
+            yield from satisfiers(pre, state, b, i + 1)
     else:
-        ground = substitute(lit.atom, bindings)
-        if ground.is_ground:
-            if state.holds(ground):
-                return
-        elif next(state.match(ground, bindings), None) is not None:
+        if next(state.match(lit.atom, bindings), None) is not None:
             return
-        yield from satisfiers(pre, state, bindings, start + 1)
+        yield from satisfiers(pre, state, bindings, i + 1)
 
 
 def _literals(items: Iterable[str | Literal | Atom]) -> tuple[Literal, ...]:
@@ -365,6 +377,21 @@ class Method:
         )
 
 
+@dataclass(frozen=True, slots=True)
+class CompiledAction:
+    """A ground action's operator, bindings, ground precondition and effects, and cost.
+
+    ``checks`` is None when the precondition binds variables the head does not.
+    """
+
+    op: Operator
+    bindings: Bindings
+    checks: tuple[tuple[Atom, bool], ...] | None
+    delete: frozenset[Atom]
+    add: frozenset[Atom]
+    cost: float
+
+
 @dataclass(slots=True)
 class Domain:
     """Operators, methods and estimates of one planning agent, by task name.
@@ -382,6 +409,7 @@ class Domain:
     """For map-based domains: the belief about a world whose robot stands at a node."""
     _dynamic: frozenset[str] | None = None
     _ground: dict[Atom, tuple[Operator, Bindings] | None] = field(default_factory=dict)
+    _compiled: dict[Atom, CompiledAction] = field(default_factory=dict)
 
     # -- building -------------------------------------------------------------
 
@@ -453,6 +481,7 @@ class Domain:
         self.operators.setdefault(op.name, []).append(op)
         self._dynamic = None
         self._ground.clear()
+        self._compiled.clear()
 
     def method(self, head: str, name: str, *, when: Iterable[str] = (), do: Iterable[str] = ()) -> Method:
         """Add a method: to do ``head``, when ``when`` holds, do the tasks ``do`` in order."""
@@ -513,13 +542,39 @@ class Domain:
             raise PlanningError(f"domain {self.name}: no operator for action {action}")
         return cached  # type: ignore[return-value]
 
+    def compiled(self, action: Atom) -> CompiledAction:
+        """The ground action with its precondition and effects worked out once (cached)."""
+        found = self._compiled.get(action)
+        if found is None:
+            op, b = self.ground(action)
+            checks: tuple[tuple[Atom, bool], ...] | None = None
+            delete: frozenset[Atom] = frozenset()
+            add: frozenset[Atom] = frozenset()
+            if all(lit.variables <= b.keys() for lit in op.pre):
+                checks = tuple((substitute(lit.atom, b), lit.positive) for lit in op.pre)
+                delete = frozenset(substitute(a, b) for a in op.delete)
+                add = frozenset(substitute(a, b) for a in op.add)
+            found = CompiledAction(op, b, checks, delete, add, op.action_cost(action))
+            self._compiled[action] = found
+        return found
+
+    def step(self, state: State, action: Atom) -> frozenset[Atom] | None:
+        """The dynamic facts after the ground action, or None when its precondition is false."""
+        c = self.compiled(action)
+        if c.checks is None:
+            full = c.op.applicable(state, c.bindings)
+            return None if full is None else c.op.progress(state.dynamic, full)
+        for fact, positive in c.checks:
+            if state.holds(fact) != positive:
+                return None
+        if not c.delete and not c.add:
+            return state.dynamic
+        return (state.dynamic - c.delete) | c.add
+
     def apply(self, state: State, action: Atom) -> State | None:
         """The state after the action, or None when its precondition is false."""
-        op, b = self.ground(action)
-        full = op.applicable(state, b)
-        if full is None:
-            return None
-        return state.with_dynamic(op.progress(state.dynamic, full))
+        dynamic = self.step(state, action)
+        return None if dynamic is None else state.with_dynamic(dynamic)
 
     def progress(self, state: State, action: Atom) -> State:
         """The state after an action reported done, even if the belief doubted it could run.
@@ -533,8 +588,7 @@ class Domain:
 
     def cost(self, action: Atom) -> float:
         """The cost of a ground action."""
-        op, _ = self.ground(action)
-        return op.action_cost(action)
+        return self.compiled(action).cost
 
     def suspend(self, state: State, action: Atom) -> State:
         """The belief after the running action is stopped half way (Algorithm 1, step 1)."""

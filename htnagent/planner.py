@@ -30,6 +30,9 @@ from htnagent.terms import Atom, Bindings, substitute, unify
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
+_MIN_EXTRA = 500
+"""Expansions the alternatives may always take, however quickly the first plan came."""
+
 
 class PlanStatus(Enum):
     """How a planning call ended."""
@@ -46,14 +49,20 @@ class PlanStatus(Enum):
 class PlannerSettings:
     """How hard the planner tries: alternatives kept (K) and the expansion budget."""
 
-    alternatives: int = 4
+    alternatives: int = 2
     budget: int = 200_000
+    alternatives_effort: float = 1.0
+    """After the first plan, the search for the other alternatives may expand at most
+    this many times as many nodes again as the first plan took (and at least 500);
+    they are a cache, not worth an unbounded search."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
             raise ValueError("alternatives must be at least 1")
         if self.budget < 1:
             raise ValueError("budget must be at least 1")
+        if self.alternatives_effort < 0:
+            raise ValueError("alternatives_effort must not be negative")
 
 
 @dataclass(frozen=True, slots=True)
@@ -158,11 +167,16 @@ def plan(
                 push(child, state.with_dynamic(child.dynamic))
 
     popped: dict[tuple[frozenset[Atom], tuple[Atom, ...]], int] = {}
+    primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
+    compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
     found: list[Plan] = []
     seen_plans: set[tuple[Atom, ...]] = set()
     expansions = 0
+    limit = settings.budget
     while heap and len(found) < k:
-        if expansions >= settings.budget:
+        if expansions >= limit:
+            if found and limit < settings.budget:
+                break  # the alternatives' share of the search is spent
             found.sort(key=lambda p: p.cost)
             status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
@@ -177,6 +191,9 @@ def plan(
             if actions not in seen_plans:
                 seen_plans.add(actions)
                 found.append(Plan(steps))
+                if len(found) == 1:
+                    extra = max(int(expansions * settings.alternatives_effort), _MIN_EXTRA)
+                    limit = min(settings.budget, expansions + extra)
             continue
         expansions += 1
         st = State(static, node.dynamic, dyn_preds)
@@ -184,45 +201,34 @@ def plan(
         record = node.records[0]
         rest_t = node.tasks[1:]
         rest_r = node.records[1:]
+        # A key may be expanded up to K times: its successors are worked out once.
+        cache_key = (node.dynamic, task)
         if domain.is_primitive(task):
-            for op in domain.operators[task.name]:
-                hb = _unify_head(op.head, task)
-                if hb is None:
-                    continue
-                applicable = op.applicable(st, hb)
-                if applicable is None:
-                    continue
-                b = applicable
-                action = substitute(op.head, b)
-                c = op.action_cost(action)
-                child = _Node(
-                    node.g + c, op.progress(node.dynamic, b), rest_t, rest_r, Step(action, c, record), node
-                )
+            applied = primitive_cache.get(cache_key)
+            if applied is None:
+                applied = _apply_task(domain, st, task)
+                primitive_cache[cache_key] = applied
+            for action, c, dyn in applied:
+                child = _Node(node.g + c, dyn, rest_t, rest_r, Step(action, c, record), node)
                 if check_loops and child.revisits():
                     continue
-                push(child, st.with_dynamic(child.dynamic))
+                push(child, st.with_dynamic(dyn))
             continue
-        methods = domain.methods.get(task.name, ())
-        children: set[tuple[Atom, ...]] = set()
-        for m in methods:
-            hb = _unify_head(m.head, task)
-            if hb is None:
-                continue
-            for b in satisfiers(m.pre, st, hb):
-                subtasks = tuple(substitute(s, b) for s in m.subtasks)
-                if subtasks in children:
-                    continue
-                children.add(subtasks)
-                rec = Decomposition(task, m.name, record)
-                child = _Node(
-                    node.g,
-                    node.dynamic,
-                    subtasks + rest_t,
-                    (rec,) * len(subtasks) + rest_r,
-                    None,
-                    node,
-                )
-                push(child, st)
+        decompositions = compound_cache.get(cache_key)
+        if decompositions is None:
+            decompositions = _decompose(domain, st, task)
+            compound_cache[cache_key] = decompositions
+        for method_name, subtasks in decompositions:
+            rec = Decomposition(task, method_name, record)
+            child = _Node(
+                node.g,
+                node.dynamic,
+                subtasks + rest_t,
+                (rec,) * len(subtasks) + rest_r,
+                None,
+                node,
+            )
+            push(child, st)
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)
     if found:
@@ -232,6 +238,40 @@ def plan(
     else:
         status = PlanStatus.UNSOLVABLE
     return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
+
+
+def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float, frozenset[Atom]]]:
+    """The ways to apply a primitive task: (action, cost, dynamic facts after)."""
+    if len(domain.operators[task.name]) == 1 and task.is_ground:
+        dynamic = domain.step(st, task)
+        return [] if dynamic is None else [(task, domain.cost(task), dynamic)]
+    out = []
+    for op in domain.operators[task.name]:
+        hb = _unify_head(op.head, task)
+        if hb is None:
+            continue
+        b = op.applicable(st, hb)
+        if b is None:
+            continue
+        action = substitute(op.head, b)
+        out.append((action, op.action_cost(action), op.progress(st.dynamic, b)))
+    return out
+
+
+def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[Atom, ...]]]:
+    """The ways to decompose a compound task: (method name, subtasks), without repeats."""
+    out: list[tuple[str, tuple[Atom, ...]]] = []
+    seen: set[tuple[Atom, ...]] = set()
+    for m in domain.methods.get(task.name, ()):
+        hb = _unify_head(m.head, task)
+        if hb is None:
+            continue
+        for b in satisfiers(m.pre, st, hb):
+            subtasks = tuple(substitute(s, b) for s in m.subtasks)
+            if subtasks not in seen:
+                seen.add(subtasks)
+                out.append((m.name, subtasks))
+    return out
 
 
 def _unify_head(head: Atom, task: Atom) -> Bindings | None:

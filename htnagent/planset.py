@@ -53,6 +53,7 @@ class PlanningStats:
     failed_repairs: int = 0
     revivals: int = 0
     from_scratch: int = 0
+    shortcuts: int = 0
     removed: int = 0
     expansions: int = 0
     seconds: float = 0.0
@@ -65,6 +66,7 @@ class PlanningStats:
             "failed_repairs": self.failed_repairs,
             "revivals": self.revivals,
             "from_scratch": self.from_scratch,
+            "shortcuts": self.shortcuts,
             "removed": self.removed,
             "expansions": self.expansions,
             "ms": round(self.seconds * 1000, 3),
@@ -97,6 +99,8 @@ class PlanSet:
     last_status: PlanStatus | None = None
     _removed: list[_Removed] = field(default_factory=list)
     _updates: int = 0
+    _checked: State | None = None  # every kept plan is valid from this belief
+    _trusted: set[int] = field(default_factory=set)  # plans known valid without a re-check
 
     # -- queries --------------------------------------------------------------
 
@@ -144,6 +148,7 @@ class PlanSet:
         self.plans = list(result.plans)
         if self.mode is Replanning.NAIVE:
             self.plans = self.plans[:1]
+        self._checked = state
         return result
 
     def _settings(self) -> PlannerSettings:
@@ -158,10 +163,16 @@ class PlanSet:
         with self._timed():
             undo = self.domain.undo_of(action)
             kept: list[Plan] = []
+            # A plan valid from ``before`` that ran the action is valid from ``after``.
+            trusted = before is self._checked
+            self._trusted.clear()
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
                     # §2.1: the plan that ran the action moves on.
-                    kept.append(Plan(p.steps[1:]))
+                    advanced = Plan(p.steps[1:])
+                    kept.append(advanced)
+                    if trusted:
+                        self._trusted.add(id(advanced))
                 elif self.mode is Replanning.NAIVE:
                     continue
                 elif undo is not None:
@@ -215,8 +226,42 @@ class PlanSet:
             if self.mode is Replanning.NAIVE:
                 if self.plans and not self._valid(self.plans[0], after):
                     self.plans = []
+                self._checked = after
                 return
             self._revise(before, after)
+
+    def shorten_detours(self, state: State) -> bool:
+        """Give a resumed goal the chance of a shorter way than its undo detour.
+
+        ALGORITHMS.md §2.1 keeps a plan valid by putting the undo of every action
+        the emergency made in front of it, so after an emergency the best kept
+        plan may walk back first.  At resumption, if it starts with such inserted
+        undo steps, it gets a rival: the lowest compound task above its first own
+        step, re-decomposed from the current belief (a repair as in §2.4), plus
+        what follows that task.  The cheaper of the two is selected.  Returns
+        whether the plan was shortened.
+        """
+        best = self.best
+        if self.mode is Replanning.NAIVE or best is None:
+            return False
+        first = next((i for i, s in enumerate(best.steps) if s.record is not None), None)
+        if not first or any(s.action.name in ("resume", "rollback") for s in best.steps[:first]):
+            return False
+        with self._timed():
+            record = best.steps[first].record
+            assert record is not None
+            _, end = _span(best.steps, record)
+            tasks: list[TaskEntry] = [(record.task, record.parent)]
+            tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
+            settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
+            rival = self._plan_cached(state, tasks, settings, {})
+            if rival is None or rival.cost >= best.cost - 1e-9:
+                return False
+            shorter = Plan(tidy(self.domain, rival.steps))
+            self.plans = [shorter, *(p for p in self.plans if p.actions != shorter.actions)]
+            self.plans.sort(key=lambda q: q.cost)
+            self.stats.shortcuts += 1
+            return True
 
     # -- the machinery --------------------------------------------------------
 
@@ -224,17 +269,23 @@ class PlanSet:
         """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first."""
         self._updates += 1
         if self.mode is Replanning.NAIVE:
-            self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
+            self.plans = [p for p in self.plans[:1] if id(p) in self._trusted or self._valid(p, after)]
+            self._trusted.clear()
+            self._checked = after
             return
         candidates = self._revivable(before, after)
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
         cache: dict[tuple[object, ...], Plan | None] = {}
         kept = len(self.plans)
+        trusted, self._trusted = self._trusted, set()
         for n, p in enumerate([*self.plans, *candidates]):
             revived = n >= kept
-            p = Plan(tidy(self.domain, p.steps))
-            checked = self._recheck(p, after, cache, allow_repair=not revived)
+            if id(p) in trusted:
+                checked: Plan | None = p
+            else:
+                p = Plan(tidy(self.domain, p.steps))
+                checked = self._recheck(p, after, cache, allow_repair=not revived)
             if checked is None:
                 continue
             if revived:
@@ -245,6 +296,7 @@ class PlanSet:
                 out.append(checked)
         out.sort(key=lambda q: q.cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
+        self._checked = after
         self._removed = [r for r in self._removed if self._updates - r.update <= self.revival_window]
 
     def _valid(self, p: Plan, state: State) -> bool:

@@ -103,7 +103,7 @@ class AgentSpec(_Spec):
 class PlannerSpec(_Spec):
     """How hard every agent's planner tries (see :class:`~htnagent.planner.PlannerSettings`)."""
 
-    alternatives: Annotated[int, Strict(), Field(ge=1)] = 4
+    alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
     budget: Annotated[int, Strict(), Field(ge=1)] = 200_000
 
 

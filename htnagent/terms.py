@@ -119,15 +119,19 @@ def atoms(items: Iterable[str | Atom]) -> tuple[Atom, ...]:
 
 def substitute(pattern: Atom, bindings: Mapping[str, Term]) -> Atom:
     """The pattern with its bound variables replaced by their values."""
-    if not pattern.args:
+    args = pattern.args
+    if not args:
         return pattern
-    return Atom(pattern.name, tuple(_subst_term(a, bindings) for a in pattern.args))
+    out: list[Term] = []
+    for a in args:
+        if isinstance(a, str):
+            out.append(bindings.get(a, a) if a[:1] == "?" else a)
+        else:
+            out.append(substitute(a, bindings))
+    return _new_atom(Atom, (pattern.name, tuple(out)))
 
 
-def _subst_term(term: Term, bindings: Mapping[str, Term]) -> Term:
-    if isinstance(term, str):
-        return bindings.get(term, term) if term.startswith("?") else term
-    return substitute(term, bindings)
+_new_atom = tuple.__new__
 
 
 def unify(pattern: Atom, ground: Atom, bindings: Bindings) -> Bindings | None:

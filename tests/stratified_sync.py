@@ -94,6 +94,7 @@ def run_situation(
         if mode is Replanning.NAIVE:
             ps.drop()
         ps.ensure(child.belief)
+        ps.shorten_detours(child.belief)
         best = ps.best
         assert best is not None
         outcome["child_kept"] = best.cost
@@ -141,6 +142,7 @@ def run_situation(
             if mode is Replanning.NAIVE:
                 resumed.drop()
             resumed.ensure(parent.belief)
+            resumed.shorten_detours(parent.belief)
             kept = resumed.best
             assert kept is not None
             outcome["parent_kept"] = kept.cost
@@ -157,6 +159,7 @@ def run_situation(
                 parent.belief = areas.clear(before, action)
                 resumed.belief_changed(before, parent.belief)
                 resumed.ensure(parent.belief)
+                resumed.shorten_detours(parent.belief)
                 kept = resumed.best
                 assert kept is not None
                 outcome["parent_kept"] = kept.cost

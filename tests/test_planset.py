@@ -381,3 +381,25 @@ def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None
         belief = nxt
     assert texts(stacked.best) == ["move(n38,n35,arc52)", "move(n35,n31,arc51)"]
     assert stacked.stats.from_scratch == 1
+
+
+def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
+    """Flat navigator, n40 -> n1, emergency to n38: the kept plan would walk back to n40."""
+    belief = nav.initial_state("n40")
+    first = PlanSet(nav, a("goto_node(n1)"))
+    first.make(belief)
+    running = a("move(n40,n35,arc59)")
+    after = nav.suspend(belief, running)
+    first.action_suspended(running, belief, after)
+    belief = after
+    for action in ("rollback(move(n40,n35,arc59))", "move(n40,n38,arc58)"):
+        belief = execute(first, nav, belief, action)
+    # Expect: the undo of the emergency's move in front of the kept route.
+    assert texts(first.best)[:2] == ["move(n38,n40,arc58)", "move(n40,n35,arc59)"]
+    assert first.shorten_detours(belief)
+    scratch = plan(nav, belief, [a("goto_node(n1)")]).best
+    assert scratch is not None and first.best is not None
+    assert first.best.cost == pytest.approx(scratch.cost)
+    assert texts(first.best)[0] == "move(n38,n35,arc52)"
+    assert first.stats.shortcuts == 1
+    assert not first.shorten_detours(belief)  # nothing left to shorten

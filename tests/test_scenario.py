@@ -172,7 +172,7 @@ def test_defaults_fill_the_optional_parts(tmp_path: Path) -> None:
     del data["robot"]["failure_rate"], data["robot"]["seed"]
     s = load_scenario(write(tmp_path, data))
     assert s.replanning == "online"
-    assert s.settings == PlannerSettings(alternatives=4, budget=200_000)
+    assert s.settings == PlannerSettings(alternatives=2, budget=200_000)
     assert s.action_timeout is None
     assert s.robot.failure_rate == 0.0
     assert s.robot.seed == 0
