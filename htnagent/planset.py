@@ -253,6 +253,11 @@ class PlanSet:
             _, end = _span(best.steps, record)
             tasks: list[TaskEntry] = [(record.task, record.parent)]
             tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
+            # With admissible estimates nothing can beat a plan that costs no more than
+            # the estimate of the rival's tasks: then the search is not worth making.
+            fixed = sum(s.cost for s in best.steps[end + 1 :])
+            if best.cost <= self.domain.h([record.task], state) + fixed + 1e-9:
+                return False
             settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
             rival = self._plan_cached(state, tasks, settings, {})
             if rival is None or rival.cost >= best.cost - 1e-9:
@@ -303,16 +308,26 @@ class PlanSet:
         self.stats.rechecks += 1
         return self._first_failure(p, state) is None
 
-    def _first_failure(self, p: Plan, state: State) -> tuple[int, State, list[State]] | None:
-        states = [state]
+    def _first_failure(self, p: Plan, state: State) -> tuple[int, State] | None:
+        """Progress the belief through the plan: the first step that cannot run, and the state there."""
         current = state
-        for i, step in enumerate(p.steps):
-            nxt = self.domain.apply(current, step.action)
-            if nxt is None:
-                return i, current, states
-            current = nxt
-            states.append(current)
+        step = self.domain.step
+        for i, s in enumerate(p.steps):
+            dynamic = step(current, s.action)
+            if dynamic is None:
+                return i, current
+            if dynamic is not current.dynamic:
+                current = current.with_dynamic(dynamic)
         return None
+
+    def _states(self, p: Plan, state: State, upto: int) -> list[State]:
+        """The belief before each of the first ``upto + 1`` steps (all applicable)."""
+        states = [state]
+        for s in p.steps[:upto]:
+            nxt = self.domain.apply(states[-1], s.action)
+            assert nxt is not None
+            states.append(nxt)
+        return states
 
     def _recheck(
         self, p: Plan, state: State, cache: dict[tuple[object, ...], Plan | None], *, allow_repair: bool
@@ -324,8 +339,8 @@ class PlanSet:
             return p
         if not allow_repair:
             return None
-        index, at_failure, states = failure
-        repaired = self._repair(p, index, states, cache)
+        index, at_failure = failure
+        repaired = self._repair(p, index, self._states(p, state, index), cache)
         if repaired is not None:
             self.stats.repairs += 1
             return repaired

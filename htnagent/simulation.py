@@ -80,9 +80,15 @@ async def run_scenario(
     speed: float | None = None,
     observers: Iterable[Observer] = (),
     keep_events: bool = False,
+    on_start: Callable[[Runtime], None] | None = None,
 ) -> RunReport:
-    """Run the scenario to the end and return its summary (the last event published)."""
+    """Run the scenario to the end and return its summary (the last event published).
+
+    ``on_start`` is called with the runtime before anything runs (for measurements).
+    """
     runtime, world = build_runtime(scenario, replanning=replanning, speed=speed)
+    if on_start is not None:
+        on_start(runtime)
     events: list[Event] = []
     if keep_events:
         runtime.subscribe(events.append)

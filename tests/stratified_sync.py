@@ -142,7 +142,6 @@ def run_situation(
             if mode is Replanning.NAIVE:
                 resumed.drop()
             resumed.ensure(parent.belief)
-            resumed.shorten_detours(parent.belief)
             kept = resumed.best
             assert kept is not None
             outcome["parent_kept"] = kept.cost
@@ -159,10 +158,10 @@ def run_situation(
                 parent.belief = areas.clear(before, action)
                 resumed.belief_changed(before, parent.belief)
                 resumed.ensure(parent.belief)
-                resumed.shorten_detours(parent.belief)
-                kept = resumed.best
-                assert kept is not None
-                outcome["parent_kept"] = kept.cost
+            resumed.shorten_detours(parent.belief)
+            kept = resumed.best
+            assert kept is not None
+            outcome["parent_kept"] = kept.cost
             watch = False
             ps = resumed
 

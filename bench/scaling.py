@@ -1,0 +1,195 @@
+"""How the advantage scales: generated museums from 8 to 1,120 areas (``python -m bench scaling``).
+
+Each generated museum is a grid of areas, each a 3×3 grid of jittered nodes
+(see :func:`htnagent.maps.generate_map`).  The robot starts in the first
+corner with the goal in the opposite corner; one second in, while it is on its
+first arc, an emergency sends it to a node in the area below the start; then
+the first goal is resumed.  We measure the total (parent plus child) resume
+replanning time and the whole run's planning time, in both modes.  Also:
+nested emergencies on the museum map, up to depth 5.
+
+Writes ``bench/results/scaling.json``, ``scaling.png`` and ``nested.json``.
+"""
+
+from __future__ import annotations
+
+import json
+import statistics
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import anyio
+
+from bench.measure import RunFigures, measure_run
+from htnagent.maps import generate_map, map_to_yaml_data
+from htnagent.scenario import Scenario, load_scenario, parse_scenario
+
+RESULTS = Path(__file__).resolve().parent / "results"
+ROOT = Path(__file__).resolve().parent.parent
+
+SIZES = [(2, 4), (5, 5), (10, 10), (20, 20), (40, 28)]
+"""Areas as (columns, rows): 8, 25, 100, 400 and 1,120 areas; nodes are 9 per area."""
+
+
+def generated_scenario(cols: int, rows: int, seed: int = 1) -> Scenario:
+    """The scaling experiment on a generated museum of ``cols × rows`` areas."""
+    world = generate_map(cols, rows, 3, seed)
+    names = list(world.nodes)
+    start, goal = names[0], names[-1]
+    below = world.area_nodes[f"area{cols + 1}"] if rows > 1 else world.area_nodes["area2"]
+    emergency = below[len(below) // 2]
+    data: dict[str, Any] = {
+        "name": f"generated museum {cols}x{rows}",
+        "map": map_to_yaml_data(world),
+        "robot": {"start": start, "speed": 1.0},
+        "agents": [
+            {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
+            {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
+        ],
+        "goals": [
+            {"agent": "guide", "task": f"goto({goal})"},
+            {"agent": "guide", "task": f"goto({emergency})", "emergency": True, "when": {"time": 1.0}},
+        ],
+    }
+    return parse_scenario(data, f"<generated {cols}x{rows}>")
+
+
+async def _runs(scenario: Scenario, mode: str, runs: int) -> list[RunFigures]:
+    await measure_run(scenario, mode)  # warm-up
+    return [await measure_run(scenario, mode) for _ in range(runs)]
+
+
+def main(runs: int | None = None, quick: bool = False) -> int:
+    """Run the scaling study and the nested-emergency study; write the results."""
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    rows: list[dict[str, Any]] = []
+    failures: list[str] = []
+    sizes = SIZES[:3] if quick else SIZES
+    for cols, rws in sizes:
+        built = time.perf_counter()
+        scenario = generated_scenario(cols, rws)
+        n = runs or (15 if cols * rws <= 100 else 7 if cols * rws <= 400 else 5)
+        nodes = len(scenario.world.nodes)
+        print(
+            f"{cols * rws:>5} areas {nodes:>6} nodes (built in {time.perf_counter() - built:.1f} s)",
+            file=sys.stderr,
+            flush=True,
+        )
+        for mode in ("online", "naive"):
+            t = time.perf_counter()
+            figures = anyio.run(_runs, scenario, mode, n)
+            if not all(f.succeeded for f in figures):
+                failures.append(f"{cols * rws} areas {mode}")
+            resume = statistics.median([f.total_ms or 0.0 for f in figures])
+            parent = statistics.median([f.parent_ms or 0.0 for f in figures])
+            child = statistics.median([f.child_ms or 0.0 for f in figures])
+            planning = statistics.median([f.planning_ms for f in figures])
+            rows.append(
+                {
+                    "areas": cols * rws,
+                    "nodes": nodes,
+                    "mode": mode,
+                    "resume_ms": round(resume, 4),
+                    "parent_ms": round(parent, 4),
+                    "child_ms": round(child, 4),
+                    "planning_ms": round(planning, 3),
+                    "distance": round(figures[0].distance, 3),
+                    "runs": n,
+                }
+            )
+            print(
+                f"      {mode:<6} resume {resume:9.3f} ms (parent {parent:.3f}, child {child:.3f})  "
+                f"planning {planning:9.2f} ms  distance {figures[0].distance:.1f} m  "
+                f"[{n} runs, {time.perf_counter() - t:.1f} s]",
+                file=sys.stderr,
+                flush=True,
+            )
+    (RESULTS / "scaling.json").write_text(json.dumps(rows, indent=2) + "\n")
+    _chart(rows)
+    nested = nested_study(runs or 10)
+    (RESULTS / "nested.json").write_text(json.dumps(nested, indent=2) + "\n")
+    print("wrote bench/results/scaling.json, scaling.png, nested.json", file=sys.stderr)
+    if failures or any(not r["all_succeeded"] for r in nested):
+        print(f"FAILED: {failures}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def nested_study(runs: int) -> list[dict[str, Any]]:
+    """Museum map, n40 → n1, with 1 to 5 emergencies each arriving during the previous one."""
+    base = load_scenario(ROOT / "scenarios" / "museum.yaml")
+    targets = ["n38", "n28", "n29", "n13", "n4"]
+    out: list[dict[str, Any]] = []
+    for depth in range(1, 6):
+        goals: list[dict[str, Any]] = [{"agent": "guide", "task": "goto(n1)"}]
+        for i, target in enumerate(targets[:depth]):
+            goals.append(
+                {
+                    "agent": "guide",
+                    "task": f"goto({target})",
+                    "emergency": True,
+                    "when": {"time": 1.0 + 2.0 * i},
+                }
+            )
+        data = {
+            "name": f"nested emergencies, depth {depth}",
+            "map": str(ROOT / "scenarios" / "museum_map.yaml"),
+            "robot": {"start": "n40", "speed": 1.0},
+            "agents": [a.model_dump() for a in base.agents],
+            "goals": goals,
+        }
+        scenario = parse_scenario(data, f"<nested {depth}>")
+        for mode in ("online", "naive"):
+            figures = anyio.run(_runs, scenario, mode, runs)
+            out.append(
+                {
+                    "depth": depth,
+                    "mode": mode,
+                    "resume_ms_sum": round(statistics.median([sum(f.resumes) for f in figures]), 4),
+                    "resumes": len(figures[0].resumes),
+                    "planning_ms": round(statistics.median([f.planning_ms for f in figures]), 3),
+                    "distance": round(figures[0].distance, 3),
+                    "all_succeeded": all(f.succeeded for f in figures),
+                    "runs": runs,
+                }
+            )
+            row = out[-1]
+            print(
+                f"nested depth {depth} {mode:<6} resumes {row['resumes']} sum {row['resume_ms_sum']:.3f} ms "
+                f"planning {row['planning_ms']:.2f} ms distance {row['distance']:.1f} m "
+                f"{'ok' if row['all_succeeded'] else 'FAILED'}",
+                file=sys.stderr,
+                flush=True,
+            )
+    return out
+
+
+def _chart(rows: list[dict[str, Any]]) -> None:
+    try:
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+    except ImportError:
+        print("matplotlib is not installed: no chart", file=sys.stderr)
+        return
+    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
+    for mode, color in (("online", "#1f77b4"), ("naive", "#ff7f0e")):
+        pts = [r for r in rows if r["mode"] == mode]
+        xs = [r["nodes"] for r in pts]
+        axes[0].plot(xs, [max(r["resume_ms"], 1e-4) for r in pts], "o-", color=color, label=mode)
+        axes[1].plot(xs, [r["planning_ms"] for r in pts], "o-", color=color, label=mode)
+    for ax, title in zip(
+        axes, ("resume replanning (parent + child)", "planning over the whole run"), strict=True
+    ):
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel("nodes")
+        ax.set_ylabel("ms (median)")
+        ax.set_title(title)
+        ax.legend()
+    fig.tight_layout()
+    fig.savefig(RESULTS / "scaling.png", dpi=110)
+    plt.close(fig)
