@@ -356,11 +356,19 @@ class PlanSet:
         states: list[State],
         cache: dict[tuple[object, ...], Plan | None],
     ) -> Plan | None:
-        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4)."""
+        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
+
+        The walk stops below the goal itself: re-decomposing the goal is planning
+        it from scratch, which §2.7 does once when no plan is left at all, rather
+        than once for every broken alternative.  Steps inserted by maintenance
+        (undo, rollback) belong to no task and are not repaired.
+        """
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
         settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
         for record in chain:
+            if record.parent is None:
+                break  # the goal's own decomposition: see above
             start, end = _span(p.steps, record)
             if start > index:
                 continue
@@ -369,11 +377,7 @@ class PlanSet:
             result = self._plan_cached(states[start], tasks, settings, cache)
             if result is not None:
                 return Plan(tidy(self.domain, (*p.steps[:start], *result.steps)))
-        if chain and chain[-1].task == self.goal:
-            return None
-        # Inserted steps (rollback, undo) belong to no task: the goal is the last ancestor.
-        result = self._plan_cached(states[0], [(self.goal, None)], settings, cache)
-        return result
+        return None
 
     def _plan_cached(
         self,

@@ -103,16 +103,32 @@ def test_success_puts_the_undo_in_front_of_other_plans() -> None:
 def test_success_without_undo_rechecks_and_repairs() -> None:
     d = line_domain(undo=False)
     belief = line_state(d, "p0")
+    ps = PlanSet(d, a("reach(p4)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)", "step(p3,p4)"]
+    belief = execute(ps, d, belief, "step(p0,p2)")
+    # An action no plan starts with, and no undo: the plan is re-checked, found
+    # broken at its first step, and repaired below the goal.
+    after = d.apply(belief, a("step(p2,p1)"))
+    assert after is not None
+    ps.action_succeeded(a("step(p2,p1)"), belief, after)
+    assert ps.stats.repairs == 1
+    assert ps.stats.from_scratch == 1
+    assert texts(ps.best) == ["step(p1,p2)", "step(p2,p3)", "step(p3,p4)"]
+
+
+def test_a_plan_broken_at_the_goal_level_is_removed_not_replanned() -> None:
+    d = line_domain(undo=False)
+    belief = line_state(d, "p0")
     ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
-    assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)"]
     after = d.apply(belief, a("step(p0,p1)"))
     assert after is not None
     ps.action_succeeded(a("step(p0,p1)"), belief, after)
-    # No undo: the plan was re-checked, found broken at its first step, and repaired.
-    assert ps.stats.repairs == 1
-    assert ps.stats.from_scratch == 1
-    assert texts(ps.best) == ["step(p1,p2)", "step(p2,p3)"]
+    # Re-decomposing the goal itself would be planning from scratch: §2.7 does that
+    # once, when no plan is left.
+    assert ps.plans == [] and ps.stats.repairs == 0 and ps.stats.removed == 1
+    assert ps.ensure(after) and ps.stats.from_scratch == 2
 
 
 # -- §2.2 an action failed -------------------------------------------------------------------
@@ -384,22 +400,17 @@ def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None
 
 
 def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
-    """Flat navigator, n40 -> n1, emergency to n38: the kept plan would walk back to n40."""
-    belief = nav.initial_state("n40")
-    first = PlanSet(nav, a("goto_node(n1)"))
-    first.make(belief)
-    running = a("move(n40,n35,arc59)")
-    after = nav.suspend(belief, running)
-    first.action_suspended(running, belief, after)
-    belief = after
-    for action in ("rollback(move(n40,n35,arc59))", "move(n40,n38,arc58)"):
-        belief = execute(first, nav, belief, action)
+    """n1 -> n10 was planned through n6; an emergency took the robot to n4 meanwhile."""
+    belief = nav.initial_state("n1")
+    stacked = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
+    stacked.make(belief)
+    belief = execute(stacked, nav, belief, "move(n1,n4,arc3)")
     # Expect: the undo of the emergency's move in front of the kept route.
-    assert texts(first.best)[:2] == ["move(n38,n40,arc58)", "move(n40,n35,arc59)"]
-    assert first.shorten_detours(belief)
-    scratch = plan(nav, belief, [a("goto_node(n1)")]).best
-    assert scratch is not None and first.best is not None
-    assert first.best.cost == pytest.approx(scratch.cost)
-    assert texts(first.best)[0] == "move(n38,n35,arc52)"
-    assert first.stats.shortcuts == 1
-    assert not first.shorten_detours(belief)  # nothing left to shorten
+    assert texts(stacked.best) == ["move(n4,n1,arc3)", "move(n1,n6,arc5)", "move(n6,n10,arc12)"]
+    assert stacked.shorten_detours(belief)
+    scratch = plan(nav, belief, [a("goto_node(n10)")]).best
+    assert scratch is not None and stacked.best is not None
+    assert stacked.best.cost == pytest.approx(scratch.cost)
+    assert texts(stacked.best) == ["move(n4,n6,arc6)", "move(n6,n10,arc12)"]
+    assert stacked.stats.shortcuts == 1
+    assert not stacked.shorten_detours(belief)  # nothing left to shorten
