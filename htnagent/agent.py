@@ -306,9 +306,8 @@ class Agent(ExecutorActor):
         self.order(self.executor, Clear(action=pending))
         before = self.belief
         self.belief = self.domain.clear(before, pending)
-        if self.belief is not before:
-            for ps in self._plansets():
-                ps.belief_changed(before, self.belief)
+        for ps in self._plansets():
+            ps.suspension_cleared(pending, before, self.belief)
 
     # -- acting -----------------------------------------------------------------------------
 

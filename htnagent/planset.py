@@ -220,6 +220,26 @@ class PlanSet:
             # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
             self._revise(before, after)
 
+    def suspension_cleared(self, action: Atom, before: State, after: State) -> None:
+        """The half-done ``action`` will never be resumed; its half-done facts are gone.
+
+        A kept plan that still meant to ``resume(action)`` does the whole action
+        instead (the counterpart of §2.6's rollback(A), A → resume(A)); then every
+        plan is re-checked as for any belief change.
+        """
+        with self._timed():
+            resume = Atom("resume", (action,))
+            cost = self.domain.cost(action)
+            self.plans = [
+                Plan(tuple(Step(action, cost, s.record) if s.action == resume else s for s in p.steps))
+                for p in self.plans
+            ]
+            if self.mode is Replanning.NAIVE:
+                self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
+                self._checked = after
+                return
+            self._revise(before, after)
+
     def belief_changed(self, before: State, after: State) -> None:
         """The world changed from outside (§2.3): every plan is re-checked."""
         with self._timed():
@@ -263,8 +283,8 @@ class PlanSet:
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
             shorter = Plan(tidy(self.domain, rival.steps))
-            self.plans = [shorter, *(p for p in self.plans if p.actions != shorter.actions)]
-            self.plans.sort(key=lambda q: q.cost)
+            others = [p for p in self.plans if p.actions != shorter.actions]
+            self.plans = sorted([shorter, *others], key=lambda q: q.cost)[: self.settings.alternatives]
             self.stats.shortcuts += 1
             return True
 
@@ -358,17 +378,17 @@ class PlanSet:
     ) -> Plan | None:
         """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
-        The walk stops below the goal itself: re-decomposing the goal is planning
-        it from scratch, which §2.7 does once when no plan is left at all, rather
-        than once for every broken alternative.  Steps inserted by maintenance
-        (undo, rollback) belong to no task and are not repaired.
+        The last ancestor is the goal itself; steps inserted by maintenance (undo,
+        rollback) belong to no task, so for them the goal is the only ancestor.
+        The goal is re-decomposed from the current belief, once per update, and
+        the result is shared by every plan that needs it.
         """
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
         settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
         for record in chain:
             if record.parent is None:
-                break  # the goal's own decomposition: see above
+                break  # the goal's own decomposition: below, shared
             start, end = _span(p.steps, record)
             if start > index:
                 continue
@@ -377,7 +397,8 @@ class PlanSet:
             result = self._plan_cached(states[start], tasks, settings, cache)
             if result is not None:
                 return Plan(tidy(self.domain, (*p.steps[:start], *result.steps)))
-        return None
+        # The goal itself, from the current belief: one search shared by all plans.
+        return self._plan_cached(states[0], [(self.goal, None)], settings, cache)
 
     def _plan_cached(
         self,

@@ -117,18 +117,22 @@ def test_success_without_undo_rechecks_and_repairs() -> None:
     assert texts(ps.best) == ["step(p1,p2)", "step(p2,p3)", "step(p3,p4)"]
 
 
-def test_a_plan_broken_at_the_goal_level_is_removed_not_replanned() -> None:
+def test_a_plan_broken_at_the_goal_level_is_replanned_once_from_the_belief() -> None:
     d = line_domain(undo=False)
     belief = line_state(d, "p0")
-    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
+    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
-    after = d.apply(belief, a("step(p0,p1)"))
-    assert after is not None
-    ps.action_succeeded(a("step(p0,p1)"), belief, after)
-    # Re-decomposing the goal itself would be planning from scratch: §2.7 does that
-    # once, when no plan is left.
-    assert ps.plans == [] and ps.stats.repairs == 0 and ps.stats.removed == 1
-    assert ps.ensure(after) and ps.stats.from_scratch == 2
+    assert len(ps.plans) == 2
+    # The robot is found elsewhere (a belief change from outside).
+    after = belief.updated(add=[a("at(p4)")], delete=[a("at(p0)")])
+    expansions = ps.stats.expansions
+    ps.belief_changed(belief, after)
+    # Both alternatives broke at their first step, whose only ancestor is the goal:
+    # the goal was re-decomposed once from the belief, and both repairs share it.
+    assert ps.stats.repairs == 2
+    assert texts(ps.best) == ["step(p4,p3)"]
+    single = plan(d, after, [a("reach(p3)")], PlannerSettings(alternatives=1))
+    assert ps.stats.expansions - expansions == single.expansions
 
 
 # -- §2.2 an action failed -------------------------------------------------------------------
@@ -414,3 +418,21 @@ def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Dom
     assert texts(stacked.best) == ["move(n4,n6,arc6)", "move(n6,n10,arc12)"]
     assert stacked.stats.shortcuts == 1
     assert not stacked.shorten_detours(belief)  # nothing left to shorten
+
+
+def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n1")
+    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    running = a("move_area(area1,area3)")
+    suspended = areas.suspend(belief, running)
+    ps.action_suspended(running, belief, suspended)
+    assert texts(ps.best)[0] == "resume(move_area(area1,area3))"
+    cleared = areas.clear(suspended, running)
+    ps.suspension_cleared(running, suspended, cleared)
+    # Expect: still one plan, no repair, no planning: the move is made in full.
+    assert texts(ps.best)[0] == "move_area(area1,area3)"
+    assert ps.stats.repairs == 0 and ps.stats.from_scratch == 1
+    best = ps.best
+    assert best is not None and replay(areas, cleared, best.actions) is not None
