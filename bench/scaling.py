@@ -3,10 +3,12 @@
 Each generated museum is a grid of areas, each a 3×3 grid of jittered nodes
 (see :func:`htnagent.maps.generate_map`).  The robot starts in the first
 corner with the goal in the opposite corner; one second in, while it is on its
-first arc, an emergency sends it to a node in the area below the start; then
-the first goal is resumed.  We measure the total (parent plus child) resume
-replanning time and the whole run's planning time, in both modes.  Also:
-nested emergencies on the museum map, up to depth 5.
+first arc, an emergency sends it elsewhere; then
+the first goal is resumed.  Two variants: the emergency node is in the start
+area (the parent's plan needs no change) or in the area below it (it must
+change).  We measure the total (parent plus child) resume replanning time and
+the whole run's planning time, in both modes.  Also: nested emergencies on the
+museum map, up to depth 5.
 
 Writes ``bench/results/scaling.json``, ``scaling.png`` and ``nested.json``.
 """
@@ -33,15 +35,24 @@ SIZES = [(2, 4), (5, 5), (10, 10), (20, 20), (40, 28)]
 """Areas as (columns, rows): 8, 25, 100, 400 and 1,120 areas; nodes are 9 per area."""
 
 
-def generated_scenario(cols: int, rows: int, seed: int = 1) -> Scenario:
+VARIANTS = {
+    "same area": "the emergency node is in the start area: the parent's plan needs no change",
+    "next area": "the emergency node is in the area below the start: the parent's plan must change",
+}
+
+
+def generated_scenario(cols: int, rows: int, variant: str = "next area", seed: int = 1) -> Scenario:
     """The scaling experiment on a generated museum of ``cols × rows`` areas."""
     world = generate_map(cols, rows, 3, seed)
     names = list(world.nodes)
     start, goal = names[0], names[-1]
-    below = world.area_nodes[f"area{cols + 1}"] if rows > 1 else world.area_nodes["area2"]
-    emergency = below[len(below) // 2]
+    if variant == "same area":
+        emergency = world.area_nodes["area1"][-1]
+    else:
+        below = world.area_nodes[f"area{cols + 1}"] if rows > 1 else world.area_nodes["area2"]
+        emergency = below[len(below) // 2]
     data: dict[str, Any] = {
-        "name": f"generated museum {cols}x{rows}",
+        "name": f"generated museum {cols}x{rows}, emergency in the {variant}",
         "map": map_to_yaml_data(world),
         "robot": {"start": start, "speed": 1.0},
         "agents": [
@@ -68,44 +79,47 @@ def main(runs: int | None = None, quick: bool = False) -> int:
     failures: list[str] = []
     sizes = SIZES[:3] if quick else SIZES
     for cols, rws in sizes:
-        built = time.perf_counter()
-        scenario = generated_scenario(cols, rws)
-        n = runs or (15 if cols * rws <= 100 else 7 if cols * rws <= 400 else 5)
-        nodes = len(scenario.world.nodes)
-        print(
-            f"{cols * rws:>5} areas {nodes:>6} nodes (built in {time.perf_counter() - built:.1f} s)",
-            file=sys.stderr,
-            flush=True,
-        )
-        for mode in ("online", "naive"):
-            t = time.perf_counter()
-            figures = anyio.run(_runs, scenario, mode, n)
-            if not all(f.succeeded for f in figures):
-                failures.append(f"{cols * rws} areas {mode}")
-            resume = statistics.median([f.total_ms or 0.0 for f in figures])
-            parent = statistics.median([f.parent_ms or 0.0 for f in figures])
-            child = statistics.median([f.child_ms or 0.0 for f in figures])
-            planning = statistics.median([f.planning_ms for f in figures])
-            rows.append(
-                {
-                    "areas": cols * rws,
-                    "nodes": nodes,
-                    "mode": mode,
-                    "resume_ms": round(resume, 4),
-                    "parent_ms": round(parent, 4),
-                    "child_ms": round(child, 4),
-                    "planning_ms": round(planning, 3),
-                    "distance": round(figures[0].distance, 3),
-                    "runs": n,
-                }
-            )
+        for variant in VARIANTS:
+            built = time.perf_counter()
+            scenario = generated_scenario(cols, rws, variant)
+            n = runs or (15 if cols * rws <= 100 else 7 if cols * rws <= 400 else 5)
+            nodes = len(scenario.world.nodes)
             print(
-                f"      {mode:<6} resume {resume:9.3f} ms (parent {parent:.3f}, child {child:.3f})  "
-                f"planning {planning:9.2f} ms  distance {figures[0].distance:.1f} m  "
-                f"[{n} runs, {time.perf_counter() - t:.1f} s]",
+                f"{cols * rws:>5} areas {nodes:>6} nodes, emergency in the {variant} "
+                f"(built in {time.perf_counter() - built:.1f} s)",
                 file=sys.stderr,
                 flush=True,
             )
+            for mode in ("online", "naive"):
+                t = time.perf_counter()
+                figures = anyio.run(_runs, scenario, mode, n)
+                if not all(f.succeeded for f in figures):
+                    failures.append(f"{cols * rws} areas {variant} {mode}")
+                resume = statistics.median([f.total_ms or 0.0 for f in figures])
+                parent = statistics.median([f.parent_ms or 0.0 for f in figures])
+                child = statistics.median([f.child_ms or 0.0 for f in figures])
+                planning = statistics.median([f.planning_ms for f in figures])
+                rows.append(
+                    {
+                        "areas": cols * rws,
+                        "nodes": nodes,
+                        "emergency": variant,
+                        "mode": mode,
+                        "resume_ms": round(resume, 4),
+                        "parent_ms": round(parent, 4),
+                        "child_ms": round(child, 4),
+                        "planning_ms": round(planning, 3),
+                        "distance": round(figures[0].distance, 3),
+                        "runs": n,
+                    }
+                )
+                print(
+                    f"      {mode:<6} resume {resume:9.3f} ms (parent {parent:.3f}, child {child:.3f})  "
+                    f"planning {planning:9.2f} ms  distance {figures[0].distance:.1f} m  "
+                    f"[{n} runs, {time.perf_counter() - t:.1f} s]",
+                    file=sys.stderr,
+                    flush=True,
+                )
     (RESULTS / "scaling.json").write_text(json.dumps(rows, indent=2) + "\n")
     _chart(rows)
     nested = nested_study(runs or 10)
@@ -175,21 +189,33 @@ def _chart(rows: list[dict[str, Any]]) -> None:
     except ImportError:
         print("matplotlib is not installed: no chart", file=sys.stderr)
         return
-    fig, axes = plt.subplots(1, 2, figsize=(11, 4))
-    for mode, color in (("online", "#1f77b4"), ("naive", "#ff7f0e")):
-        pts = [r for r in rows if r["mode"] == mode]
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4))
+    styles = {
+        ("online", "same area"): ("#1f77b4", "o-"),
+        ("online", "next area"): ("#1f77b4", "s--"),
+        ("naive", "same area"): ("#ff7f0e", "o-"),
+        ("naive", "next area"): ("#ff7f0e", "s--"),
+    }
+    for (mode, variant), (color, style) in styles.items():
+        pts = [r for r in rows if r["mode"] == mode and r["emergency"] == variant]
         xs = [r["nodes"] for r in pts]
-        axes[0].plot(xs, [max(r["resume_ms"], 1e-4) for r in pts], "o-", color=color, label=mode)
-        axes[1].plot(xs, [r["planning_ms"] for r in pts], "o-", color=color, label=mode)
-    for ax, title in zip(
-        axes, ("resume replanning (parent + child)", "planning over the whole run"), strict=True
-    ):
+        label = f"{mode}, {variant}"
+        axes[0 if variant == "same area" else 1].plot(
+            xs, [max(r["resume_ms"], 1e-4) for r in pts], style, color=color, label=label
+        )
+        axes[2].plot(xs, [r["planning_ms"] for r in pts], style, color=color, label=label)
+    titles = (
+        "resume replanning, emergency in the same area",
+        "resume replanning, emergency in the next area",
+        "planning over the whole run",
+    )
+    for ax, title in zip(axes, titles, strict=True):
         ax.set_xscale("log")
         ax.set_yscale("log")
         ax.set_xlabel("nodes")
         ax.set_ylabel("ms (median)")
-        ax.set_title(title)
-        ax.legend()
+        ax.set_title(title, fontsize=9)
+        ax.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(RESULTS / "scaling.png", dpi=110)
     plt.close(fig)

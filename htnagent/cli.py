@@ -12,8 +12,9 @@ import argparse
 import functools
 import json
 import os
+import signal
 import sys
-from collections.abc import Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from typing import NoReturn, TextIO
 
 import anyio
@@ -25,7 +26,7 @@ from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, plan
 from htnagent.plot import check_plot_target, draw_run
 from htnagent.scenario import Scenario, load_scenario
-from htnagent.simulation import run_scenario
+from htnagent.simulation import RunReport, run_scenario
 from htnagent.terms import parse
 from htnagent.trace import Observer
 
@@ -34,6 +35,7 @@ PROG = "htnagent"
 EXIT_OK = 0
 EXIT_FAILED = 1
 EXIT_INVALID = 2
+EXIT_INTERRUPTED = 130
 
 
 class _UsageError(Exception):
@@ -198,20 +200,39 @@ def _run(args: argparse.Namespace) -> int:
     else:
         console.print(f"[bold]{scenario.name}[/bold]  ({args.replanning or scenario.replanning} replanning)")
         observers.append(LiveTrace(console, scenario.agent_names))
-    report = anyio.run(
-        functools.partial(
-            run_scenario,
-            scenario,
-            replanning=args.replanning,
-            speed=args.speed,
-            observers=observers,
-            keep_events=bool(args.plot),
-        )
+    run = functools.partial(
+        run_scenario,
+        scenario,
+        replanning=args.replanning,
+        speed=args.speed,
+        observers=observers,
+        keep_events=bool(args.plot),
     )
+    report = anyio.run(_until_interrupted, run)
     if not args.json:
         print_summary(console, report.summary)
     if args.plot:
         draw_run(scenario, report.events, args.plot)
         if not args.json:
             console.print(f"picture saved to {args.plot}")
+    if report.interrupted:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
+
+
+async def _until_interrupted(run: Callable[..., Awaitable[RunReport]]) -> RunReport:
+    """Run; Ctrl-C (SIGINT) or SIGTERM stops the run cleanly with its summary."""
+    stop = anyio.Event()
+
+    async def listen() -> None:
+        with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:
+            async for _ in signals:
+                stop.set()
+                return
+
+    async with anyio.create_task_group() as tg:
+        tg.start_soon(listen)
+        report = await run(stop=stop)
+        tg.cancel_scope.cancel()
+    return report

@@ -26,6 +26,7 @@ from htnagent.trace import Event, Observer, Trace
 
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
+INTERRUPTED = "interrupted before it ended"
 
 
 @dataclass
@@ -34,6 +35,8 @@ class RunReport:
 
     summary: Event
     events: list[Event] = field(default_factory=list)
+    interrupted: bool = False
+    """The run was stopped (``stop`` was set) before every goal ended."""
 
     @property
     def succeeded(self) -> bool:
@@ -81,11 +84,15 @@ async def run_scenario(
     observers: Iterable[Observer] = (),
     keep_events: bool = False,
     on_start: Callable[[Runtime], None] | None = None,
+    stop: anyio.Event | None = None,
 ) -> RunReport:
     """Run the scenario to the end and return its summary (the last event published).
 
     ``on_start`` is called with the runtime before anything runs (for measurements).
+    Setting ``stop`` ends the run early: goals not yet ended fail as interrupted,
+    and the summary of what was done is still published.
     """
+    interrupted = False
     runtime, world = build_runtime(scenario, replanning=replanning, speed=speed)
     if on_start is not None:
         on_start(runtime)
@@ -152,11 +159,23 @@ async def run_scenario(
         clock.on_idle(on_idle)
         runtime.subscribe(lambda e: check_done() if e["event"] == "goal_finished" else None)
         check_done()
-        await settled.wait()
-        runtime.fail_unfinished(STALLED)
+
+        async def interrupt(stop: anyio.Event) -> None:
+            nonlocal interrupted
+            await stop.wait()
+            interrupted = not settled.is_set()
+            settled.set()
+
+        async with anyio.create_task_group() as waiting:
+            if stop is not None:
+                waiting.start_soon(interrupt, stop)
+            await settled.wait()
+            waiting.cancel_scope.cancel()
+        runtime.fail_unfinished(INTERRUPTED if interrupted else STALLED)
         summary = _summary(scenario, runtime, world, tickets)
         runtime.trace.emit("runtime", "summary", **summary)
-    return RunReport(summary=events[-1] if keep_events else {"event": "summary", **summary}, events=events)
+    final = events[-1] if keep_events else {"event": "summary", **summary}
+    return RunReport(summary=final, events=events, interrupted=interrupted)
 
 
 def _summary(
