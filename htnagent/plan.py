@@ -105,12 +105,21 @@ def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | Non
     return current
 
 
-def tidy(domain: Domain, steps: Sequence[Step]) -> tuple[Step, ...]:
+def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple[Step, ...]:
     """Apply the tidy-up rules of ALGORITHMS.md §2 item 6 until none applies.
 
     - an action directly followed by its own undo: both go;
     - ``rollback(A)`` directly followed by ``A``: they become ``resume(A)``.
+
+    With ``front`` only the first step is new and the rest is known tidy: the
+    rules are applied where they meet, in constant time.
     """
+    if front:
+        # The new first step meets the tidy rest once: a cancelled pair leaves a rest that
+        # was already tidy, and resume(A) takes part in neither rule.
+        if len(steps) < 2:
+            return tuple(steps)
+        return (*tidy(domain, steps[:2]), *steps[2:])
     out: list[Step] = []
     for step in steps:
         if out:

@@ -163,8 +163,10 @@ class PlanSet:
         with self._timed():
             undo = self.domain.undo_of(action)
             kept: list[Plan] = []
-            # A plan valid from ``before`` that ran the action is valid from ``after``.
+            # A plan valid from ``before`` that ran the action is valid from ``after``;
+            # so is one behind the undo, when the undo really leads back to ``before``.
             trusted = before is self._checked
+            undo_restores = trusted and undo is not None and _leads_back(self.domain, undo, before, after)
             self._trusted.clear()
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
@@ -177,9 +179,16 @@ class PlanSet:
                     continue
                 elif undo is not None:
                     # §2.1: another plan stays valid by undoing the action first.
-                    kept.append(Plan((Step(undo, self.domain.cost(undo), None), *p.steps)))
+                    undone = Plan(
+                        tidy(self.domain, (Step(undo, self.domain.cost(undo), None), *p.steps), front=True)
+                    )
+                    kept.append(undone)
+                    if undo_restores:
+                        self._trusted.add(id(undone))
                 else:
                     kept.append(p)
+                    if trusted and after.dynamic == before.dynamic and after.static is before.static:
+                        self._trusted.add(id(p))  # the action changed nothing the plan relies on
             self.plans = kept
             self._revise(before, after)
 
@@ -452,6 +461,14 @@ class PlanSet:
             yield
         finally:
             self.stats.seconds += time.perf_counter() - started
+
+
+def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool:
+    """Whether doing ``undo`` in ``after`` gives back exactly the belief ``before``."""
+    if after.static is not before.static:
+        return False
+    dynamic = domain.step(after, undo)
+    return dynamic is not None and dynamic == before.dynamic
 
 
 def _span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
