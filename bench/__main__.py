@@ -1,18 +1,22 @@
-"""``python -m bench`` (the six published cases) and ``python -m bench scaling``."""
+"""``python -m bench`` (the six published cases), ``python -m bench scaling|reliability``."""
 
 from __future__ import annotations
 
 import argparse
 
-from bench import replanning, scaling
+from bench import reliability, replanning, scaling
 
 
 def main() -> int:
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
-    parser.add_argument("study", nargs="?", default="replanning", choices=("replanning", "scaling"))
+    parser.add_argument(
+        "study", nargs="?", default="replanning", choices=("replanning", "scaling", "reliability")
+    )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     args = parser.parse_args()
+    if args.study == "reliability":
+        return reliability.main(runs=args.runs or 300)
     if args.study == "scaling":
         return scaling.main(runs=args.runs, quick=args.quick)
     return replanning.main(runs=args.runs or 25)

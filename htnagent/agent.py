@@ -239,15 +239,15 @@ class Agent(ExecutorActor):
                 self.reply(Suspended(action=entry.goal, seq=entry.order_seq))
                 entry.parent_suspend = None
                 return _Stop.STACKED
-            if ps.finished:
-                entry.reason = ""
-                return _Stop.DONE
             if not ps.ensure(self.belief):
                 entry.reason = (
                     entry.reason
                     or f"no plan for {entry.goal} ({ps.last_status.value if ps.last_status else 'none'})"
                 )
                 ps.plans = []
+                return _Stop.DONE
+            if ps.finished:  # also when a plan made just now has nothing left to do
+                entry.reason = ""
                 return _Stop.DONE
             best = ps.best
             assert best is not None
@@ -333,6 +333,7 @@ class Agent(ExecutorActor):
             if running.timer is not None:
                 running.timer.cancel()
             self.running = None
+        self._update(action, result)
         self.trace.emit(
             self.name,
             "action_finished",
@@ -340,7 +341,6 @@ class Agent(ExecutorActor):
             result=result.kind,
             **({"reason": result.reason} if isinstance(result, Failure) else {}),
         )
-        self._update(action, result)
         return result
 
     async def _await_result(self, running: _Running) -> Success | Failure | Suspended:
@@ -376,10 +376,14 @@ class Agent(ExecutorActor):
             for ps in sets:
                 ps.action_succeeded(action, before, after)
             if action.name in ("resume", "rollback"):
-                # The half-done action was finished or undone: nothing is left to clear.
-                for entry in self._entries():
-                    if entry.suspended_action is not None and (action.args[0] == entry.suspended_action):
+                # The half-done action was finished or undone: nothing is left to clear.  The
+                # same action may be suspended at several depths; the latest one was resumed
+                # (the running goal's own, or else the top of the stack's).
+                running = [self.current] if self.current is not None else []
+                for entry in [*running, *reversed(self.stack)]:
+                    if entry.suspended_action is not None and action.args[0] == entry.suspended_action:
                         entry.suspended_action = None
+                        break
         elif isinstance(result, Suspended):
             # Algorithm 1, step 1: the belief takes the suspension effect.
             after = self.domain.suspend(before, action)
@@ -423,7 +427,13 @@ class Agent(ExecutorActor):
         except PlanningError:
             known = False
         entry = GoalEntry(message.goal, self._planset(message.goal), message.emergency, message.ticket)
-        self.trace.emit(self.name, "goal_received", goal=str(message.goal), emergency=message.emergency)
+        self.trace.emit(
+            self.name,
+            "goal_received",
+            goal=str(message.goal),
+            emergency=message.emergency,
+            ticket=message.ticket,
+        )
         if not known:
             entry.reason = f"{self.name} has no method or operator for {message.goal}"
             self._finished(entry)
@@ -471,6 +481,8 @@ class Agent(ExecutorActor):
     def _finished(self, entry: GoalEntry) -> None:
         status = GoalStatus.SUCCESS if entry.plans.finished and not entry.reason else GoalStatus.FAILURE
         fields: dict[str, Any] = {"goal": str(entry.goal), "status": status.value}
+        if entry.ticket is not None:
+            fields["ticket"] = entry.ticket
         if status is GoalStatus.FAILURE:
             fields["reason"] = entry.reason or "failed"
         self.trace.emit(self.name, "goal_finished", **fields)

@@ -26,7 +26,7 @@ from typing import Any
 
 import anyio
 from anyio.abc import TaskGroup, TaskStatus
-from anyio.streams.memory import MemoryObjectReceiveStream
+from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
 from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
@@ -92,6 +92,7 @@ class Runtime:
         self.outcomes: dict[int, GoalOutcome] = {}
         self._resolved: dict[int, anyio.Event] = {}
         self._tg: TaskGroup | None = None
+        self._streams: list[MemoryObjectSendStream[Event]] = []
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -116,11 +117,20 @@ class Runtime:
         assert self._tg is not None
         self._tg.cancel_scope.cancel()
         try:
+            if isinstance(exc, Exception):
+                # The body's own error: stop the tasks, then let it propagate as it is,
+                # not wrapped in the internal task group's ExceptionGroup.
+                await self._tg.__aexit__(None, None, None)
+                return None
             return await self._tg.__aexit__(exc_type, exc, tb)
         finally:
             self._tg = None
             for actor in [*self.agents.values(), self.executor]:
                 actor.inbox.close()
+            # No more events: every events() stream ends.
+            for send in self._streams:
+                send.close()
+            self._streams.clear()
 
     async def _guard(
         self, actor: ExecutorActor, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED
@@ -194,14 +204,16 @@ class Runtime:
         return self.trace.subscribe(observer)
 
     def events(self) -> MemoryObjectReceiveStream[Event]:
-        """A stream of every trace event from now on (close it to stop)."""
+        """A stream of every trace event from now on; it ends when the runtime closes (close it to stop)."""
         send, receive = anyio.create_memory_object_stream[Event](math.inf)
+        self._streams.append(send)
 
         def forward(event: Event) -> None:
             try:
                 send.send_nowait(event)
             except (anyio.ClosedResourceError, anyio.BrokenResourceError):
                 unsubscribe()
+                send.close()
 
         unsubscribe = self.trace.subscribe(forward)
         return receive

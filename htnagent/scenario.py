@@ -88,6 +88,12 @@ class RobotSpec(_Spec):
     """The chance that an action fails of itself (for failure experiments)."""
     seed: Annotated[int, Strict()] = 0
     """Seed of the robot's random failures, so runs repeat."""
+    durations: dict[Name, PositiveSeconds] = {}
+    """Seconds each of the robot's other actions takes, by action name (``explain: 60``).
+
+    Moves take their arc's length at ``speed``; an action named here takes its
+    time wherever the robot stands, and may be suspended half way and resumed.
+    """
 
 
 class AgentSpec(_Spec):
@@ -314,6 +320,7 @@ def _cross_check(s: Scenario) -> None:
             )
     for i, a in enumerate(s.agents):
         s._domains[a.name] = _resolve_domain(a.domain, world, file, f"agents[{i}].domain")
+    _check_durations(s)
     for i, g in enumerate(s.goals):
         if g.agent not in names:
             raise ScenarioError(file, f"goals[{i}].agent", _no_agent(g.agent, names))
@@ -325,6 +332,24 @@ def _cross_check(s: Scenario) -> None:
         key = "close" if ev.closes else "open"
         if ev.arc not in world.arcs:
             raise ScenarioError(file, f"events[{i}].{key}", f"unknown arc {ev.arc!r}; it is not on the map")
+
+
+def _check_durations(s: Scenario) -> None:
+    """Each timed robot action must be an action of the agent the robot serves."""
+    last = s.agents[-1]
+    domain = s.domain_for(last.name)
+    for name in s.robot.durations:
+        where = f"robot.durations.{name}"
+        if name in ("move", "resume", "rollback"):
+            raise ScenarioError(
+                s.file, where, f"{name} is not timed here: moves take their arc's length at the robot's speed"
+            )
+        if name not in domain.operators:
+            raise ScenarioError(
+                s.file,
+                where,
+                f"agent {last.name}'s domain {domain.name} has no action {name}, so the robot never does it",
+            )
 
 
 def _check_trigger(s: Scenario, trigger: Trigger, where: str) -> None:

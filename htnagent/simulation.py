@@ -71,6 +71,7 @@ def build_runtime(
             scenario.robot.speed,
             scenario.robot.failure_rate,
             scenario.robot.seed,
+            scenario.robot.durations,
         )
 
     return Runtime(configs, robot, speed=speed), world
@@ -131,9 +132,9 @@ async def run_scenario(
                 watchers.append((trigger, fire))
 
         def watch(event: Event) -> None:
-            # An action trigger fires once, when the first robot motion of that action
-            # reaches the given fraction of its duration.
-            if event["event"] != "robot_moving" or not watchers:
+            # An action trigger fires once, when the first robot motion (or timed
+            # action) of that action reaches the given fraction of its duration.
+            if event["event"] not in ("robot_moving", "robot_acting") or not watchers:
                 return
             for item in list(watchers):
                 trigger, fire = item
