@@ -5,11 +5,19 @@ It serves ``move(From,To,Arc)`` and, for a suspended move, ``resume(...)`` and
 arc, keeps what it needs to resume (or roll back) until told to clear it.  A
 move over a closed arc fails, and so does a move when the robot is not where
 the move starts; with a ``failure_rate`` a move also fails at random (seeded).
+
+A guide robot also talks: ``durations`` names its other actions (``explain``,
+``answer``, ``greet``, ...) with the simulated seconds each takes, wherever the
+robot stands.  Such an action can be suspended half way too; ``resume`` then
+takes only the time left, and ``clear`` forgets it.  Any other action fails.
+Moves are traced as ``robot_moving``, the other actions as ``robot_acting``
+(``done``: the fraction already done before this part started).
 """
 
 from __future__ import annotations
 
 import random
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -46,10 +54,28 @@ class Motion:
 
 
 @dataclass
-class Arrived:
-    """The timer message that ends a motion."""
+class Activity:
+    """The robot is doing a timed non-move ``action``, from fraction ``start`` to the end."""
 
-    motion: Motion
+    order: Execute | Resume
+    action: Atom
+    start: float
+    started_at: float
+    duration: float  # seconds for the part from ``start`` to the end
+    timer: TimerHandle
+
+    def fraction_at(self, now: float) -> float:
+        if self.duration <= 0:
+            return 1.0
+        done = min(max((now - self.started_at) / self.duration, 0.0), 1.0)
+        return self.start + (1.0 - self.start) * done
+
+
+@dataclass
+class Arrived:
+    """The timer message that ends a motion (or an activity)."""
+
+    motion: Motion | Activity
     kind: str = "arrived"
 
 
@@ -83,6 +109,7 @@ class Robot(ExecutorActor):
         speed: float,
         failure_rate: float = 0.0,
         seed: int = 0,
+        durations: Mapping[str, float] | None = None,
     ) -> None:
         super().__init__(name, clock, trace)
         self.state = world
@@ -90,6 +117,9 @@ class Robot(ExecutorActor):
         self.failure_rate = failure_rate
         self._rng = random.Random(seed)
         self.motion: Motion | None = None
+        self.durations = dict(durations or {})
+        self.activity: Activity | None = None
+        self.kept: dict[Atom, float] = {}  # suspended activities: the fraction already done
         if world.at is not None and not world.visited:
             world.visited.append(world.at)
 
@@ -98,7 +128,10 @@ class Robot(ExecutorActor):
         while True:
             message: Any = await self.inbox.receive()
             if isinstance(message, Arrived):
-                self._arrive(message.motion)
+                if isinstance(message.motion, Activity):
+                    self._done(message.motion)
+                else:
+                    self._arrive(message.motion)
             elif isinstance(message, Execute):
                 self._execute(message)
             elif isinstance(message, Resume):
@@ -114,6 +147,9 @@ class Robot(ExecutorActor):
         action = order.action
         if action.name == "rollback" and action.args and isinstance(action.args[0], Atom):
             self._rollback(order, action.args[0])
+            return
+        if action.name != "move" and action.name in self.durations:
+            self._act(order, action)
             return
         if action.name != "move" or len(action.args) != 3:
             self._fail(order, f"the robot cannot do {action}")
@@ -132,6 +168,8 @@ class Robot(ExecutorActor):
         world = self.state.world
         if self.motion is not None:
             return "the robot is already moving"
+        if self.activity is not None:
+            return f"the robot is busy with {self.activity.action}"
         if self.state.on_arc is not None:
             return f"the robot is on {self.state.on_arc[0]}, not at {frm}"
         if self.state.at != frm:
@@ -144,6 +182,10 @@ class Robot(ExecutorActor):
         return None
 
     def _resume(self, order: Resume) -> None:
+        if order.action in self.kept:
+            if self._act(order, order.action, self.kept[order.action]):
+                del self.kept[order.action]
+            return
         half = self._half(order.action)
         if half is None:
             self._fail(order, f"nothing to resume for {order.action}")
@@ -163,7 +205,7 @@ class Robot(ExecutorActor):
         self._start(order, arc, frm, to, fraction, 0.0)
 
     def _half(self, action: Atom) -> tuple[str, str, str, float] | None:
-        if self.motion is not None or self.state.on_arc is None:
+        if self.motion is not None or self.activity is not None or self.state.on_arc is None:
             return None
         arc, frm, to, fraction = self.state.on_arc
         if action.name != "move" or tuple(str(a) for a in action.args) != (frm, to, arc):
@@ -171,6 +213,9 @@ class Robot(ExecutorActor):
         return arc, frm, to, fraction
 
     def _suspend(self, order: Suspend) -> None:
+        if self.activity is not None:
+            self._suspend_activity(order, self.activity)
+            return
         motion = self.motion
         running = motion.order.action if motion is not None else None
         # Only a plain move may stop half way; finishing or undoing a half is done at once.
@@ -188,7 +233,44 @@ class Robot(ExecutorActor):
 
     def _clear(self, order: Clear) -> None:
         # Forget the resume context; where the robot physically is does not change.
-        pass
+        self.kept.pop(order.action, None)
+
+    # -- timed actions other than moves ------------------------------------------------
+
+    def _act(self, order: Execute | Resume, action: Atom, done: float = 0.0) -> bool:
+        """Start the timed action (its part after ``done``); False if the robot is busy."""
+        busy = self.motion.order.action if self.motion is not None else None
+        busy = self.activity.action if self.activity is not None else busy
+        if busy is not None:
+            self._fail(order, f"the robot is busy with {busy}")
+            return False
+        duration = (1.0 - done) * self.durations[action.name]
+        now = self.clock.now()
+        box: list[Activity] = []
+        timer = self.clock.call_at(now + duration, lambda: self.inbox.send(Arrived(box[0])))
+        activity = Activity(order, action, done, now, duration, timer)
+        box.append(activity)
+        self.activity = activity
+        self.trace.emit(
+            self.name, "robot_acting", action=str(action), duration=round(duration, 6), done=round(done, 6)
+        )
+        return True
+
+    def _suspend_activity(self, order: Suspend, activity: Activity) -> None:
+        # As for moves, only a fresh action stops half way; a resumed rest runs to its end.
+        if activity.action != order.action or not isinstance(activity.order, Execute):
+            self.reply(Refused(action=order.action, seq=order.seq))
+            return
+        activity.timer.cancel()
+        self.activity = None
+        self.kept[activity.action] = activity.fraction_at(self.clock.now())
+        self.reply(Suspended(action=order.action, seq=activity.order.seq))
+
+    def _done(self, activity: Activity) -> None:
+        if self.activity is not activity:
+            return  # a stale timer of a suspended activity
+        self.activity = None
+        self.reply(Success(action=activity.order.action, seq=activity.order.seq))
 
     # -- motion ----------------------------------------------------------------------
 

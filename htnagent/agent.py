@@ -281,8 +281,10 @@ class Agent(ExecutorActor):
         pending = entry.suspended_action
         if pending is not None:
             best = ps.best
-            resume = Atom("resume", (pending,))
-            if best is None or not best.steps or best.steps[0].action != resume:
+            first = best.steps[0].action if best is not None and best.steps else None
+            # A plan that starts by rolling the action back still needs what was kept
+            # for it: the rollback itself settles the suspension.
+            if first not in (Atom("resume", (pending,)), Atom("rollback", (pending,))):
                 # Algorithm 2: the selected plan will not resume the action: clear it below.
                 self._clear_suspended(entry)
                 ps.ensure(self.belief)

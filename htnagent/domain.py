@@ -262,13 +262,16 @@ class Suspension:
     ``add``/``delete`` are the suspension effect on the belief (applied to the
     state before the action); ``resume`` and ``rollback`` describe the operators
     ``resume(A)`` and ``rollback(A)``, whose precondition defaults to the facts
-    the suspension added.
+    the suspension added.  ``cleared`` names the facts that only record that A
+    can be resumed — they leave the belief when the suspension is cleared —
+    as opposed to facts about the world (a robot on an arc stays there).
     """
 
     add: tuple[str, ...] = ()
     delete: tuple[str, ...] = ()
     resume: Effect | None = None
     rollback: Effect | None = None
+    cleared: tuple[str, ...] = ()
 
 
 @dataclass(frozen=True, slots=True)
@@ -288,6 +291,7 @@ class Operator:
     suspendable: bool = False
     suspend_add: tuple[Atom, ...] = ()
     suspend_delete: tuple[Atom, ...] = ()
+    clear_delete: tuple[Atom, ...] = ()
     resume: Operator | None = None
     rollback: Operator | None = None
     undo: Atom | None = None
@@ -299,6 +303,7 @@ class Operator:
             ("delete", self.delete),
             ("suspension add", self.suspend_add),
             ("suspension delete", self.suspend_delete),
+            ("suspension cleared", self.clear_delete),
         ):
             for a in items:
                 unknown = a.variables() - known
@@ -434,7 +439,9 @@ class Domain:
         resume = rollback = None
         s_add: tuple[Atom, ...] = ()
         s_del: tuple[Atom, ...] = ()
+        c_del: tuple[Atom, ...] = ()
         if suspend is not None:
+            c_del = tuple(atom(a) for a in suspend.cleared)
             s_add = tuple(atom(a) for a in suspend.add)
             s_del = tuple(atom(a) for a in suspend.delete)
             resume = self._half(h, "resume", suspend.resume, s_add, cost)
@@ -448,6 +455,7 @@ class Domain:
             suspendable=suspend is not None,
             suspend_add=s_add,
             suspend_delete=s_del,
+            clear_delete=c_del,
             resume=resume,
             rollback=rollback,
             undo=atom(undo) if undo is not None else None,
@@ -599,9 +607,13 @@ class Domain:
         return state.with_dynamic(op.suspended(state.dynamic, full))
 
     def clear(self, state: State, action: Atom) -> State:
-        """The belief once a suspended action will never be resumed: its half-done facts go."""
+        """The belief once a suspended action will never be resumed.
+
+        The facts that only recorded that it could be resumed (its suspension's
+        ``cleared``) go; facts about the world stay.
+        """
         op, b = self.ground(action)
-        gone = {substitute(a, b) for a in op.suspend_add}
+        gone = {substitute(a, b) for a in op.clear_delete}
         if not gone & state.dynamic:
             return state
         return state.with_dynamic(state.dynamic - gone)

@@ -15,8 +15,9 @@ action takes (``robot.durations``; see ``scenarios/explain_question.yaml`` and
 - ``explain(E)`` — the action of explaining exhibit E, standing at its node.
   Suspendable: stopped half way it leaves ``explaining(E)``, and
   ``resume(explain(E))`` says the rest (costed at half).  While that half is
-  kept, ``explain(E)`` cannot start again: a resumed explanation is never
-  restarted; once the half is cleared, it can.
+  kept, ``explain(E)`` cannot start again: a suspended explanation is never
+  restarted; once the half is cleared (``explaining(E)`` only records that it
+  can be resumed), it can.
 - ``present(E)`` — walk to E's node, then explain E (nothing, once E is explained).
 - ``answer(G)`` — answer guest G's question (typically an emergency goal).
 - ``greet(V)`` — greet visitor V (an emergency goal); not suspendable: a
@@ -57,6 +58,7 @@ def talk_domain(world: WorldMap) -> Domain:
         cost=EXPLAIN_COST,
         suspend=Suspension(
             add=("explaining(?e)",),
+            cleared=("explaining(?e)",),
             resume=Effect(
                 pre=("explaining(?e)",),
                 add=("explained(?e)",),

@@ -13,11 +13,13 @@ Facts.  Parent: ``at(Area)``, ``moving(A,B)`` while a suspended ``move_area`` wa
 while a suspended ``move`` waits, ``arc(X,Y,Arc)`` (both ways), ``in_area(N,Area)``,
 ``closed(Arc)``.
 
-A suspended ``move`` leaves the robot on the arc; ``resume`` and ``rollback`` are
-each costed at half the arc (the planner does not know how far the robot got,
-and a symmetric guess keeps their order right).  The parent's coarse belief does
+A suspended ``move`` leaves the robot on the arc (a fact about the world, which
+clearing the suspension does not change); ``resume`` and ``rollback`` are each
+costed at half the arc (the planner does not know how far the robot got, and a
+symmetric guess keeps their order right).  The parent's coarse belief does
 not change when its action is suspended — the robot is still in area A — it only
-notes ``moving(A,B)`` so that ``resume(move_area(A,B))`` can be planned.
+notes ``moving(A,B)`` so that ``resume(move_area(A,B))`` can be planned; that
+note is dropped when the suspension is cleared.
 """
 
 from __future__ import annotations
@@ -61,6 +63,7 @@ def areas_domain(world: WorldMap) -> Domain:
         cost=move_cost,
         suspend=Suspension(
             add=("moving(?a,?b)",),
+            cleared=("moving(?a,?b)",),
             resume=Effect(
                 pre=("moving(?a,?b)", "at(?a)"),
                 add=("at(?b)",),
@@ -77,6 +80,7 @@ def areas_domain(world: WorldMap) -> Domain:
         cost=0.0,
         suspend=Suspension(
             add=("visiting(?n)",),
+            cleared=("visiting(?n)",),
             resume=Effect(
                 pre=("visiting(?n)", "at(?a)", "in_area(?n,?a)"), delete=("visiting(?n)",), cost=0.0
             ),
