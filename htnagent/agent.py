@@ -214,6 +214,10 @@ class Agent(ExecutorActor):
             ps.ensure(self.belief)
         self._shown = None
         while True:
+            if ps.plans and ps.finished:
+                # Done, even if an emergency or a suspension came with the last result.
+                entry.reason = ""
+                return _Stop.DONE
             if self.emergencies and entry.parent_suspend is None:
                 # Algorithm 3: push the goal with its plans and suspended action, run the
                 # emergency (emergencies that arrive meanwhile nest), pop and resume.
