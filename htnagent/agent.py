@@ -272,7 +272,8 @@ class Agent(ExecutorActor):
                 self._shown = None
                 if entry.failures >= self.config.max_failures:
                     ps.plans = []
-                    entry.reason = f"{action} failed {entry.failures} times: {result.reason}"
+                    times = "once" if entry.failures == 1 else f"{entry.failures} times"
+                    entry.reason = f"{action} failed {times}: {result.reason}"
                     return _Stop.DONE
 
     def _resume_plans(self, entry: GoalEntry) -> None:
@@ -353,8 +354,6 @@ class Agent(ExecutorActor):
         while True:
             message = await self.inbox.receive()
             if isinstance(message, Success | Failure | Suspended) and message.seq == running.seq:
-                if isinstance(message, Suspended | Success):
-                    return message
                 return message
             if isinstance(message, Refused) and message.seq == running.seq:
                 self.trace.emit(self.name, "suspend_refused", action=str(running.action))

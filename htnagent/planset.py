@@ -6,14 +6,19 @@ instead of planning again:
 
 - :meth:`PlanSet.action_succeeded` (§2.1), :meth:`PlanSet.action_failed` (§2.2),
   :meth:`PlanSet.action_suspended` (§3, the published Algorithm 1),
-  :meth:`PlanSet.belief_changed` (§2.3);
+  :meth:`PlanSet.belief_changed` (§2.3), :meth:`PlanSet.suspension_cleared`
+  (a suspended action will not be resumed);
 - each of them re-checks every plan by progressing the belief through it and
   *repairs* a broken plan by re-decomposing only the lowest compound task above
-  the failing action that can be decomposed again (§2.4);
+  the failing action that can be decomposed again (§2.4); plans known to be
+  valid (they ran the action that just succeeded, or sit behind an undo that
+  provably restores the belief) are not walked again;
 - plans removed because a fact was false are kept, indexed by that fact, and
   revived when it becomes true again (§2.5);
 - the tidy-up rules run after every update (§2.6);
-- :meth:`PlanSet.ensure` plans from scratch when nothing is left (§2.7).
+- :meth:`PlanSet.ensure` plans from scratch when nothing is left (§2.7);
+- :meth:`PlanSet.shorten_detours`, at resumption, offers a shorter way than a
+  plan's leading undo steps.
 
 In **naive** mode the set keeps only the plan being executed: suspension drops
 it, and whenever a plan is needed again it is made from scratch.

@@ -668,7 +668,7 @@ async def test_executor_that_raises_fails_the_action_and_the_agent_goes_on() -> 
         "0 action_started go(a,b)",
         "0 goal_received scan(a)",
         "0 action_finished go(a,b) failure (executor raised RuntimeError('wheels jammed on go(a,b)'))",
-        "0 goal_finished goto(b) failure (go(a,b) failed 1 times: "
+        "0 goal_finished goto(b) failure (go(a,b) failed once: "
         "executor raised RuntimeError('wheels jammed on go(a,b)'))",
         "0 plan_selected scan(a): scan(a)",
         "0 action_started scan(a)",
