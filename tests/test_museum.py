@@ -199,11 +199,13 @@ def test_clear_goes_down_when_the_resumed_plan_does_not_start_with_resume() -> N
         ("navigator", "robot", "suspend", "move(n1,n6,arc5)"),
         ("robot", "navigator", "suspended", "move(n1,n6,arc5)"),
         ("navigator", "guide", "suspended", "move_area(area1,area3)"),
-        # The navigator finishes its half move towards n6 for the emergency itself ...
-        ("navigator", "robot", "resume", "move(n1,n6,arc5)"),
-        # ... so the guide's clear stops at the navigator: the robot keeps nothing.
+        # The navigator settles its half move for the emergency itself (rolling it back to
+        # n1 ties with finishing it to n6: both 15.66 m to n13), so the guide's clear
+        # stops at the navigator: the robot keeps nothing.
         ("guide", "navigator", "clear", "move_area(area1,area3)"),
     ]
+    settled = [e["action"] for e in of(report.events, "action_started", "navigator")][1]
+    assert settled == "rollback(move(n1,n6,arc5))"
     resumed = of(report.events, "goal_resumed", "guide")
     plan_after = [e for e in of(report.events, "plan_selected", "guide") if e["t"] >= resumed[0]["t"]]
     assert not plan_after[0]["plan"][0].startswith("resume(")

@@ -28,6 +28,7 @@ import math
 from collections.abc import Iterable
 
 from htnagent.domain import Domain, Effect, State, Suspension
+from htnagent.domains.landmarks import Landmarks
 from htnagent.maps import WorldMap
 from htnagent.terms import Atom
 
@@ -95,12 +96,16 @@ def areas_domain(world: WorldMap) -> Domain:
     )
     area_of = {n.name: n.area for n in world.nodes.values()}
 
+    # Routes between areas follow doors: landmark bounds on the door graph are far
+    # tighter than the straight line between centres (both are lower bounds).
+    routes = Landmarks((a, b, hop(a, b)) for a, b, _ in world.doors)
+
     def estimate_goto(task: Atom, state: State) -> float:
         here = _position(state)
         target = area_of.get(str(task.args[0]))
         if here is None or target is None or here not in centre:
             return 0.0
-        return hop(here, target)
+        return max(hop(here, target), routes.bound(here, target))
 
     d.estimate("goto", estimate_goto)
     d.world_facts = lambda start: areas_facts(world, start)
@@ -174,12 +179,17 @@ def nodes_domain(world: WorldMap) -> Domain:
     lines = ((arc.length, world.distance(arc.a, arc.b)) for arc in world.arcs.values())
     scale = min([1.0] + [length / line for length, line in lines if line > 0])
 
+    routes = Landmarks((arc.a, arc.b, arc.length) for arc in world.arcs.values())
+
+    def lower_bound(a: str, b: str) -> float:
+        return max(scale * world.distance(a, b), routes.bound(a, b))
+
     def estimate_goto_node(task: Atom, state: State) -> float:
         here = _position(state)
         target = str(task.args[0])
         if here is None or target not in nodes:
             return 0.0
-        return scale * world.distance(here, target)
+        return lower_bound(here, target)
 
     # The cheapest way into B from A: walk to a door's near end, then cross it.
     door_ends: dict[tuple[str, str], list[tuple[str, float]]] = {}
@@ -197,7 +207,7 @@ def nodes_domain(world: WorldMap) -> Domain:
         ends = door_ends.get((a, b))
         if not ends:
             return 0.0
-        return min(scale * world.distance(here, near) + crossing for near, crossing in ends)
+        return min(lower_bound(here, near) + crossing for near, crossing in ends)
 
     d.estimate("goto_node", estimate_goto_node)
     d.estimate("move_area", estimate_move_area)
