@@ -100,6 +100,14 @@ class RobotWorld:
 class Robot(ExecutorActor):
     """The simulated robot, an executor actor at the bottom of the agent chain."""
 
+    def travelled(self) -> float:
+        """Metres travelled so far, including the part of an arc it is on now."""
+        motion = self.motion
+        if motion is None:
+            return self.state.distance
+        done = abs(motion.fraction_at(self.clock.now()) - motion.start)
+        return self.state.distance + done * self._length(motion.arc)
+
     def __init__(
         self,
         name: str,

@@ -179,6 +179,12 @@ async def run_scenario(
     return RunReport(summary=final, events=events, interrupted=interrupted)
 
 
+def _travelled(runtime: Runtime, world: RobotWorld) -> float:
+    """Metres travelled, counting the part of an arc the robot is on when the run ends."""
+    robot = runtime.executor
+    return robot.travelled() if isinstance(robot, Robot) else world.distance
+
+
 def _summary(
     scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]
 ) -> dict[str, Any]:
@@ -198,6 +204,6 @@ def _summary(
         "goals": goals,
         "robot": world.where(),
         "visited": list(world.visited),
-        "distance": round(world.distance, 6),
+        "distance": round(_travelled(runtime, world), 6),
         "planning_ms": {name: round(a.stats.seconds * 1000, 3) for name, a in runtime.agents.items()},
     }
