@@ -32,7 +32,6 @@ from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
 from htnagent.domain import Domain, State
-from htnagent.errors import PlanningError
 from htnagent.executor import ExecutorActor
 from htnagent.messages import (
     BeliefUpdate,
@@ -80,7 +79,7 @@ class GoalEntry:
     order_seq: int | None = None  # set when the goal is the parent's order
     suspended_action: Atom | None = None
     parent_suspend: int | None = None  # seq of a parent's suspend request being served
-    failures: int = 0
+    failures: dict[Atom, int] = field(default_factory=dict)  # failures in a row, per action
     reason: str = ""
 
 
@@ -101,7 +100,13 @@ class AgentConfig:
     replanning: Replanning = Replanning.ONLINE
     settings: PlannerSettings = field(default_factory=PlannerSettings)
     action_timeout: float | None = None
+    """Simulated seconds after which an action that got no answer counts as failed.
+
+    It applies to an agent whose executor is not an agent (the robot, or a user's
+    executor): an order to a child agent is a whole goal and takes as long as it takes.
+    """
     max_failures: int = 3
+    """How often in a row the same action may fail before the goal fails."""
 
 
 class Agent(ExecutorActor):
@@ -267,14 +272,17 @@ class Agent(ExecutorActor):
             self._shown = best.actions[1:]
             result = await self._act(action)
             if isinstance(result, Failure):
-                entry.failures += 1
+                failures = entry.failures[action] = entry.failures.get(action, 0) + 1
                 entry.reason = result.reason
                 self._shown = None
-                if entry.failures >= self.config.max_failures:
+                if failures >= self.config.max_failures:
+                    # The same action keeps failing although the belief says it can run.
                     ps.plans = []
-                    times = "once" if entry.failures == 1 else f"{entry.failures} times"
+                    times = "once" if failures == 1 else f"{failures} times"
                     entry.reason = f"{action} failed {times}: {result.reason}"
                     return _Stop.DONE
+            else:
+                entry.failures.pop(action, None)
 
     def _resume_plans(self, entry: GoalEntry) -> None:
         """Algorithm 2 for a resumed goal: reuse (online) or remake (naive) its plans."""
@@ -326,14 +334,12 @@ class Agent(ExecutorActor):
         else:
             self.order(self.executor, Execute(action=action, seq=seq))
         running = _Running(seq, action)
-        if self.config.action_timeout is not None:
+        if self.config.action_timeout is not None and not isinstance(self.executor, Agent):
             running.timer = self.clock.call_later(
                 self.config.action_timeout, lambda: self.inbox.send(Timeout(seq=seq))
             )
         self.running = running
         self.trace.emit(self.name, "action_started", action=str(action))
-        if self.emergencies or (self.current is not None and self.current.parent_suspend is not None):
-            self._request_suspension()
         try:
             result = await self._await_result(running)
         finally:
@@ -427,10 +433,7 @@ class Agent(ExecutorActor):
         # Anything else is a late answer to an abandoned order: ignored.
 
     def _submitted(self, message: Submit) -> None:
-        try:
-            known = self.domain.knows(message.goal)
-        except PlanningError:
-            known = False
+        known = self.domain.knows(message.goal)
         entry = GoalEntry(message.goal, self._planset(message.goal), message.emergency, message.ticket)
         self.trace.emit(
             self.name,
@@ -457,8 +460,6 @@ class Agent(ExecutorActor):
             self.reply(Refused(action=message.action, seq=message.seq))
             return
         current.parent_suspend = message.seq
-        if self.running is None:
-            return  # between actions: the goal loop stacks it at once
         self._request_suspension()
 
     def _request_suspension(self) -> None:
@@ -490,14 +491,15 @@ class Agent(ExecutorActor):
             fields["ticket"] = entry.ticket
         if status is GoalStatus.FAILURE:
             fields["reason"] = entry.reason or "failed"
+        # The outcome is settled before the event, so observers see it settled.
+        if entry.ticket is not None and self.on_outcome is not None:
+            self.on_outcome(entry.ticket, status, fields.get("reason", ""))
         self.trace.emit(self.name, "goal_finished", **fields)
         if entry.order_seq is not None:
             if status is GoalStatus.SUCCESS:
                 self.reply(Success(action=entry.goal, seq=entry.order_seq))
             else:
                 self.reply(Failure(action=entry.goal, seq=entry.order_seq, reason=fields["reason"]))
-        if entry.ticket is not None and self.on_outcome is not None:
-            self.on_outcome(entry.ticket, status, fields.get("reason", ""))
 
     def submit(self, goal: Atom, ticket: int, emergency: bool = False) -> None:
         """Give the agent a goal (delivered through its mailbox)."""

@@ -63,6 +63,7 @@ class Clock:
         self._idle = anyio.Event()
         self._changed = anyio.Event()
         self._idle_callbacks: list[Callable[[], None]] = []
+        self._wall: float | None = None  # paced: the wall-clock time at which ``now`` was reached
 
     # -- time ---------------------------------------------------------------------
 
@@ -80,10 +81,6 @@ class Clock:
     def call_later(self, delay: float, deliver: Callable[[], None]) -> TimerHandle:
         """Run ``deliver`` after ``delay`` simulated seconds."""
         return self.call_at(self._now + max(delay, 0.0), deliver)
-
-    def pending_timers(self) -> int:
-        """How many timers are still to fire."""
-        return sum(1 for t in self._timers if not t.cancelled)
 
     def on_idle(self, callback: Callable[[], None]) -> None:
         """Call ``callback`` whenever the runtime is idle with no timer left."""
@@ -103,11 +100,6 @@ class Clock:
         if self._busy == 0:
             self._idle.set()
         self._poke()
-
-    @property
-    def busy(self) -> int:
-        """Messages in flight or being handled."""
-        return self._busy
 
     def _poke(self) -> None:
         self._changed.set()
@@ -136,14 +128,19 @@ class Clock:
                 await self._changed.wait()
                 continue
             nxt = self._timers[0]
-            if self.speed is not None and nxt.when > self._now:
-                self._changed = anyio.Event()
-                wait = (nxt.when - self._now) / self.speed
-                started = time.monotonic()
-                with anyio.move_on_after(wait):
-                    await self._changed.wait()
-                if time.monotonic() - started < wait - 1e-6:
-                    continue  # something happened first; look again
+            if self.speed is not None:
+                # Paced: ``now`` was reached at wall time ``_wall``; the timer is due
+                # (when - now) / speed later, however often the wait is woken meanwhile.
+                if self._wall is None:
+                    self._wall = time.monotonic()
+                due = self._wall + max(nxt.when - self._now, 0.0) / self.speed
+                wait = due - time.monotonic()
+                if wait > 1e-6:
+                    self._changed = anyio.Event()
+                    with anyio.move_on_after(wait):
+                        await self._changed.wait()
+                    continue  # woken early, or due now: look again
+                self._wall = due
             heapq.heappop(self._timers)
             if nxt.cancelled:
                 continue

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import itertools
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 
 from htnagent.errors import DomainError, PlanningError
@@ -641,16 +641,23 @@ class Domain:
         return [op for name in ("resume", "rollback") for op in self.operators.get(name, ())]
 
     def h(self, tasks: Sequence[Atom], state: State) -> float:
-        """A*'s estimate: the sum of the domain's estimates of the compound tasks."""
-        total = 0.0
+        """A*'s estimate of the cost of the task list: the first compound task's estimate.
+
+        Estimates are computed from the current state, which is right for the first
+        compound task only: adding those of later tasks (as if each started here)
+        could over-estimate — ``[goto(A), goto(B)]`` costs d(here,A) + d(A,B), not
+        d(here,A) + d(here,B) — and an over-estimate costs A* its optimality.
+        """
         est = self.estimates
         if not est:
             return 0.0
         for t in tasks:
             fn = est.get(t.name)
             if fn is not None:
-                total += fn(t, state)
-        return total
+                return fn(t, state)
+            if t.name in self.methods:
+                return 0.0  # a compound task without an estimate comes first
+        return 0.0
 
 
 _MISSING: object = object()
@@ -667,11 +674,6 @@ def _inner_cost(cost: CostSpec) -> CostSpec:
 
         return inner
     return cost
-
-
-def bindings_of(pattern: Atom, ground: Atom) -> Mapping[str, Term]:
-    """The bindings that make ``pattern`` equal to ``ground`` (empty if none)."""
-    return unify(pattern, ground, {}) or {}
 
 
 __all__ = [

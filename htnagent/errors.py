@@ -6,12 +6,13 @@
     ├── TextFormError        a task, action or fact text is not ``name(arg,...)``
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
-    ├── PlanningError        a goal cannot be planned for in a way the caller asked for
-    └── RuntimeFault         the agent runtime met a fault it cannot turn into a result
-        └── ExecutorFault    an executor raised or broke its protocol
+    ├── PlanningError        a task names something the domain cannot do
+    └── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
 
 Planning that finds no plan is a result (:class:`htnagent.planner.PlanStatus`),
-not an exception; exceptions are for misuse and invalid input.
+not an exception; exceptions are for misuse and invalid input.  Faults while
+agents run (an executor that raises, hangs or crashes) become failed actions and
+``agent_crashed`` trace events, not exceptions.
 """
 
 from __future__ import annotations
@@ -48,9 +49,5 @@ class PlanningError(HtnAgentError):
     """Raised when a task names something the domain does not know."""
 
 
-class RuntimeFault(HtnAgentError):
-    """Raised inside the runtime when a fault cannot be reported as a result."""
-
-
-class ExecutorFault(RuntimeFault):
-    """Raised when an executor raises or breaks the message protocol."""
+class PlotError(HtnAgentError):
+    """Raised when the picture of a run cannot be drawn (no matplotlib, unwritable file)."""

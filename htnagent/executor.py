@@ -118,7 +118,7 @@ class AdapterActor(ExecutorActor):
     def __init__(self, name: str, clock: Clock, trace: Trace, executor: Executor) -> None:
         super().__init__(name, clock, trace)
         self.executor = executor
-        self._running: tuple[int, Atom] | None = None
+        self._running: dict[int, Atom] = {}  # orders being carried out, by seq
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         async with self.executor, anyio.create_task_group() as tg:
@@ -126,7 +126,7 @@ class AdapterActor(ExecutorActor):
             while True:
                 order = await self.inbox.receive()
                 if isinstance(order, Execute | Resume):
-                    self._running = (order.seq, order.action)
+                    self._running[order.seq] = order.action
                     tg.start_soon(self._carry_out, order)
                 elif isinstance(order, Suspend):
                     await self._suspend(order)
@@ -138,7 +138,8 @@ class AdapterActor(ExecutorActor):
 
     async def _suspend(self, order: Suspend) -> None:
         try:
-            ok = self._running is not None and self.executor.can_suspend(order.action)
+            running = self._running.get(order.seq) == order.action
+            ok = running and self.executor.can_suspend(order.action)
             if ok:
                 await self.executor.suspend(order.action)
                 return  # the running execute answers Suspended
@@ -157,7 +158,7 @@ class AdapterActor(ExecutorActor):
             self.reply(Failure(action=order.action, seq=order.seq, reason=f"executor raised {exc!r}"))
             return
         finally:
-            self._running = None
+            self._running.pop(order.seq, None)
         if outcome is Outcome.SUCCESS:
             self.reply(Success(action=order.action, seq=order.seq))
         elif outcome is Outcome.SUSPENDED:

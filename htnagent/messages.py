@@ -118,5 +118,3 @@ AgentMessage = Annotated[
 ]
 """Everything an agent's mailbox can hold."""
 
-ORDERS = (Execute, Suspend, Resume, Clear)
-RESULTS = (Success, Failure, Suspended, Refused)

@@ -80,20 +80,6 @@ class Plan:
         return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
 
 
-def first_failure(domain: Domain, state: State, actions: Iterable[Atom]) -> tuple[int, State] | None:
-    """Progress the state through the actions; where the first precondition fails.
-
-    Returns ``(index, state before that action)``, or None when every action applies.
-    """
-    current = state
-    for i, a in enumerate(actions):
-        nxt = domain.apply(current, a)
-        if nxt is None:
-            return i, current
-        current = nxt
-    return None
-
-
 def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | None:
     """The state after all the actions, or None if one of them is not applicable."""
     current: State | None = state

@@ -181,11 +181,9 @@ def plan(
             status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
         _, _, _, node = heapq.heappop(heap)
-        count = popped.get(node.key, 0)
-        if count >= k:
-            continue
-        popped[node.key] = count + 1
         if not node.tasks:
+            # Complete plans all share the key of their final state: they are told apart
+            # by their actions, so a repeat never takes an alternative's place.
             steps = tidy(domain, node.plan())
             actions = tuple(s.action for s in steps)
             if actions not in seen_plans:
@@ -195,6 +193,10 @@ def plan(
                     extra = max(int(expansions * settings.alternatives_effort), _MIN_EXTRA)
                     limit = min(settings.budget, expansions + extra)
             continue
+        count = popped.get(node.key, 0)
+        if count >= k:
+            continue
+        popped[node.key] = count + 1
         expansions += 1
         st = State(static, node.dynamic, dyn_preds)
         task = node.tasks[0]
@@ -242,7 +244,10 @@ def plan(
 
 def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float, frozenset[Atom]]]:
     """The ways to apply a primitive task: (action, cost, dynamic facts after)."""
-    if len(domain.operators[task.name]) == 1 and task.is_ground:
+    operators = domain.operators[task.name]
+    if len(operators) == 1 and task.is_ground:
+        if _unify_head(operators[0].head, task) is None:
+            return []  # e.g. rollback(A) for an A of another domain: a dead end, not an error
         dynamic = domain.step(st, task)
         return [] if dynamic is None else [(task, domain.cost(task), dynamic)]
     out = []

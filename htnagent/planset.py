@@ -106,6 +106,7 @@ class PlanSet:
     _updates: int = 0
     _checked: State | None = None  # every kept plan is valid from this belief
     _trusted: set[int] = field(default_factory=set)  # plans known valid without a re-check
+    _unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
 
     # -- queries --------------------------------------------------------------
 
@@ -136,6 +137,10 @@ class PlanSet:
         """
         if self.plans:
             return True
+        if self._unsolvable == _belief_key(state):
+            # A repair already searched the whole space from this very belief.
+            self.last_status = PlanStatus.UNSOLVABLE
+            return False
         with self._timed():
             self._from_scratch(state)
         return bool(self.plans)
@@ -293,7 +298,7 @@ class PlanSet:
             if best.cost <= self.domain.h([record.task], state) + fixed + 1e-9:
                 return False
             settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
-            rival = self._plan_cached(state, tasks, settings, {})
+            rival = self._plan_cached(state, tasks, settings, _Scratch(0))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
             shorter = Plan(tidy(self.domain, rival.steps))
@@ -315,7 +320,7 @@ class PlanSet:
         candidates = self._revivable(before, after)
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
-        cache: dict[tuple[object, ...], Plan | None] = {}
+        cache = _Scratch(min(self.settings.budget, _LOCAL_BUDGET))
         kept = len(self.plans)
         trusted, self._trusted = self._trusted, set()
         for n, p in enumerate([*self.plans, *candidates]):
@@ -363,9 +368,7 @@ class PlanSet:
             states.append(nxt)
         return states
 
-    def _recheck(
-        self, p: Plan, state: State, cache: dict[tuple[object, ...], Plan | None], *, allow_repair: bool
-    ) -> Plan | None:
+    def _recheck(self, p: Plan, state: State, cache: _Scratch, *, allow_repair: bool) -> Plan | None:
         """The plan if valid, else its repair, else None (and it is kept for revival)."""
         self.stats.rechecks += 1
         failure = self._first_failure(p, state)
@@ -388,7 +391,7 @@ class PlanSet:
         p: Plan,
         index: int,
         states: list[State],
-        cache: dict[tuple[object, ...], Plan | None],
+        cache: _Scratch,
     ) -> Plan | None:
         """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
@@ -400,34 +403,53 @@ class PlanSet:
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
         settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
-        for record in chain:
+        # A recursive method makes the record as long as the plan; past a few levels a
+        # re-decomposition costs as much as planning the goal, so go straight to it.
+        for record in chain[:_REPAIR_LEVELS]:
             if record.parent is None:
                 break  # the goal's own decomposition: below, shared
             start, end = _span(p.steps, record)
             if start > index:
                 continue
+            # Repairs below the goal are local fixes: together, in one update, they get
+            # a small budget; what they cannot fix the goal's re-decomposition will.
+            if cache.local_left <= 0:
+                break
             tasks: list[TaskEntry] = [(record.task, record.parent)]
             tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-            result = self._plan_cached(states[start], tasks, settings, cache)
+            before = self.stats.expansions
+            local = PlannerSettings(alternatives=1, budget=cache.local_left)
+            result = self._plan_cached(states[start], tasks, local, cache)
+            cache.local_left -= self.stats.expansions - before
             if result is not None:
                 return Plan(tidy(self.domain, (*p.steps[:start], *result.steps)))
         # The goal itself, from the current belief: one search shared by all plans.
-        return self._plan_cached(states[0], [(self.goal, None)], settings, cache)
+        found = self._plan_cached(states[0], [(self.goal, None)], settings, cache)
+        if found is None:
+            self._unsolvable = _belief_key(states[0])
+        return found
 
     def _plan_cached(
         self,
         state: State,
         tasks: Sequence[TaskEntry],
         settings: PlannerSettings,
-        cache: dict[tuple[object, ...], Plan | None],
+        cache: _Scratch,
     ) -> Plan | None:
-        key: tuple[object, ...] = (state.dynamic, *(t for t, _ in tasks), *(id(r) for _, r in tasks))
-        if key in cache:
-            return cache[key]
+        # Records do not change whether tasks can be done: a search that found the
+        # task list impossible from a state answers for every plan that asks again.
+        impossible: tuple[object, ...] = (state.dynamic, *(t for t, _ in tasks))
+        if impossible in cache.impossible:
+            return None
+        key: tuple[object, ...] = (*impossible, *(id(r) for _, r in tasks))
+        if key in cache.results:
+            return cache.results[key]
         result = plan(self.domain, state, tasks, settings)
         self.stats.expansions += result.expansions
         found = result.best
-        cache[key] = found
+        cache.results[key] = found
+        if result.status is PlanStatus.UNSOLVABLE:
+            cache.impossible.add(impossible)
         return found
 
     def _remember(self, p: Plan, action: Atom, state: State) -> None:
@@ -466,6 +488,27 @@ class PlanSet:
             yield
         finally:
             self.stats.seconds += time.perf_counter() - started
+
+
+_REPAIR_LEVELS = 3
+"""How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
+
+_LOCAL_BUDGET = 2_000
+"""Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
+
+
+@dataclass
+class _Scratch:
+    """What the searches of one update share: their results, what proved impossible,
+    and the expansions left for repairs below the goal."""
+
+    local_left: int
+    results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
+    impossible: set[tuple[object, ...]] = field(default_factory=set)
+
+
+def _belief_key(state: State) -> tuple[object, ...]:
+    return (state.dynamic, id(state.static))
 
 
 def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool:

@@ -8,13 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from htnagent.errors import HtnAgentError
+from htnagent.errors import PlotError
 from htnagent.scenario import Scenario
 from htnagent.trace import Event
-
-
-class PlotError(HtnAgentError):
-    """Raised when the picture cannot be drawn (no matplotlib, unwritable file)."""
 
 
 def check_plot_target(file: str) -> None:

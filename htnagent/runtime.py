@@ -7,10 +7,13 @@ Embedding API::
 
 Agents are listed parent first; each agent's executor is the next agent, and
 the last agent's is the given executor: an :class:`~htnagent.executor.ExecutorActor`
-factory ``(clock, trace) -> actor`` or a plain :class:`~htnagent.executor.Executor`.
-Nothing outlives the ``async with``: leaving it cancels every task.  An actor
-that crashes is reported (``agent_crashed``), the order it was serving fails,
-and from then on it answers every order with a failure.
+factory ``(clock, trace) -> actor`` or a plain :class:`~htnagent.executor.Executor`
+(which acts in the real world, so its runtime keeps wall-clock time: ``speed``
+defaults to 1 for it, virtual time otherwise).  Nothing outlives the
+``async with``: leaving it cancels every task.  An actor that crashes is
+reported (``agent_crashed``), the order it was serving fails, and from then on
+it answers every order with a failure; one that fails before it is ready makes
+entering the runtime fail with its error.
 
 Works under asyncio and trio (anyio).
 """
@@ -55,6 +58,18 @@ class GoalOutcome:
         return self.status is not None
 
 
+class _Started(TaskStatus[None]):
+    """Passes ``started`` on, and remembers that it was called."""
+
+    def __init__(self, inner: TaskStatus[None]) -> None:
+        self.inner = inner
+        self.done = False
+
+    def started(self, value: None = None) -> None:
+        self.done = True
+        self.inner.started(value)
+
+
 class Runtime:
     """A stratified chain of agents over one executor, run in one task group."""
 
@@ -67,6 +82,9 @@ class Runtime:
     ) -> None:
         if not agents:
             raise ValueError("a runtime needs at least one agent")
+        if isinstance(executor, Executor) and speed is None:
+            # A user's executor acts in the real world: its time is the wall clock's.
+            speed = 1.0
         self.clock = Clock(speed)
         self.trace = Trace(self.clock)
         if isinstance(executor, Executor):
@@ -107,7 +125,11 @@ class Runtime:
                 await tg.start(self._guard, agent)
         except BaseException:
             tg.cancel_scope.cancel()
-            await tg.__aexit__(None, None, None)
+            try:
+                await tg.__aexit__(None, None, None)
+            finally:
+                self._tg = None
+                self._close()
             raise
         return self
 
@@ -125,19 +147,25 @@ class Runtime:
             return await self._tg.__aexit__(exc_type, exc, tb)
         finally:
             self._tg = None
-            for actor in [*self.agents.values(), self.executor]:
-                actor.inbox.close()
-            # No more events: every events() stream ends.
-            for send in self._streams:
-                send.close()
-            self._streams.clear()
+            self._close()
+
+    def _close(self) -> None:
+        for actor in [*self.agents.values(), self.executor]:
+            actor.inbox.close()
+        # No more events: every events() stream ends.
+        for send in self._streams:
+            send.close()
+        self._streams.clear()
 
     async def _guard(
         self, actor: ExecutorActor, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED
     ) -> None:
+        started = _Started(task_status)
         try:
-            await actor.run(task_status=task_status)
+            await actor.run(task_status=started)
         except Exception as exc:  # a crashed actor becomes failures, never a hang
+            if not started.done:
+                raise  # it never served: the runtime cannot start (tg.start raises it)
             reason = f"{actor.name} crashed: {exc!r}"
             self.trace.emit(actor.name, "agent_crashed", error=repr(exc))
             self._after_crash(actor, reason)

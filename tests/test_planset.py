@@ -436,3 +436,30 @@ def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: Wor
     assert ps.stats.repairs == 0 and ps.stats.from_scratch == 1
     best = ps.best
     assert best is not None and replay(areas, cleared, best.actions) is not None
+
+
+def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
+    """A long recursive plan, then its target is walled off: repair must not search per level."""
+    from htnagent.maps import generate_map
+
+    world = generate_map(10, 10, 3, 1)
+    nodes = nodes_domain(world)
+    names = sorted(world.nodes)
+    start = names[0]
+    target = max(names, key=lambda n: world.distance(start, n))
+    belief = nodes.initial_state(start)
+    ps = PlanSet(nodes, Atom("goto_node", (target,)))
+    ps.make(belief)
+    best = ps.best
+    assert best is not None and len(best) > 30
+    walled = belief.updated(
+        add=[Atom("closed", (arc.name,)) for arc in world.arcs.values() if target in (arc.a, arc.b)]
+    )
+    before = ps.stats.expansions
+    ps.belief_changed(belief, walled)
+    assert ps.plans == []
+    one_search = plan(nodes, walled, [Atom("goto_node", (target,))], PlannerSettings(alternatives=1))
+    assert ps.stats.expansions - before <= 2 * one_search.expansions
+    # The repair proved the goal impossible from this belief: no second search for it.
+    from_scratch = ps.stats.from_scratch
+    assert not ps.ensure(walled) and ps.stats.from_scratch == from_scratch

@@ -25,7 +25,6 @@ note is dropped when the suspension is cleared.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 
 from htnagent.domain import Domain, Effect, State, Suspension
 from htnagent.domains.landmarks import Landmarks
@@ -223,8 +222,3 @@ def nodes_facts(world: WorldMap, start: str) -> list[Atom]:
         facts.append(Atom("arc", (arc.a, arc.b, arc.name)))
         facts.append(Atom("arc", (arc.b, arc.a, arc.name)))
     return facts
-
-
-def closed_facts(arcs: Iterable[str]) -> list[Atom]:
-    """``closed(Arc)`` facts, the belief update for shut doors."""
-    return [Atom("closed", (a,)) for a in arcs]

@@ -1,0 +1,66 @@
+"""Planner edge cases: admissibility with several compound tasks, duplicates, foreign heads."""
+
+from __future__ import annotations
+
+import math
+
+from htnagent.domain import Domain, State
+from htnagent.planner import PlannerSettings, PlanStatus, plan
+from htnagent.terms import Atom, parse
+
+POINTS = {"p": (0.0, 0.0), "a": (10.0, 0.0), "b": (11.0, 0.0)}
+
+
+def _line() -> Domain:
+    """Three places on a line, p - a - b, b close to a; or a lift from p to b and back."""
+    d = Domain("line")
+    d.operator(
+        "walk(?f,?t)",
+        pre=["at(?f)", "place(?t)"],
+        add=["at(?t)"],
+        delete=["at(?f)"],
+        cost=lambda act: math.dist(POINTS[str(act.args[0])], POINTS[str(act.args[1])]),
+    )
+    d.method("visit(?n)", "here", when=["at(?n)"], do=[])
+    d.method("visit(?n)", "walk", when=["not at(?n)", "at(?x)"], do=["walk(?x,?n)"])
+    d.operator("lift", pre=["at(p)"], add=["at(b)", "seen(a)"], delete=["at(p)"], cost=15.0)
+    d.method("both(?x,?y)", "walking", do=["visit(?x)", "visit(?y)"])
+    d.method("both(?x,?y)", "by_lift", do=["lift"])
+
+    def straight_line(task: Atom, state: State) -> float:
+        here = next(str(f.args[0]) for f in state.dynamic if f.name == "at")
+        return math.dist(POINTS[here], POINTS[str(task.args[0])])
+
+    d.estimate("visit", straight_line)
+    d.facts = tuple(parse(f"place({n})") for n in POINTS)
+    return d
+
+
+def test_several_compound_tasks_still_give_the_cheapest_plan() -> None:
+    d = _line()
+    state = d.initial_state().updated(add=[parse("at(p)")])
+    result = plan(d, state, [parse("both(a,b)")], PlannerSettings(alternatives=1))
+    # Expect: walking p -> a -> b costs 10 + 1 = 11, the lift 15.  Summing the estimates
+    # of visit(a) and visit(b) both from p (10 + 11 = 21) would have put the lift first.
+    assert result.best is not None
+    assert result.best.text() == ["walk(p,a)", "walk(a,b)"] and result.best.cost == 11.0
+
+
+def test_a_repeated_plan_does_not_take_an_alternatives_place() -> None:
+    d = Domain("dup")
+    d.operator("a", add=["done"])
+    d.operator("b", add=["done"], cost=2.0)
+    d.method("goal", "first", do=["a"])
+    d.method("goal", "wrapped", do=["inner"])
+    d.method("inner", "just_a", do=["a"])  # the same plan, a second way
+    d.method("goal", "other", do=["b"])
+    result = plan(d, d.initial_state(), [parse("goal")], PlannerSettings(alternatives=2))
+    assert [p.text() for p in result.plans] == [["a"], ["b"]]
+
+
+def test_a_task_no_operator_head_matches_is_a_dead_end_not_an_error() -> None:
+    d = Domain("doors")
+    d.operator("open(door1)", add=["open(door1)"])
+    d.method("enter", "by_door2", do=["open(door2)"])
+    result = plan(d, d.initial_state(), [parse("enter")])
+    assert result.status is PlanStatus.UNSOLVABLE
