@@ -10,8 +10,12 @@ A guide robot also talks: ``durations`` names its other actions (``explain``,
 ``answer``, ``greet``, ...) with the simulated seconds each takes, wherever the
 robot stands.  Such an action can be suspended half way too; ``resume`` then
 takes only the time left, and ``clear`` forgets it.  Any other action fails.
-Moves are traced as ``robot_moving``, the other actions as ``robot_acting``
-(``done``: the fraction already done before this part started).
+Moves are traced as ``robot_moving``, the other actions as ``robot_acting``,
+each with ``action`` (a resumed move or action is named by the action itself,
+a rollback as ``rollback(...)``), ``duration`` (seconds of this part), ``done``
+(the fraction of the action already done before this part started) and
+``resumed`` (this part finishes a suspended action).  Only a fresh move or
+action may be suspended: a resumed rest, or a rollback, runs to its end.
 """
 
 from __future__ import annotations
@@ -225,9 +229,14 @@ class Robot(ExecutorActor):
             self._suspend_activity(order, self.activity)
             return
         motion = self.motion
-        running = motion.order.action if motion is not None else None
-        # Only a plain move may stop half way; finishing or undoing a half is done at once.
-        if motion is None or running != order.action or running.name != "move":
+        # Only a plain move may stop half way; finishing a half (a Resume order, whose
+        # action is the inner move) or undoing it (a rollback) is done at once.
+        if (
+            motion is None
+            or not isinstance(motion.order, Execute)
+            or motion.order.action != order.action
+            or order.action.name != "move"
+        ):
             self.reply(Refused(action=order.action, seq=order.seq))
             return
         now = self.clock.now()
@@ -260,7 +269,12 @@ class Robot(ExecutorActor):
         box.append(activity)
         self.activity = activity
         self.trace.emit(
-            self.name, "robot_acting", action=str(action), duration=round(duration, 6), done=round(done, 6)
+            self.name,
+            "robot_acting",
+            action=str(action),
+            duration=round(duration, 6),
+            done=round(done, 6),
+            resumed=isinstance(order, Resume),
         )
         return True
 
@@ -295,8 +309,16 @@ class Robot(ExecutorActor):
         self.motion = motion
         self.state.on_arc = (arc, frm, to, start)
         self.state.at = None
+        # A resumed move has already covered ``start``; a rollback is a motion of its own.
+        resumed = isinstance(order, Resume)
         self.trace.emit(
-            self.name, "robot_moving", action=str(order.action), arc=arc, duration=round(duration, 6)
+            self.name,
+            "robot_moving",
+            action=str(order.action),
+            arc=arc,
+            duration=round(duration, 6),
+            done=round(start, 6) if resumed else 0.0,
+            resumed=resumed,
         )
 
     def _arrive(self, motion: Motion) -> None:

@@ -117,4 +117,3 @@ AgentMessage = Annotated[
     Field(discriminator="kind"),
 ]
 """Everything an agent's mailbox can hold."""
-

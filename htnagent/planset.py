@@ -159,6 +159,8 @@ class PlanSet:
         if self.mode is Replanning.NAIVE:
             self.plans = self.plans[:1]
         self._checked = state
+        if result.status is PlanStatus.UNSOLVABLE:
+            self._unsolvable = _belief_key(state)
         return result
 
     def _settings(self) -> PlannerSettings:
@@ -508,7 +510,8 @@ class _Scratch:
 
 
 def _belief_key(state: State) -> tuple[object, ...]:
-    return (state.dynamic, id(state.static))
+    # The static facts by identity (a FactBase compares by identity), kept alive by the key.
+    return (state.dynamic, state.static)
 
 
 def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool:

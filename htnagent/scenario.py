@@ -118,7 +118,12 @@ class Trigger(_Spec):
 
     action: TextForm | None = None
     progress: Annotated[float, Strict(), Field(gt=0, le=1)] | None = None
-    """The fraction of the action's duration covered, in (0, 1]."""
+    """The fraction of the action's duration covered, in (0, 1].
+
+    Below 1 only for an action the robot performs itself (a move, or an action of
+    ``robot.durations``), followed through suspensions and resumptions; any
+    agent's action may trigger with 1, when it (or its ``resume``) succeeds.
+    """
     time: Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)] | None = None
     """Simulated seconds from the start."""
 
@@ -242,6 +247,18 @@ class Scenario(_Spec):
         """The agent's belief at the start, with the robot at ``robot.start``."""
         return self.domain_for(agent_name).initial_state(self.robot.start)
 
+    def robot_does(self, action: Atom) -> bool:
+        """Whether the robot itself performs ``action``: a move or an action of ``robot.durations``.
+
+        Such an action's duration is known when the robot starts it, so a trigger
+        may fire part way through it; any other action is a planning agent's,
+        achieved by the agents below it in however long that takes.
+        """
+        last = self.agents[-1].name
+        if not self.domain_for(last).is_primitive(action):
+            return False
+        return action.name == "move" or action.name in self.robot.durations
+
     def check_task(self, agent_name: str, task: Atom, where: str) -> None:
         """Raise ScenarioError at ``where`` unless ``task`` is a task the agent can plan for.
 
@@ -321,6 +338,7 @@ def _cross_check(s: Scenario) -> None:
     for i, a in enumerate(s.agents):
         s._domains[a.name] = _resolve_domain(a.domain, world, file, f"agents[{i}].domain")
     _check_durations(s)
+    _check_timeout(s)
     for i, g in enumerate(s.goals):
         if g.agent not in names:
             raise ScenarioError(file, f"goals[{i}].agent", _no_agent(g.agent, names))
@@ -352,35 +370,75 @@ def _check_durations(s: Scenario) -> None:
             )
 
 
+def _check_timeout(s: Scenario) -> None:
+    """A timeout must leave the robot time for its longest action, or a normal move times out."""
+    if s.action_timeout is None:
+        return
+    longest: list[tuple[float, str]] = [
+        (arc.length / s.robot.speed, f"a move over {arc.name} ({arc.length:g} m at {s.robot.speed:g} m/s)")
+        for arc in s.world.arcs.values()
+    ]
+    longest += [(seconds, f"{name} (robot.durations)") for name, seconds in s.robot.durations.items()]
+    if not longest:
+        return
+    need, what = max(longest)
+    if s.action_timeout <= need:
+        raise ScenarioError(
+            s.file,
+            "action_timeout",
+            f"{s.action_timeout:g} s is too short: {what} takes {need:.6g} s; give more than {need:.6g} s, "
+            "or a normal action times out while the robot is still doing it",
+        )
+
+
 def _check_trigger(s: Scenario, trigger: Trigger, where: str) -> None:
+    """The trigger's action must be one some agent does, and ``progress`` one it can reach.
+
+    Only the robot's own actions (moves, ``robot.durations``) have a duration
+    known when they start, so only they may fire part way (``progress`` below
+    1); any agent's action may fire when it finishes (``progress: 1``).
+    """
     action = trigger.action
     if action is None:
         return
     place = f"{where}.action"
     if not action.is_ground:
         raise ScenarioError(s.file, place, f"{action} has variables; a trigger names one ground action")
-    # resume(A) and rollback(A) belong to the agent whose action A is.
-    wrapper = action.name if action.name in ("resume", "rollback") else None
-    inner = action
-    if wrapper is not None:
-        if len(action.args) != 1 or not isinstance(action.args[0], Atom):
-            raise ScenarioError(
-                s.file, place, f"{action}: {wrapper} takes one action, as in {wrapper}(move(a,b,c))"
-            )
-        inner = action.args[0]
-    owners = [a for a in s.agents if s.domain_for(a.name).is_primitive(inner)]
+    if action.name in ("resume", "rollback"):
+        inner = action.args[0] if len(action.args) == 1 and isinstance(action.args[0], Atom) else None
+        named = f" ({inner})" if inner is not None else ""
+        raise ScenarioError(
+            s.file,
+            place,
+            f"{action}: a trigger names the action itself{named}, not its {action.name}; "
+            "its progress counts the part done after a resume too",
+        )
+    owners = [a for a in s.agents if s.domain_for(a.name).is_primitive(action)]
     if not owners:
         raise ScenarioError(
-            s.file, place, f"no agent has an action named {inner.name}, so the trigger would never fire"
+            s.file, place, f"no agent has an action named {action.name}, so the trigger would never fire"
         )
     owner = owners[0]
     domain = s.domain_for(owner.name)
-    _check_arity(domain, inner, s.file, place)
-    _check_map_names(owner.domain, inner, s.world, s.file, place)
-    if wrapper == "resume" and domain.resume_of(inner) is None:
-        raise ScenarioError(s.file, place, f"{inner} cannot be resumed in {domain.name}")
-    if wrapper == "rollback" and domain.rollback_of(inner) is None:
-        raise ScenarioError(s.file, place, f"{inner} cannot be rolled back in {domain.name}")
+    _check_arity(domain, action, s.file, place)
+    _check_map_names(owner.domain, action, s.world, s.file, place)
+    if s.robot_does(action):
+        return
+    if [a.name for a in owners] == [s.agents[-1].name]:
+        raise ScenarioError(
+            s.file,
+            place,
+            f"the robot cannot do {action} (it is not a move and {action.name} is not in robot.durations), "
+            "so it never succeeds and the trigger would never fire",
+        )
+    if trigger.progress is not None and trigger.progress < 1:
+        raise ScenarioError(
+            s.file,
+            f"{where}.progress",
+            f"{action} is agent {owner.name}'s action, not the robot's: its duration is not known "
+            "in advance, so it can only trigger when it has finished (progress: 1), "
+            f"not at {trigger.progress:g}",
+        )
 
 
 def _check_arity(domain: Domain, task: Atom, file: str, where: str) -> None:

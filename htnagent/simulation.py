@@ -16,17 +16,20 @@ import anyio
 
 from executors.robot import Robot, RobotWorld
 from htnagent.agent import AgentConfig, GoalStatus
-from htnagent.clock import Clock
+from htnagent.clock import Clock, TimerHandle
 from htnagent.messages import BeliefUpdate
 from htnagent.planset import Replanning
 from htnagent.runtime import Runtime
-from htnagent.scenario import GoalSpec, Scenario, Trigger
+from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.terms import Atom
 from htnagent.trace import Event, Observer, Trace
 
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
 INTERRUPTED = "interrupted before it ended"
+_SAME_INSTANT = 1e-6
+"""Simulated seconds within which a trigger's moment and a suspension count as one instant
+(the robot's trace gives durations to the microsecond)."""
 
 
 @dataclass
@@ -64,7 +67,7 @@ def build_runtime(
 
     def robot(clock: Clock, trace: Trace) -> Robot:
         return Robot(
-            "robot",
+            ROBOT,
             clock,
             trace,
             world,
@@ -121,7 +124,7 @@ async def run_scenario(
             for agent in runtime.agents.values():
                 agent.inbox.send(BeliefUpdate(add=(fact,)) if close else BeliefUpdate(delete=(fact,)))
 
-        watchers: list[tuple[Trigger, Callable[[], None]]] = []
+        watchers: list[_Watcher] = []
 
         def schedule(trigger: Trigger | None, fire: Callable[[], None]) -> None:
             if trigger is None:
@@ -129,21 +132,10 @@ async def run_scenario(
             elif trigger.time is not None:
                 clock.call_at(trigger.time, fire)
             else:
-                watchers.append((trigger, fire))
+                assert trigger.action is not None  # guaranteed by Trigger's validator
+                watchers.append(_Watcher(trigger, fire, timed=scenario.robot_does(trigger.action)))
 
-        def watch(event: Event) -> None:
-            # An action trigger fires once, when the first robot motion (or timed
-            # action) of that action reaches the given fraction of its duration.
-            if event["event"] not in ("robot_moving", "robot_acting") or not watchers:
-                return
-            for item in list(watchers):
-                trigger, fire = item
-                if str(trigger.action) == event["action"]:
-                    watchers.remove(item)
-                    progress = trigger.progress if trigger.progress is not None else 1.0
-                    clock.call_later(progress * float(event["duration"]), fire)
-
-        runtime.subscribe(watch)
+        runtime.subscribe(lambda event: _watch(event, watchers, clock))
         for i, goal in enumerate(scenario.goals):
             schedule(goal.when, lambda i=i, goal=goal: give(i, goal))  # type: ignore[misc]
         for ev in scenario.events:
@@ -177,6 +169,79 @@ async def run_scenario(
         runtime.trace.emit("runtime", "summary", **summary)
     final = events[-1] if keep_events else {"event": "summary", **summary}
     return RunReport(summary=final, events=events, interrupted=interrupted)
+
+
+@dataclass
+class _Watcher:
+    """An action trigger waiting to fire (once).
+
+    ``timed``: the robot performs the action, so the trigger follows its motions
+    (or timed activity) and fires when the fraction ``progress`` is covered;
+    otherwise it fires when an agent's action finishes with success.
+    """
+
+    trigger: Trigger
+    fire: Callable[[], None]
+    timed: bool
+    pending: TimerHandle | None = None
+    due: float = 0.0
+    fired: bool = False
+
+    @property
+    def action(self) -> str:
+        return str(self.trigger.action)
+
+    @property
+    def progress(self) -> float:
+        return self.trigger.progress if self.trigger.progress is not None else 1.0
+
+
+def _watch(event: Event, watchers: list[_Watcher], clock: Clock) -> None:
+    """Fire, arm or disarm the action triggers an event concerns."""
+    kind = event["event"]
+    if kind not in ("robot_moving", "robot_acting", "message", "action_finished"):
+        return
+    for w in watchers:
+        if w.fired:
+            continue
+        if kind == "action_finished":
+            # Any agent's action: fire when it (or the resume finishing it) succeeds.
+            finished = event["action"] in (w.action, f"resume({w.action})")
+            if not w.timed and finished and event.get("result") == "success":
+                _fire_in(w, 0.0, clock)
+        elif not w.timed:
+            continue
+        elif kind == "message":
+            # The robot stopped the action half way: disarm, unless the fraction was
+            # reached at this very moment (then it fires now all the same).
+            stopped = event["agent"] == ROBOT and event.get("kind") == "suspended"
+            pending = w.pending if w.due > clock.now() + _SAME_INSTANT else None
+            if stopped and event.get("action") == w.action and pending is not None:
+                pending.cancel()
+                w.pending = None
+        elif event["action"] == w.action:
+            # A motion (or activity) of the action starts, fresh or resumed after
+            # ``done`` of it: the fraction left to cover takes its share of ``duration``.
+            if w.pending is not None:
+                w.pending.cancel()
+            done = float(event.get("done", 0.0))
+            left = 0.0 if w.progress <= done else (w.progress - done) / (1.0 - done)
+            _fire_in(w, left * float(event["duration"]), clock)
+        elif event["action"] == f"rollback({w.action})" and w.pending is not None:
+            # Undoing the action never covers any more of it.
+            w.pending.cancel()
+            w.pending = None
+
+
+def _fire_in(w: _Watcher, delay: float, clock: Clock) -> None:
+    def fire() -> None:
+        if not w.fired:
+            w.fired = True
+            w.pending = None
+            w.fire()
+
+    w.due = clock.now() + delay
+    w.pending = clock.call_later(delay, fire)
 
 
 def _travelled(runtime: Runtime, world: RobotWorld) -> float:

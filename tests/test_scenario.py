@@ -189,11 +189,16 @@ def test_an_inline_map_is_accepted(tmp_path: Path) -> None:
 def test_text_forms_in_flow_collections_are_read_whole(tmp_path: Path) -> None:
     text = (SCENARIOS / "museum.yaml").read_text()
     text += "  - {agent: navigator, task: move_area(area8,area7), emergency: false}\n"
-    text += "  - {agent: guide, task: goto(n2), when: {action: resume(move(n40,n35,arc59)), progress: 1}}\n"
+    text += "  - {agent: guide, task: goto(n2), when: {action: move_area(area8,area7), progress: 1}}\n"
     s = load_scenario(write(tmp_path, text))
     assert s.goals[2].task == parse("move_area(area8,area7)")
     assert s.goals[3].when is not None
-    assert s.goals[3].when.action == parse("resume(move(n40,n35,arc59))")
+    assert s.goals[3].when.action == parse("move_area(area8,area7)")
+    # A nested text form is read whole too (and then refused: a trigger names the action itself).
+    text += "  - {agent: guide, task: goto(n3), when: {action: resume(move(n40,n35,arc59)), progress: 1}}\n"
+    with pytest.raises(ScenarioError, match=r"resume\(move\(n40,n35,arc59\)\): a trigger names") as info:
+        load_scenario(write(tmp_path, text))
+    assert info.value.where == "goals[4].when.action"
 
 
 # -- broken scenarios ----------------------------------------------------------------------
