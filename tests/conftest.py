@@ -1,16 +1,26 @@
-"""Shared fixtures: the museum map of the published experiment and its two domains."""
+"""Shared fixtures: the museum map of the published experiment and its two domains.
+
+Under CI (``CI`` set) hypothesis runs derandomized, so a run is reproducible;
+locally it explores new examples each time.
+"""
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
 import yaml
+from hypothesis import settings
 
 from htnagent.domain import Domain, State
 from htnagent.domains.museum import areas_domain, nodes_domain
 from htnagent.maps import WorldMap, parse_map
+
+settings.register_profile("ci", derandomize=True, database=None)
+if os.environ.get("CI"):
+    settings.load_profile("ci")
 
 REPO = Path(__file__).resolve().parents[1]
 MUSEUM_MAP = REPO / "scenarios" / "museum_map.yaml"
