@@ -303,7 +303,7 @@ class PlanSet:
             rival = self._plan_cached(state, tasks, settings, _Scratch(0))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
-            shorter = Plan(tidy(self.domain, rival.steps))
+            shorter = rival  # the planner returns tidy plans
             others = [p for p in self.plans if p.actions != shorter.actions]
             self.plans = sorted([shorter, *others], key=lambda q: q.cost)[: self.settings.alternatives]
             self.stats.shortcuts += 1

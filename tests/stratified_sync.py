@@ -183,7 +183,3 @@ def _robot_node(belief: State) -> str:
         if f.name == "at":
             return str(f.args[0])
     raise AssertionError(f"robot not at a node: {belief}")
-
-
-def _settle(nodes: Domain, belief: State) -> State:
-    return belief
