@@ -29,7 +29,7 @@ from typing import Any
 
 import anyio
 
-from executors.robot import Robot
+from htnagent.executors.robot import Robot
 from htnagent.maps import generate_map, map_to_yaml_data
 from htnagent.runtime import Runtime
 from htnagent.scenario import parse_scenario

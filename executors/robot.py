@@ -14,8 +14,9 @@ Moves are traced as ``robot_moving``, the other actions as ``robot_acting``,
 each with ``action`` (a resumed move or action is named by the action itself,
 a rollback as ``rollback(...)``), ``duration`` (seconds of this part), ``done``
 (the fraction of the action already done before this part started) and
-``resumed`` (this part finishes a suspended action).  Only a fresh move or
-action may be suspended: a resumed rest, or a rollback, runs to its end.
+``resumed`` (this part finishes a suspended action).  Any of them can be
+suspended half way — a fresh move or action, a resumed rest, a rollback — and
+the robot stops where it is.
 """
 
 from __future__ import annotations
@@ -229,14 +230,9 @@ class Robot(ExecutorActor):
             self._suspend_activity(order, self.activity)
             return
         motion = self.motion
-        # Only a plain move may stop half way; finishing a half (a Resume order, whose
-        # action is the inner move) or undoing it (a rollback) is done at once.
-        if (
-            motion is None
-            or not isinstance(motion.order, Execute)
-            or motion.order.action != order.action
-            or order.action.name != "move"
-        ):
+        # A move stops half way wherever it is: a fresh one, the rest of a resumed one
+        # (a Resume order, whose action is the move), or a rollback (ALGORITHMS.md §4).
+        if motion is None or motion.order.seq != order.seq or motion.order.action != order.action:
             self.reply(Refused(action=order.action, seq=order.seq))
             return
         now = self.clock.now()
@@ -279,8 +275,8 @@ class Robot(ExecutorActor):
         return True
 
     def _suspend_activity(self, order: Suspend, activity: Activity) -> None:
-        # As for moves, only a fresh action stops half way; a resumed rest runs to its end.
-        if activity.action != order.action or not isinstance(activity.order, Execute):
+        # As for moves, a fresh action or a resumed rest stops half way.
+        if activity.action != order.action or activity.order.seq != order.seq:
             self.reply(Refused(action=order.action, seq=order.seq))
             return
         activity.timer.cancel()

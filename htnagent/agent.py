@@ -1,20 +1,31 @@
-"""A planning agent: the published Algorithms 2–5 as coroutines of one task.
+"""A planning agent: the published Algorithms 2–5 as one coroutine loop.
 
-- :meth:`Agent.run` is Algorithm 4's loop: it takes the next goal — a pending
-  emergency first, then an order from the parent agent, then the first
-  waiting normal goal once nothing runs and the stack is empty.
-- :meth:`Agent._pursue` is Algorithm 2 (plan, select, execute, update all plans)
-  with Algorithm 3 inside: when an emergency arrives the running action is
-  suspended if it can be, the goal is pushed on the stack with its plans and
-  suspended action, the emergency runs (recursively, so emergencies nest), and
-  the goal is popped and resumed.
-- As its parent's executor (Algorithm 5) the agent treats ``execute`` as a
-  goal, and on ``suspend`` stacks that goal and answers ``suspended``; it then
-  waits for the parent's ``resume`` or ``clear`` while carrying out whatever
-  else the parent sends.
+The agent has a belief, a domain, the running goal (:attr:`Agent.current`), a
+stack of suspended goals, a LIFO list of emergencies that have arrived, a FIFO
+list of waiting normal goals and, as its parent's executor, a queue of the
+parent's orders.  :meth:`Agent.run` loops; each turn it either starts the next
+goal or takes one step of the running one:
 
-Every executor result updates the belief and *all* plan sets — the running
-goal's and every stacked goal's — through :class:`~htnagent.planset.PlanSet`.
+- **Algorithm 2** (:meth:`Agent._step`): make sure the goal has plans, select
+  the cheapest, send its first action to the executor, wait for the result,
+  update the belief and *all* plan sets (the running goal's and every stacked
+  goal's, through :class:`~htnagent.planset.PlanSet`).
+- **Algorithm 3**: an emergency that arrives while an action runs asks the
+  executor to suspend it (if the domain can follow that); when the action's
+  result is in, the running goal is pushed on the stack with its plans and its
+  suspended action, and the emergency runs.  When nothing is left above it, the
+  stacked goal is popped and resumed.  Emergencies nest on the explicit stack
+  (no recursion), up to :attr:`AgentConfig.max_depth`.
+- **Algorithm 4** (:meth:`Agent._start_next`): a normal goal starts when it is
+  first in the waiting list, nothing runs and the stack is empty.
+- **Algorithm 5**: as its parent's executor the agent treats ``execute`` as a
+  goal; on ``suspend`` it stops that goal after the running action (suspending
+  the action if it can) and reports ``suspended`` — it never refuses; the goal
+  then waits on the stack, *held* for the parent's ``resume`` or ``clear``,
+  while the agent carries out whatever else the parent sends.
+
+Every message that has arrived is taken into account before the next action is
+sent (:meth:`Agent._drain`).
 """
 
 from __future__ import annotations
@@ -31,7 +42,7 @@ import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
-from htnagent.domain import Domain, State
+from htnagent.domain import Domain, State, half_done
 from htnagent.executor import ExecutorActor
 from htnagent.messages import (
     BeliefUpdate,
@@ -58,14 +69,9 @@ class GoalStatus(Enum):
     """How a goal ended."""
 
     SUCCESS = "success"
-    """A plan for the goal ran to its end."""
+    """The goal was achieved: a plan for it ran to its end while it was the running goal."""
     FAILURE = "failure"
-    """No plan was left for the goal, or an action kept failing."""
-
-
-class _Stop(Enum):
-    DONE = "done"
-    STACKED = "stacked"  # suspended by the parent: waits on the stack for resume/clear
+    """No plan was left for the goal, an action kept failing, or the agent could not go on."""
 
 
 @dataclass
@@ -76,18 +82,28 @@ class GoalEntry:
     plans: PlanSet
     emergency: bool = False
     ticket: int | None = None
-    order_seq: int | None = None  # set when the goal is the parent's order
-    suspended_action: Atom | None = None
-    parent_suspend: int | None = None  # seq of a parent's suspend request being served
-    failures: dict[Atom, int] = field(default_factory=dict)  # failures in a row, per action
-    reason: str = ""
+    order_seq: int | None = None
+    """The parent's order this goal carries out (Algorithm 5), if any."""
+    suspended: list[Atom] = field(default_factory=list)
+    """Actions of this goal stopped half way and kept for ``resume(A)`` (oldest first).
+
+    Usually one; more when a resumed goal walks back to finish an action later and
+    is suspended again on the way."""
+    held: bool = False
+    """On the stack by the parent's ``suspend``: it waits for the parent's resume or clear."""
+    stop_requested: bool = False
+    """The parent asked to suspend this goal; it stops after the running action."""
+    failures: dict[Atom, int] = field(default_factory=dict)
+    """Failures in a row, per action."""
 
 
 @dataclass
 class _Running:
     seq: int
     action: Atom
+    ordered: Atom  # what the executor was told: A for resume(A), else the action itself
     timer: TimerHandle | None = None
+    suspend_sent: bool = False
 
 
 @dataclass
@@ -107,6 +123,8 @@ class AgentConfig:
     """
     max_failures: int = 3
     """How often in a row the same action may fail before the goal fails."""
+    max_depth: int = 10_000
+    """How many goals the stack may hold; an emergency beyond that fails at once."""
 
 
 class Agent(ExecutorActor):
@@ -128,9 +146,19 @@ class Agent(ExecutorActor):
         self.executor = executor
         executor.connect(self.inbox)
         self.on_outcome = on_outcome
+        self.settings = config.settings
+        if isinstance(executor, Agent) and "rollback" not in executor.domain.methods:
+            # §5: a rollback(A) of an action a child agent carries out is offered only as a
+            # task the child can plan.
+            self.settings = PlannerSettings(
+                alternatives=config.settings.alternatives,
+                budget=config.settings.budget,
+                alternatives_effort=config.settings.alternatives_effort,
+                rollbacks=False,
+            )
         self.stats = PlanningStats()
         self.waiting: deque[GoalEntry] = deque()
-        self.emergencies: deque[GoalEntry] = deque()
+        self.emergencies: list[GoalEntry] = []
         self.orders: deque[Execute | Resume | Clear] = deque()
         self.stack: list[GoalEntry] = []
         self.current: GoalEntry | None = None
@@ -138,171 +166,154 @@ class Agent(ExecutorActor):
         self._seq = itertools.count(1)
         self._shown: tuple[Atom, ...] | None = None
 
-    # -- Algorithm 4: the agent's loop ------------------------------------------------
+    # -- the loop ------------------------------------------------------------------------
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         task_status.started()
         while True:
-            entry, resumed = await self._next_goal()
-            stop = await self._pursue(entry, resumed=resumed)
-            if stop is _Stop.DONE:
-                self._finished(entry)
+            self._drain()
+            entry = self.current
+            if entry is not None:
+                await self._step(entry)
+            elif not self._start_next():
+                self._on_message(await self.inbox.receive())
 
-    async def _next_goal(self) -> tuple[GoalEntry, bool]:
-        while True:
-            if self.emergencies:
-                return self.emergencies.popleft(), False
-            while self.orders:
-                order = self.orders.popleft()
-                picked = self._take_order(order)
-                if picked is not None:
-                    return picked
+    def _drain(self) -> None:
+        """§4: every message that has arrived is seen before the next decision."""
+        while (message := self.inbox.receive_nowait()) is not None:
+            self._on_message(message)
+
+    # -- Algorithm 4 (and 3, 5): which goal runs next --------------------------------------------
+
+    def _start_next(self) -> bool:
+        """Make the next goal the running one; False when there is none."""
+        if self.emergencies:
+            # Algorithm 3: the latest emergency first (two in one instant: the later one).
+            self._begin(self.emergencies.pop())
+            return True
+        if self.stack and not self.stack[-1].held:
+            # Algorithm 3: nothing is left above the suspended goal: pop and resume it.
+            self._resume(self.stack.pop())
+            return True
+        while self.orders:
+            if self._take_order(self.orders.popleft()):
+                return True
+        if self.waiting and not self.stack:
             # Algorithm 4: a normal goal starts when first, nothing runs and the stack is empty.
-            if self.waiting and not self.stack:
-                return self.waiting.popleft(), False
-            self._on_message(await self.inbox.receive())
+            self._begin(self.waiting.popleft())
+            return True
+        return False
 
-    def _take_order(self, order: Execute | Resume | Clear) -> tuple[GoalEntry, bool] | None:
+    def _begin(self, entry: GoalEntry) -> None:
+        self.current = entry
+        self._shown = None
+
+    def _take_order(self, order: Execute | Resume | Clear) -> bool:
         """Algorithm 5: the parent's orders while this agent is its executor."""
         if isinstance(order, Execute):
-            if not self.domain.knows(order.action):
-                self.reply(
-                    Failure(
-                        action=order.action, seq=order.seq, reason=f"{self.name} cannot do {order.action}"
-                    )
-                )
-                return None
-            entry = GoalEntry(order.action, self._planset(order.action), order_seq=order.seq)
             self.trace.emit(self.name, "goal_received", goal=str(order.action), emergency=False)
-            return entry, False
-        stacked = self._stacked(order.action)
+            if not self.domain.knows(order.action):
+                reason = f"{self.name} cannot do {order.action}"
+                self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+                return False
+            self._begin(GoalEntry(order.action, self._planset(order.action), order_seq=order.seq))
+            return True
+        held = self._held(order.action)
         if isinstance(order, Resume):
-            if stacked is None:
-                self.reply(
-                    Failure(
-                        action=order.action, seq=order.seq, reason=f"nothing to resume for {order.action}"
-                    )
-                )
-                return None
+            if held is None:
+                reason = f"nothing to resume for {order.action}"
+                self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+                return False
             # Algorithm 5: on resume, pop the goal and go on with it.
-            self.stack.remove(stacked)
-            stacked.order_seq = order.seq
-            return stacked, True
+            self.stack.remove(held)
+            held.held = False
+            held.order_seq = order.seq
+            self._resume(held)
+            return True
         # Algorithm 5: on clear, drop the goal, its plans and its suspended action.
-        if stacked is not None:
-            self.stack.remove(stacked)
-            self._clear_suspended(stacked)
-            self.trace.emit(self.name, "goal_cleared", goal=str(stacked.goal))
-        return None
+        if held is not None:
+            self.stack.remove(held)
+            self._clear_suspended(held)
+            self.trace.emit(self.name, "goal_cleared", goal=str(held.goal))
+        return False
 
-    def _stacked(self, goal: Atom) -> GoalEntry | None:
+    def _held(self, goal: Atom) -> GoalEntry | None:
         for entry in reversed(self.stack):
-            if entry.goal == goal and entry.order_seq is not None:
+            if entry.held and entry.goal == goal:
                 return entry
         return None
 
-    # -- Algorithm 2 with Algorithm 3 inside -------------------------------------------
+    # -- Algorithm 2: one step of the running goal ----------------------------------------------
 
-    async def _pursue(self, entry: GoalEntry, *, resumed: bool) -> _Stop:
-        outer = self.current
-        self.current = entry
-        try:
-            return await self._pursue_here(entry, resumed)
-        finally:
-            self.current = outer
-
-    async def _pursue_here(self, entry: GoalEntry, resumed: bool) -> _Stop:
+    async def _step(self, entry: GoalEntry) -> None:
         ps = entry.plans
-        if resumed:
-            self._resume_plans(entry)
+        if ps.finished:
+            # A plan ran to its end while this goal was running: achieved (§2.8), even if
+            # an emergency or a suspension came with the last result.
+            self._end(entry, GoalStatus.SUCCESS)
+            return
+        if self.emergencies or entry.stop_requested:
+            self._suspend_current(entry)
+            return
+        if not ps.ensure(self.belief):
+            status = ps.last_status.value if ps.last_status else "none"
+            self._end(entry, GoalStatus.FAILURE, f"no plan for {entry.goal} ({status})")
+            return
+        if _achieved(ps):  # a plan made just now has nothing left to do
+            self._end(entry, GoalStatus.SUCCESS)
+            return
+        best = ps.best
+        assert best is not None
+        if self._shown is None or best.actions != self._shown:
+            self.trace.emit(
+                self.name, "plan_selected", goal=str(entry.goal), plan=best.text(), cost=round(best.cost, 6)
+            )
+        action = best.steps[0].action
+        self._shown = best.actions[1:]
+        result = await self._act(action)
+        if isinstance(result, Failure):
+            self._shown = None
+            failures = entry.failures[action] = entry.failures.get(action, 0) + 1
+            if failures >= self.config.max_failures:
+                # The same action keeps failing although the belief says it can run.
+                times = "once" if failures == 1 else f"{failures} times"
+                self._end(entry, GoalStatus.FAILURE, f"{action} failed {times}: {result.reason}")
         else:
-            ps.ensure(self.belief)
-        self._shown = None
-        while True:
-            if ps.plans and ps.finished:
-                # Done, even if an emergency or a suspension came with the last result.
-                entry.reason = ""
-                return _Stop.DONE
-            if self.emergencies and entry.parent_suspend is None:
-                # Algorithm 3: push the goal with its plans and suspended action, run the
-                # emergency (emergencies that arrive meanwhile nest), pop and resume.
-                self.stack.append(entry)
-                self.trace.emit(
-                    self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack)
-                )
-                while self.emergencies:
-                    emergency = self.emergencies.popleft()
-                    if await self._pursue(emergency, resumed=False) is _Stop.DONE:
-                        self._finished(emergency)
-                self.stack.remove(entry)
-                self._resume_plans(entry)
-                self._shown = None
-                continue
-            if entry.parent_suspend is not None:
-                # Algorithm 5: stack the parent's goal and report it suspended.
-                self.stack.append(entry)
-                self.trace.emit(
-                    self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack)
-                )
-                assert entry.order_seq is not None
-                self.reply(Suspended(action=entry.goal, seq=entry.order_seq))
-                entry.parent_suspend = None
-                return _Stop.STACKED
-            if not ps.ensure(self.belief):
-                entry.reason = (
-                    entry.reason
-                    or f"no plan for {entry.goal} ({ps.last_status.value if ps.last_status else 'none'})"
-                )
-                ps.plans = []
-                return _Stop.DONE
-            if ps.finished:  # also when a plan made just now has nothing left to do
-                entry.reason = ""
-                return _Stop.DONE
-            best = ps.best
-            assert best is not None
-            if self._shown is None or best.actions != self._shown:
-                self.trace.emit(
-                    self.name,
-                    "plan_selected",
-                    goal=str(entry.goal),
-                    plan=best.text(),
-                    cost=round(best.cost, 6),
-                )
-            action = best.steps[0].action
-            self._shown = best.actions[1:]
-            result = await self._act(action)
-            if isinstance(result, Failure):
-                failures = entry.failures[action] = entry.failures.get(action, 0) + 1
-                entry.reason = result.reason
-                self._shown = None
-                if failures >= self.config.max_failures:
-                    # The same action keeps failing although the belief says it can run.
-                    ps.plans = []
-                    times = "once" if failures == 1 else f"{failures} times"
-                    entry.reason = f"{action} failed {times}: {result.reason}"
-                    return _Stop.DONE
-            else:
-                entry.failures.pop(action, None)
+            entry.failures.pop(action, None)
 
-    def _resume_plans(self, entry: GoalEntry) -> None:
+    def _suspend_current(self, entry: GoalEntry) -> None:
+        """Algorithm 3 / 5: push the running goal with its plans and suspended action."""
+        held = entry.stop_requested
+        entry.stop_requested = False
+        entry.held = held
+        self.stack.append(entry)
+        self.current = None
+        self.trace.emit(self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack))
+        if held:
+            assert entry.order_seq is not None
+            self.reply(Suspended(action=entry.goal, seq=entry.order_seq))
+
+    def _resume(self, entry: GoalEntry) -> None:
         """Algorithm 2 for a resumed goal: reuse (online) or remake (naive) its plans."""
+        self._begin(entry)
         ps = entry.plans
         started = time.perf_counter()
         if self.mode is Replanning.NAIVE:
             ps.drop()
+        else:
+            ps.confirm_achieved(self.belief)
         ps.ensure(self.belief)
-        pending = entry.suspended_action
-        if pending is not None:
-            best = ps.best
-            first = best.steps[0].action if best is not None and best.steps else None
-            # A plan that starts by rolling the action back still needs what was kept
-            # for it: the rollback itself settles the suspension.
-            if first not in (Atom("resume", (pending,)), Atom("rollback", (pending,))):
-                # Algorithm 2: the selected plan will not resume the action: clear it below.
-                self._clear_suspended(entry)
-                ps.ensure(self.belief)
-        # After the clear, so that the detour check sees the plans that will be used.
         ps.shorten_detours(self.belief)
+        best = ps.best
+        needed = {a for s in best.steps if (a := half_done(s.action)) is not None} if best else set()
+        # A plan that rolls an action back, or finishes it later (after walking back to
+        # where it was stopped), still needs what was kept for it.
+        unused = [a for a in entry.suspended if a not in needed]
+        if unused:
+            # Algorithm 2: the selected plan will not resume these: clear them below.
+            self._clear_suspended(entry, unused)
+            ps.ensure(self.belief)
+            ps.shorten_detours(self.belief)
         # CONTRACTS.md: wall-clock time spent making the resumed goal's plan.
         replan_ms = (time.perf_counter() - started) * 1000
         self.trace.emit(
@@ -313,27 +324,31 @@ class Agent(ExecutorActor):
             replan_ms=round(replan_ms, 4),
         )
 
-    def _clear_suspended(self, entry: GoalEntry) -> None:
-        pending = entry.suspended_action
-        if pending is None:
-            return
-        entry.suspended_action = None
-        self.order(self.executor, Clear(action=pending))
+    def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
+        """Tell the executor to forget the goal's suspended actions (all, by default)."""
+        for action in list(entry.suspended if actions is None else actions):
+            entry.suspended.remove(action)
+            self.order(self.executor, Clear(action=action))
+            self._forget_half(action)
+
+    def _forget_half(self, action: Atom) -> None:
+        """The half-done ``action`` will not be resumed: update the belief and all plans."""
         before = self.belief
-        self.belief = self.domain.clear(before, pending)
+        self.belief = self.domain.clear(before, action)
         for ps in self._plansets():
-            ps.suspension_cleared(pending, before, self.belief)
+            ps.suspension_cleared(action, before, self.belief)
 
     # -- acting -----------------------------------------------------------------------------
 
     async def _act(self, action: Atom) -> Success | Failure | Suspended:
         seq = next(self._seq)
-        inner = action.args[0] if action.name == "resume" and action.args else None
-        if isinstance(inner, Atom):
+        inner = half_done(action) if action.name == "resume" else None
+        ordered = inner if inner is not None else action
+        if inner is not None:
             self.order(self.executor, Resume(action=inner, seq=seq))
         else:
             self.order(self.executor, Execute(action=action, seq=seq))
-        running = _Running(seq, action)
+        running = _Running(seq, action, ordered)
         if self.config.action_timeout is not None and not isinstance(self.executor, Agent):
             running.timer = self.clock.call_later(
                 self.config.action_timeout, lambda: self.inbox.send(Timeout(seq=seq))
@@ -362,14 +377,13 @@ class Agent(ExecutorActor):
             if isinstance(message, Success | Failure | Suspended) and message.seq == running.seq:
                 return message
             if isinstance(message, Refused) and message.seq == running.seq:
+                # The executor cannot stop the action: it runs to its end, and then
+                # nothing further of the running goal starts (Algorithm 3).
                 self.trace.emit(self.name, "suspend_refused", action=str(running.action))
-                self._refused()
                 continue
             if isinstance(message, Timeout) and message.seq == running.seq:
                 # A hung executor: the action counts as failed; a late answer is ignored.
-                target = running.action.args[0] if running.action.name == "resume" else running.action
-                if isinstance(target, Atom):
-                    self.order(self.executor, Clear(action=target))
+                self.order(self.executor, Clear(action=running.ordered))
                 return Failure(
                     action=running.action,
                     seq=running.seq,
@@ -381,31 +395,50 @@ class Agent(ExecutorActor):
         """Update the belief and every plan set, active and stacked (§2, §3)."""
         before = self.belief
         sets = self._plansets()
+        inner = half_done(action)
         if isinstance(result, Success):
             after = self.domain.progress(before, action)
             self.belief = after
             for ps in sets:
                 ps.action_succeeded(action, before, after)
-            if action.name in ("resume", "rollback"):
-                # The half-done action was finished or undone: nothing is left to clear.  The
-                # same action may be suspended at several depths; the latest one was resumed
-                # (the running goal's own, or else the top of the stack's).
-                running = [self.current] if self.current is not None else []
-                for entry in [*running, *reversed(self.stack)]:
-                    if entry.suspended_action is not None and action.args[0] == entry.suspended_action:
-                        entry.suspended_action = None
-                        break
+            if inner is not None:
+                # The half-done action was finished or undone: nothing is left to clear.
+                holder = self._holder(inner)
+                if holder is not None:
+                    holder.suspended.remove(inner)
         elif isinstance(result, Suspended):
+            if inner is not None:
+                # Algorithm 3: stopping resume(A) or rollback(A) leaves A suspended, as the
+                # belief and every plan already say; whoever held A still holds it.
+                if self._holder(inner) is None and self.current is not None:
+                    self.current.suspended.append(inner)
+                return
             # Algorithm 1, step 1: the belief takes the suspension effect.
             after = self.domain.suspend(before, action)
             self.belief = after
             for ps in sets:
                 ps.action_suspended(action, before, after)
             if self.current is not None:
-                self.current.suspended_action = action
+                self.current.suspended.append(action)
         else:
             for ps in sets:
                 ps.action_failed(action, before, before)
+            if action.name == "resume" and inner is not None:
+                # The executor could not finish A: what was kept for it is no use, and the
+                # same resume must not be planned again from the same belief (§5).
+                holder = self._holder(inner)
+                if holder is not None:
+                    holder.suspended.remove(inner)
+                self.order(self.executor, Clear(action=inner))
+                self._forget_half(inner)
+
+    def _holder(self, action: Atom) -> GoalEntry | None:
+        """The goal whose suspended action ``action`` is: the running one's, else the latest."""
+        running = [self.current] if self.current is not None else []
+        for entry in [*running, *reversed(self.stack)]:
+            if action in entry.suspended:
+                return entry
+        return None
 
     def _entries(self) -> list[GoalEntry]:
         entries = list(self.stack)
@@ -416,7 +449,7 @@ class Agent(ExecutorActor):
     def _plansets(self) -> list[PlanSet]:
         return [e.plans for e in self._entries()]
 
-    # -- messages that arrive while waiting ---------------------------------------------------
+    # -- messages -------------------------------------------------------------------------------
 
     def _on_message(self, message: Any) -> None:
         if isinstance(message, Submit):
@@ -433,7 +466,6 @@ class Agent(ExecutorActor):
         # Anything else is a late answer to an abandoned order: ignored.
 
     def _submitted(self, message: Submit) -> None:
-        known = self.domain.knows(message.goal)
         entry = GoalEntry(message.goal, self._planset(message.goal), message.emergency, message.ticket)
         self.trace.emit(
             self.name,
@@ -442,65 +474,110 @@ class Agent(ExecutorActor):
             emergency=message.emergency,
             ticket=message.ticket,
         )
-        if not known:
-            entry.reason = f"{self.name} has no method or operator for {message.goal}"
-            self._finished(entry)
+        if not self.domain.knows(message.goal):
+            self._end(entry, GoalStatus.FAILURE, f"{self.name} has no method or operator for {message.goal}")
             return
-        if message.emergency:
-            self.emergencies.append(entry)
-            if self.current is not None:
-                # Algorithm 3: mark the running goal suspended; suspend its action if it can be.
-                self._request_suspension()
-        else:
+        if not message.emergency:
             self.waiting.append(entry)
-
-    def _parent_suspends(self, message: Suspend) -> None:
-        current = self.current
-        if current is None or current.order_seq != message.seq or current.goal != message.action:
-            self.reply(Refused(action=message.action, seq=message.seq))
             return
-        current.parent_suspend = message.seq
+        depth = len(self.stack) + len(self.emergencies) + (self.current is not None)
+        if depth >= self.config.max_depth:
+            limit = self.config.max_depth
+            self._end(entry, GoalStatus.FAILURE, f"too many nested goals: {depth} (max_depth {limit})")
+            return
+        self.emergencies.append(entry)
+        # Algorithm 3: mark the running goal suspended; suspend its action if it can be.
         self._request_suspension()
 
-    def _request_suspension(self) -> None:
-        running = self.running
-        if running is None:
-            return
-        op, _ = self.domain.ground(running.action)
-        if not op.suspendable:
-            self._refused()
-            return
-        self.order(self.executor, Suspend(action=running.action, seq=running.seq))
-
-    def _refused(self) -> None:
-        """The running action goes on; a parent asking to suspend is told so."""
+    def _parent_suspends(self, message: Suspend) -> None:
+        """Algorithm 5: the parent wants its order stopped; the answer is never a refusal."""
         current = self.current
-        if current is not None and current.parent_suspend is not None and current.order_seq is not None:
-            self.reply(Refused(action=current.goal, seq=current.order_seq))
-            current.parent_suspend = None
+        if current is not None and current.order_seq == message.seq:
+            current.stop_requested = True
+            self._request_suspension()
+            return
+        for entry in self.stack:
+            if entry.order_seq == message.seq:
+                # Already stacked under an emergency of this agent's own: suspended at once.
+                if not entry.held:
+                    entry.held = True
+                    self.reply(Suspended(action=entry.goal, seq=message.seq))
+                return
+        for order in self.orders:
+            if isinstance(order, Execute) and order.seq == message.seq:
+                # Not started yet: it waits on the stack without having done anything.
+                self.orders.remove(order)
+                entry = GoalEntry(
+                    order.action, self._planset(order.action), order_seq=order.seq, held=True
+                )
+                self.trace.emit(self.name, "goal_received", goal=str(order.action), emergency=False)
+                self.stack.append(entry)
+                self.trace.emit(
+                    self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack)
+                )
+                self.reply(Suspended(action=entry.goal, seq=message.seq))
+                return
+        # The order has already ended: its result is on its way up.
+
+    def _request_suspension(self) -> None:
+        """Ask the executor to stop the running action half way, if the belief can follow."""
+        running = self.running
+        if running is None or running.suspend_sent:
+            return
+        if not self.domain.can_suspend(running.action):
+            return  # it runs to its end; nothing further of the goal starts
+        running.suspend_sent = True
+        self.order(self.executor, Suspend(action=running.ordered, seq=running.seq))
 
     # -- outcomes --------------------------------------------------------------------------------
 
     def _planset(self, goal: Atom) -> PlanSet:
-        return PlanSet(self.domain, goal, self.mode, self.config.settings, self.stats)
+        return PlanSet(self.domain, goal, self.mode, self.settings, self.stats)
 
-    def _finished(self, entry: GoalEntry) -> None:
-        status = GoalStatus.SUCCESS if entry.plans.finished and not entry.reason else GoalStatus.FAILURE
+    def _end(self, entry: GoalEntry, status: GoalStatus, reason: str = "") -> None:
+        """The goal has ended: report it (once) to whoever is waiting for it."""
+        if self.current is entry:
+            self.current = None
+        # What was kept below for resuming the goal's stopped actions is of no use now.
+        self._clear_suspended(entry)
         fields: dict[str, Any] = {"goal": str(entry.goal), "status": status.value}
         if entry.ticket is not None:
             fields["ticket"] = entry.ticket
         if status is GoalStatus.FAILURE:
-            fields["reason"] = entry.reason or "failed"
+            reason = reason or "failed"
+            fields["reason"] = reason
         # The outcome is settled before the event, so observers see it settled.
         if entry.ticket is not None and self.on_outcome is not None:
-            self.on_outcome(entry.ticket, status, fields.get("reason", ""))
+            self.on_outcome(entry.ticket, status, reason if status is GoalStatus.FAILURE else "")
         self.trace.emit(self.name, "goal_finished", **fields)
         if entry.order_seq is not None:
             if status is GoalStatus.SUCCESS:
                 self.reply(Success(action=entry.goal, seq=entry.order_seq))
             else:
-                self.reply(Failure(action=entry.goal, seq=entry.order_seq, reason=fields["reason"]))
+                self.reply(Failure(action=entry.goal, seq=entry.order_seq, reason=reason))
+
+    def unfinished(self) -> list[GoalEntry]:
+        """Every goal that has not ended: running, stacked, emergencies, waiting."""
+        running = [self.current] if self.current is not None else []
+        return [*running, *reversed(self.stack), *reversed(self.emergencies), *self.waiting]
+
+    def fail_all(self, reason: str) -> None:
+        """End every unfinished goal and order as a failure (the agent cannot go on)."""
+        for entry in self.unfinished():
+            self._end(entry, GoalStatus.FAILURE, reason)
+        self.current = None
+        self.stack.clear()
+        self.emergencies.clear()
+        self.waiting.clear()
+        for order in self.orders:
+            if isinstance(order, Execute | Resume):
+                self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+        self.orders.clear()
 
     def submit(self, goal: Atom, ticket: int, emergency: bool = False) -> None:
         """Give the agent a goal (delivered through its mailbox)."""
         self.inbox.send(Submit(goal=goal, emergency=emergency, ticket=ticket))
+
+
+def _achieved(plans: PlanSet) -> bool:
+    return plans.finished

@@ -183,6 +183,21 @@ class Mailbox(Generic[T]):
         self._held += 1
         return message
 
+    def receive_nowait(self) -> T | None:
+        """The next message if one is waiting, else None (never blocks).
+
+        What is received counts as held, like :meth:`receive`'s, until the
+        receiver next blocks.
+        """
+        if self.closed:
+            return None
+        try:
+            message = self._receive.receive_nowait()
+        except (anyio.WouldBlock, anyio.EndOfStream, anyio.ClosedResourceError):
+            return None
+        self._held += 1
+        return message
+
     def settle(self) -> None:
         """The receiver has finished with what it holds (it will block next)."""
         if self._held:

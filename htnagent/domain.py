@@ -598,8 +598,28 @@ class Domain:
         """The cost of a ground action."""
         return self.compiled(action).cost
 
+    def can_suspend(self, action: Atom) -> bool:
+        """Whether the belief can follow the ground action being stopped half way.
+
+        True when its operator declares a suspension, and for ``resume(A)`` and
+        ``rollback(A)`` of such an A: stopping either leaves A suspended, with
+        less (or more) of it left to do (ALGORITHMS.md §4, Algorithm 3).
+        """
+        target = half_done(action) or action
+        try:
+            op, _ = self.ground(target)
+        except PlanningError:
+            return False
+        return op.suspendable
+
     def suspend(self, state: State, action: Atom) -> State:
-        """The belief after the running action is stopped half way (Algorithm 1, step 1)."""
+        """The belief after the running action is stopped half way (Algorithm 1, step 1).
+
+        Stopping ``resume(A)`` or ``rollback(A)`` leaves A suspended as it was before
+        they started: the belief already says so, and stays as it is.
+        """
+        if half_done(action) is not None:
+            return state
         op, b = self.ground(action)
         if not op.suspendable:
             raise PlanningError(f"domain {self.name}: action {action} is not suspendable")
@@ -662,6 +682,16 @@ class Domain:
 
 _MISSING: object = object()
 
+RECOVERY = ("resume", "rollback")
+"""The names of the actions that finish or undo a suspended action."""
+
+
+def half_done(action: Atom) -> Atom | None:
+    """A for ``resume(A)`` or ``rollback(A)``; None for any other action."""
+    if action.name in RECOVERY and len(action.args) == 1 and isinstance(action.args[0], Atom):
+        return action.args[0]
+    return None
+
 
 def _inner_cost(cost: CostSpec) -> CostSpec:
     """A resume/rollback cost function receives ``resume(A)``; hand it A instead."""
@@ -686,6 +716,7 @@ __all__ = [
     "Operator",
     "State",
     "Suspension",
+    "half_done",
     "is_variable",
     "satisfiers",
 ]

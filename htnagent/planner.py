@@ -55,6 +55,10 @@ class PlannerSettings:
     """After the first plan, the search for the other alternatives may expand at most
     this many times as many nodes again as the first plan took (and at least 500);
     they are a cache, not worth an unbounded search."""
+    rollbacks: bool = True
+    """Whether plans may roll a suspended action back.  An agent whose executor is a
+    child agent that cannot plan ``rollback(A)`` as a task plans without them
+    (ALGORITHMS.md §5)."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -152,6 +156,8 @@ def plan(
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
+            if op.name == "rollback" and not settings.rollbacks:
+                continue
             for b in satisfiers(op.pre, state, {}):
                 action = substitute(op.head, b)
                 if not action.is_ground:
@@ -281,3 +287,26 @@ def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[A
 
 def _unify_head(head: Atom, task: Atom) -> Bindings | None:
     return unify(head, task, {})
+
+
+def achieved_by_nothing(domain: Domain, state: State, task: Atom, budget: int = 10_000) -> bool:
+    """Whether the task decomposes to no action at all from the state (ALGORITHMS.md §2.8).
+
+    Such a task is achieved now.  Only decompositions are explored (the state never
+    changes), so this is a small search over method choices; past ``budget`` task
+    lists it answers False, which costs at most a needless plan from scratch.
+    """
+    if domain.is_primitive(task):
+        return False
+    seen: set[tuple[Atom, ...]] = set()
+    frontier: list[tuple[Atom, ...]] = [(task,)]
+    while frontier and len(seen) < budget:
+        tasks = frontier.pop()
+        if not tasks:
+            return True
+        if tasks in seen or domain.is_primitive(tasks[0]):
+            continue
+        seen.add(tasks)
+        for _, subtasks in _decompose(domain, state, tasks[0]):
+            frontier.append(subtasks + tasks[1:])
+    return False

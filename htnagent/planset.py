@@ -34,9 +34,9 @@ from contextlib import contextmanager
 from dataclasses import dataclass, field
 from enum import Enum
 
-from htnagent.domain import Domain, State, satisfiers
-from htnagent.plan import Decomposition, Plan, Step, tidy
-from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, TaskEntry, plan
+from htnagent.domain import Domain, State, half_done, satisfiers
+from htnagent.plan import Decomposition, Plan, Step, replay, tidy
+from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, TaskEntry, achieved_by_nothing, plan
 from htnagent.terms import Atom, substitute
 
 
@@ -59,6 +59,7 @@ class PlanningStats:
     revivals: int = 0
     from_scratch: int = 0
     shortcuts: int = 0
+    fresher: int = 0
     removed: int = 0
     expansions: int = 0
     seconds: float = 0.0
@@ -72,6 +73,7 @@ class PlanningStats:
             "revivals": self.revivals,
             "from_scratch": self.from_scratch,
             "shortcuts": self.shortcuts,
+            "fresher": self.fresher,
             "removed": self.removed,
             "expansions": self.expansions,
             "ms": round(self.seconds * 1000, 3),
@@ -150,6 +152,31 @@ class PlanSet:
         self.plans = []
         self._removed.clear()
 
+    def confirm_achieved(self, state: State) -> None:
+        """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
+
+        A stacked goal's plan can become empty through other goals' actions (an
+        emergency walked through its target), and then gain undo steps as the
+        emergency walks on; that proves nothing about now.  A plan with no step of
+        the goal's own left is kept only if the goal decomposes to nothing where the
+        plan ends; otherwise it goes, and the goal is planned again when needed.
+        """
+        kept: list[Plan] = []
+        for p in self.plans:
+            if any(s.record is not None for s in p.steps):
+                kept.append(p)
+                continue
+            # No step of the goal's own is left, only maintenance steps (undo, rollback)
+            # or nothing at all: keep the plan only if the goal is achieved where it ends.
+            end = replay(self.domain, state, p.actions)
+            if end is not None and achieved_by_nothing(self.domain, end, self.goal):
+                kept.append(p)
+        best_broke = bool(self.plans) and (not kept or kept[0] is not self.plans[0])
+        self.plans = kept
+        if best_broke and kept:
+            with self._timed():
+                self._as_good_as_fresh(state, _Scratch(0))
+
     def _from_scratch(self, state: State) -> PlanResult:
         self.stats.from_scratch += 1
         result = plan(self.domain, state, [self.goal], self._settings())
@@ -165,8 +192,12 @@ class PlanSet:
 
     def _settings(self) -> PlannerSettings:
         if self.mode is Replanning.NAIVE:
-            return PlannerSettings(alternatives=1, budget=self.settings.budget)
+            return self._single()
         return self.settings
+
+    def _single(self) -> PlannerSettings:
+        """The settings for one plan (repairs, fresh comparisons, naive mode)."""
+        return PlannerSettings(alternatives=1, budget=self.settings.budget, rollbacks=self.settings.rollbacks)
 
     # -- events ---------------------------------------------------------------
 
@@ -191,9 +222,7 @@ class PlanSet:
                     continue
                 elif undo is not None:
                     # §2.1: another plan stays valid by undoing the action first.
-                    undone = Plan(
-                        tidy(self.domain, (Step(undo, self.domain.cost(undo), None), *p.steps), front=True)
-                    )
+                    undone = Plan(self._behind(undo, p.steps))
                     kept.append(undone)
                     if undo_restores:
                         self._trusted.add(id(undone))
@@ -202,7 +231,30 @@ class PlanSet:
                     if trusted and after.dynamic == before.dynamic and after.static is before.static:
                         self._trusted.add(id(p))  # the action changed nothing the plan relies on
             self.plans = kept
+            # §2.5: plans kept for revival follow the same steps, so that a revived plan
+            # is valid from where the robot is by then (not from where it was removed).
+            for r in self._removed:
+                steps = r.plan.steps
+                if steps and steps[0].action == action:
+                    r.plan = Plan(steps[1:])
+                elif undo is not None:
+                    r.plan = Plan(self._behind(undo, steps))
             self._revise(before, after)
+
+    def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
+        """The steps behind the undo of an action another goal made (§2.1), tidied.
+
+        A ``resume(A)`` among them no longer continues from where A was stopped —
+        the executor has since done other things — so it is costed as the whole A:
+        how much of A is left is not known.
+        """
+        rest = tuple(
+            Step(s.action, self.domain.cost(inner), s.record)
+            if s.action.name == "resume" and (inner := half_done(s.action)) is not None
+            else s
+            for s in steps
+        )
+        return tidy(self.domain, (Step(undo, self.domain.cost(undo), None), *rest), front=True)
 
     def action_failed(self, action: Atom, before: State, after: State) -> None:
         """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
@@ -211,7 +263,10 @@ class PlanSet:
                 self.plans = []
                 return
             self.plans = [p for p in self.plans if not (p.steps and p.steps[0].action == action)]
-            self._revise(before, after)
+            # §2.2 takes a kept alternative at once; but one that still means to do the
+            # failed action later is no better than planning afresh (§2.4).
+            broke = bool(self.plans) and action in self.plans[0].actions
+            self._revise(before, after, best_broke=broke)
 
     def action_suspended(self, action: Atom, before: State, after: State) -> None:
         """The running action was stopped half way (§3, Algorithm 1, steps 2–3).
@@ -223,21 +278,24 @@ class PlanSet:
                 self.plans = []
                 return
             resume = self.domain.resume_of(action)
-            rollback = self.domain.rollback_of(action)
-            updated: list[Plan] = []
-            for p in self.plans:
+            rollback = self.domain.rollback_of(action) if self.settings.rollbacks else None
+
+            def suspended(p: Plan) -> Plan | None:
                 if p.steps and p.steps[0].action == action:
                     if resume is None:
-                        continue
+                        return None
                     # Algorithm 1, step 3: resume(A) takes A's place (and its record).
                     first = Step(resume, self.domain.cost(resume), p.steps[0].record)
-                    updated.append(Plan((first, *p.steps[1:])))
-                elif rollback is not None:
+                    return Plan((first, *p.steps[1:]))
+                if rollback is not None:
                     # Algorithm 1, step 3: undo the half-done A before the other plan.
-                    updated.append(Plan((Step(rollback, self.domain.cost(rollback), None), *p.steps)))
-                else:
-                    updated.append(p)
-            self.plans = updated
+                    return Plan((Step(rollback, self.domain.cost(rollback), None), *p.steps))
+                return p
+
+            self.plans = [q for q in map(suspended, self.plans) if q is not None]
+            for r in self._removed:
+                q = suspended(r.plan)
+                r.plan = q if q is not None else r.plan
             # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
             self._revise(before, after)
 
@@ -251,10 +309,13 @@ class PlanSet:
         with self._timed():
             resume = Atom("resume", (action,))
             cost = self.domain.cost(action)
-            self.plans = [
-                Plan(tuple(Step(action, cost, s.record) if s.action == resume else s for s in p.steps))
-                for p in self.plans
-            ]
+
+            def whole(p: Plan) -> Plan:
+                return Plan(tuple(Step(action, cost, s.record) if s.action == resume else s for s in p.steps))
+
+            self.plans = [whole(p) for p in self.plans]
+            for r in self._removed:
+                r.plan = whole(r.plan)
             if self.mode is Replanning.NAIVE:
                 self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
                 self._checked = after
@@ -285,22 +346,30 @@ class PlanSet:
         best = self.best
         if self.mode is Replanning.NAIVE or best is None:
             return False
-        first = next((i for i, s in enumerate(best.steps) if s.record is not None), None)
-        if not first or any(s.action.name in ("resume", "rollback") for s in best.steps[:first]):
+        # The detour: the leading steps that plan maintenance put there (undo steps, a
+        # rollback of another goal's action: steps without a record) — not a resume(A)
+        # that took its own A's place.
+        first = next((i for i, s in enumerate(best.steps) if s.record is not None), len(best.steps))
+        if not first:
             return False
         with self._timed():
-            record = best.steps[first].record
-            assert record is not None
-            _, end = _span(best.steps, record)
-            tasks: list[TaskEntry] = [(record.task, record.parent)]
-            tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
+            tasks: list[TaskEntry]
+            if first == len(best.steps):
+                # Nothing of the goal's own is left, only the way back to where an
+                # emergency achieved it (§2.8): the rival is the goal itself.
+                tasks, head, fixed = [(self.goal, None)], self.goal, 0.0
+            else:
+                record = best.steps[first].record
+                assert record is not None
+                _, end = _span(best.steps, record)
+                tasks = [(record.task, record.parent)]
+                tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
+                head, fixed = record.task, sum(s.cost for s in best.steps[end + 1 :])
             # With admissible estimates nothing can beat a plan that costs no more than
             # the estimate of the rival's tasks: then the search is not worth making.
-            fixed = sum(s.cost for s in best.steps[end + 1 :])
-            if best.cost <= self.domain.h([record.task], state) + fixed + 1e-9:
+            if best.cost <= self.domain.h([head], state) + fixed + 1e-9:
                 return False
-            settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
-            rival = self._plan_cached(state, tasks, settings, _Scratch(0))
+            rival = self._plan_cached(state, tasks, self._single(), _Scratch(0))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
             shorter = rival  # the planner returns tidy plans
@@ -311,8 +380,13 @@ class PlanSet:
 
     # -- the machinery --------------------------------------------------------
 
-    def _revise(self, before: State, after: State) -> None:
-        """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first."""
+    def _revise(self, before: State, after: State, *, best_broke: bool = False) -> None:
+        """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first.
+
+        When the best plan breaks, whatever takes its place must be as good as a
+        plan made afresh from the belief (§2.4): the domain's admissible estimate
+        proves it, or the goal is planned from scratch and the cheaper one wins.
+        """
         self._updates += 1
         if self.mode is Replanning.NAIVE:
             self.plans = [p for p in self.plans[:1] if id(p) in self._trusted or self._valid(p, after)]
@@ -332,6 +406,8 @@ class PlanSet:
             else:
                 p = Plan(tidy(self.domain, p.steps))
                 checked = self._recheck(p, after, cache, allow_repair=not revived)
+                if n == 0 and checked is not p:
+                    best_broke = True
             if checked is None:
                 continue
             if revived:
@@ -342,8 +418,29 @@ class PlanSet:
                 out.append(checked)
         out.sort(key=lambda q: q.cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
+        if best_broke:
+            self._as_good_as_fresh(after, cache)
         self._checked = after
         self._removed = [r for r in self._removed if self._updates - r.update <= self.revival_window]
+
+    def _as_good_as_fresh(self, state: State, cache: _Scratch) -> None:
+        """§2.4: the best plan took the place of a broken one: it must be no worse than a
+        plan made afresh from ``state`` — proven by the estimate, or else compared.
+
+        The search is shared (``cache``) with a repair that reached the goal itself.
+        """
+        if not self.plans or self._proven_optimal(self.plans[0], state):
+            return
+        fresh = self._plan_cached(state, [(self.goal, None)], self._single(), cache)
+        if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
+            return
+        self.stats.fresher += 1
+        others = [p for p in self.plans if p.actions != fresh.actions]
+        self.plans = [fresh, *others][: max(self.settings.alternatives, 1)]
+
+    def _proven_optimal(self, p: Plan, state: State) -> bool:
+        """Whether the admissible estimate proves no plan from ``state`` is cheaper."""
+        return p.cost <= self.domain.h([self.goal], state) + 1e-9
 
     def _valid(self, p: Plan, state: State) -> bool:
         self.stats.rechecks += 1
@@ -382,6 +479,8 @@ class PlanSet:
         repaired = self._repair(p, index, self._states(p, state, index), cache)
         if repaired is not None:
             self.stats.repairs += 1
+            # §2.5: the plan as it was before the repair comes back if the fact does.
+            self._remember(p, p.steps[index].action, at_failure)
             return repaired
         self.stats.failed_repairs += 1
         self.stats.removed += 1
@@ -404,7 +503,7 @@ class PlanSet:
         """
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
-        settings = PlannerSettings(alternatives=1, budget=self.settings.budget)
+        settings = self._single()
         # A recursive method makes the record as long as the plan; past a few levels a
         # re-decomposition costs as much as planning the goal, so go straight to it.
         for record in chain[:_REPAIR_LEVELS]:
@@ -420,7 +519,9 @@ class PlanSet:
             tasks: list[TaskEntry] = [(record.task, record.parent)]
             tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
             before = self.stats.expansions
-            local = PlannerSettings(alternatives=1, budget=cache.local_left)
+            local = PlannerSettings(
+                alternatives=1, budget=cache.local_left, rollbacks=self.settings.rollbacks
+            )
             result = self._plan_cached(states[start], tasks, local, cache)
             cache.local_left -= self.stats.expansions - before
             if result is not None:

@@ -176,9 +176,13 @@ class Runtime:
         if parent is not None and parent.running is not None:
             parent.inbox.send(Failure(action=parent.running.action, seq=parent.running.seq, reason=reason))
         if isinstance(actor, Agent):
-            for entry in [actor.current, *actor.stack, *actor.waiting, *actor.emergencies]:
-                if entry is not None and entry.ticket is not None:
-                    self._resolve(entry.ticket, GoalStatus.FAILURE, reason)
+            tickets = [e.ticket for e in actor.unfinished() if e.ticket is not None]
+            try:
+                # Every goal it held ends, with the crash as its reason.
+                actor.fail_all(reason)
+            finally:
+                for ticket in tickets:  # even if its own bookkeeping is what broke
+                    self._resolve(ticket, GoalStatus.FAILURE, reason)
 
     async def _serve_dead(self, actor: ExecutorActor, reason: str) -> None:
         while True:

@@ -14,9 +14,9 @@ from typing import Any
 
 import anyio
 
-from executors.robot import Robot, RobotWorld
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock, TimerHandle
+from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.messages import BeliefUpdate
 from htnagent.planset import Replanning
 from htnagent.runtime import Runtime

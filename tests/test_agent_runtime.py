@@ -25,11 +25,11 @@ from typing import Any
 import anyio
 import pytest
 
-from executors.scripted import ScriptedExecutor
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.domain import Domain, Effect, Suspension
 from htnagent.executor import Executor, Outcome
+from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.messages import Clear
 from htnagent.planset import Replanning
 from htnagent.runtime import GoalOutcome, Runtime
@@ -262,13 +262,14 @@ async def test_failure_cap_comes_from_the_agent_config() -> None:
 
 async def test_goal_with_no_plan_fails_with_a_reason_and_the_agent_goes_on() -> None:
     rt, events, outcomes = await run(courier(), robot(), Goal("goto(z)"), Goal("fly(d)"), Goal("scan(a)"))
-    # Expect: nothing is sent to the robot for the two goals that cannot be planned.
+    # Expect: nothing is sent to the robot for the two goals that cannot be planned.  Every
+    # goal that has arrived is seen before the first one starts (fly(d) fails at once).
     assert story(events) == [
         "0 goal_received goto(z)",
-        "0 goal_finished goto(z) failure (no plan for goto(z) (unsolvable))",
         "0 goal_received fly(d)",
         "0 goal_finished fly(d) failure (courier has no method or operator for fly(d))",
         "0 goal_received scan(a)",
+        "0 goal_finished goto(z) failure (no plan for goto(z) (unsolvable))",
         "0 plan_selected scan(a): scan(a)",
         "0 action_started scan(a)",
         "1 action_finished scan(a) success",
@@ -670,9 +671,9 @@ async def test_executor_that_raises_fails_the_action_and_the_agent_goes_on() -> 
     # Expect: the exception becomes the failure's reason; the next goal runs.
     assert story(events) == [
         "0 goal_received goto(b)",
+        "0 goal_received scan(a)",
         "0 plan_selected goto(b): go(a,b)",
         "0 action_started go(a,b)",
-        "0 goal_received scan(a)",
         "0 action_finished go(a,b) failure (executor raised RuntimeError('wheels jammed on go(a,b)'))",
         "0 goal_finished goto(b) failure (go(a,b) failed once: "
         "executor raised RuntimeError('wheels jammed on go(a,b)'))",

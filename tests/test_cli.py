@@ -55,10 +55,10 @@ def test_plan_prints_the_guides_plan_numbered_with_its_cost(capsys: pytest.Captu
     numbered = [line.split(". ", 1) for line in out.splitlines() if line.startswith("  ")]
     assert [n.strip() for n, _ in numbered] == ["1", "2", "3", "4", "5"]
     assert [a for _, a in numbered] == GUIDE_TO_N40
-    assert "cost 39.91" in out
+    assert "cost 43.31" in out
     # Four alternatives (the default K), the best first.
     assert "2 plans found" in out
-    assert "costs 39.91, " in out
+    assert "costs 43.31, " in out
 
 
 def test_plan_json_is_one_line_with_plan_cost_and_alternatives(capsys: pytest.CaptureFixture[str]) -> None:
@@ -69,7 +69,7 @@ def test_plan_json_is_one_line_with_plan_cost_and_alternatives(capsys: pytest.Ca
     result = json.loads(out)
     assert set(result) == {"plan", "cost", "alternatives"}
     assert result["plan"] == GUIDE_TO_N40
-    assert result["cost"] == pytest.approx(39.9117, abs=1e-3)
+    assert result["cost"] == pytest.approx(43.3110, abs=1e-3)
     assert result["alternatives"] == 2
 
 

@@ -7,9 +7,9 @@ from pathlib import Path
 import anyio
 import yaml
 
-from executors.scripted import ScriptedExecutor
 from htnagent import AgentConfig, GoalStatus, Runtime, State, parse
 from htnagent.domains import areas_domain, nodes_domain
+from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.maps import parse_map
 from htnagent.trace import Event
 

@@ -10,9 +10,9 @@ import anyio
 import pytest
 import yaml
 
-from executors.scripted import ScriptedExecutor
 from htnagent import AgentConfig, Domain, GoalStatus, Runtime, parse
 from htnagent.executor import Executor, Outcome
+from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import Atom

@@ -5,7 +5,7 @@ covered the fraction ``progress`` of its duration.  For the robot's own
 actions (moves, ``robot.durations``) that is followed through suspensions,
 resumptions and rollbacks; any agent's action may trigger when it has finished
 (``progress: 1``).  Triggers that could never fire are refused by ``check``.
-Also here: the robot refuses to suspend a resumed rest or a rollback, and an
+Also here: the robot suspends a resumed rest or a rollback as it does a move, and an
 ``action_timeout`` shorter than the robot's longest action is refused.
 """
 
@@ -19,10 +19,10 @@ from typing import Any
 import anyio
 import pytest
 
-from executors.robot import Robot, RobotWorld
 from htnagent.clock import Clock, Mailbox
 from htnagent.errors import ScenarioError
-from htnagent.messages import Execute, Refused, Resume, Suspend, Suspended
+from htnagent.executors.robot import Robot, RobotWorld
+from htnagent.messages import Execute, Resume, Suspend, Suspended
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.simulation import NEVER_TRIGGERED, RunReport, run_scenario
 from htnagent.terms import Atom, parse
@@ -315,7 +315,7 @@ def test_triggers_that_can_fire_are_accepted(when: dict[str, Any]) -> None:
         parse_scenario(make(), "museum.yaml", SCENARIOS)
 
 
-# -- the robot: a resumed rest or a rollback runs to its end -------------------------------------
+# -- the robot: a resumed rest or a rollback can be suspended too ---------------------------------
 
 
 async def robot_answers(orders: list[tuple[float, Any]], until: int) -> list[tuple[float, Any]]:
@@ -349,32 +349,38 @@ def kinds(answers: list[tuple[float, Any]]) -> list[tuple[str, int]]:
     return [(type(a).__name__, a.seq) for _, a in answers]
 
 
-def test_the_robot_refuses_to_suspend_a_resumed_move() -> None:
+def test_the_robot_suspends_a_resumed_move_and_resumes_it_again() -> None:
     orders = [
         (0.0, Execute(action=MOVE, seq=1)),
         (1.0, Suspend(action=MOVE, seq=1)),
         (2.0, Resume(action=MOVE, seq=2)),
         (2.5, Suspend(action=MOVE, seq=2)),
+        (3.0, Resume(action=MOVE, seq=3)),
     ]
     answers = anyio.run(robot_answers, orders, 3)
-    assert kinds(answers) == [("Suspended", 1), ("Refused", 2), ("Success", 2)]
-    assert isinstance(answers[1][1], Refused) and answers[1][0] == pytest.approx(2.5)
-    # The rest ran to its end: 1 s walked, 1 s standing, then the remaining 3.123 s.
-    assert answers[2][0] == pytest.approx(2.0 + MOVE_LENGTH - 1.0)
+    # ALGORITHMS.md §4: resume(A) can be suspended wherever A can; A is left suspended
+    # with less to do.
+    assert kinds(answers) == [("Suspended", 1), ("Suspended", 2), ("Success", 3)]
+    assert answers[1][0] == pytest.approx(2.5)
+    # 1 s walked, 1 s standing, 0.5 s walked, 0.5 s standing, then the remaining 2.623 s.
+    assert answers[2][0] == pytest.approx(3.0 + MOVE_LENGTH - 1.5)
 
 
-def test_the_robot_refuses_to_suspend_a_rollback() -> None:
+def test_the_robot_suspends_a_rollback_nearer_the_start() -> None:
     back = Atom("rollback", (MOVE,))
     orders = [
         (0.0, Execute(action=MOVE, seq=1)),
         (1.0, Suspend(action=MOVE, seq=1)),
         (2.0, Execute(action=back, seq=2)),
-        (2.5, Suspend(action=MOVE, seq=2)),
+        (2.5, Suspend(action=MOVE, seq=2)),  # not what order 2 is doing: refused
         (2.6, Suspend(action=back, seq=2)),
+        (3.0, Execute(action=back, seq=3)),
     ]
     answers = anyio.run(robot_answers, orders, 4)
-    assert kinds(answers) == [("Suspended", 1), ("Refused", 2), ("Refused", 2), ("Success", 2)]
-    assert answers[3][0] == pytest.approx(3.0)  # the 1 s walked, walked back
+    assert kinds(answers) == [("Suspended", 1), ("Refused", 2), ("Suspended", 2), ("Success", 3)]
+    assert answers[2][0] == pytest.approx(2.6)
+    # 1 s walked out, 0.6 s walked back, so 0.4 s are left to walk back from 3.0.
+    assert answers[3][0] == pytest.approx(3.4)
 
 
 def test_the_robot_still_suspends_a_fresh_move() -> None:

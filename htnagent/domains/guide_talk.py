@@ -14,7 +14,8 @@ action takes (``robot.durations``; see ``scenarios/explain_question.yaml`` and
 
 - ``explain(E)`` — the action of explaining exhibit E, standing at its node.
   Suspendable: stopped half way it leaves ``explaining(E)``, and
-  ``resume(explain(E))`` says the rest (costed at half).  While that half is
+  ``resume(explain(E))`` says the rest (costed at half), standing at the exhibit
+  again — the robot walks back first if it was taken away.  While that half is
   kept, ``explain(E)`` cannot start again: a suspended explanation is never
   restarted; once the half is cleared (``explaining(E)`` only records that it
   can be resumed), it can.
@@ -59,8 +60,9 @@ def talk_domain(world: WorldMap) -> Domain:
         suspend=Suspension(
             add=("explaining(?e)",),
             cleared=("explaining(?e)",),
+            # The rest of an explanation is said at the exhibit, nowhere else.
             resume=Effect(
-                pre=("explaining(?e)",),
+                pre=("explaining(?e)", "at(?n)", "exhibit(?e,?n)"),
                 add=("explained(?e)",),
                 delete=("explaining(?e)",),
                 cost=EXPLAIN_COST / 2,
@@ -71,6 +73,14 @@ def talk_domain(world: WorldMap) -> Domain:
     d.operator("greet(?v)", add=["greeted(?v)"], cost=1.0)
     # "Already explained" lets a plan made from scratch after resume(explain(E)) end there.
     d.method("present(?e)", "already_explained", when=["explained(?e)"], do=[])
+    # An explanation stopped half way is finished where it was stopped: walk back to the
+    # exhibit (nothing to walk when the robot is still there), then say the rest.
+    d.method(
+        "present(?e)",
+        "finish_explaining",
+        when=["explaining(?e)", "exhibit(?e,?n)"],
+        do=["goto_node(?n)", "resume(explain(?e))"],
+    )
     d.method(
         "present(?e)",
         "walk_and_explain",

@@ -1,0 +1,12 @@
+"""Test oracles that ship with the library: run invariants and the differential harness.
+
+They are used by the test suite and by ``python -m bench`` alike, and are
+independent of the agents' own logic: they watch the trace and the simulated
+robot's physical state, and compare with shortest paths computed here.
+
+- :mod:`htnagent.testing.invariants` — what must hold in every run (every goal
+  ends once, beliefs match the robot, nothing starts against the world,
+  emergencies are served at once, a reached goal has the robot there);
+- :mod:`htnagent.testing.differential` — random scenarios run in both
+  replanning modes and compared.
+"""
