@@ -4,14 +4,11 @@ Each storm run builds a random scenario — a generated map, a guide and a
 navigator (or the navigator alone), normal goals, emergencies at random times
 (often arriving during other emergencies), doors shut and opened at random,
 moves that fail at random, and a per-action timeout — runs it to the end and
-checks, on every run:
-
-- every submitted goal ends exactly once, with success or failure;
-- whenever the navigator finishes an action, its belief about the robot matches
-  the simulated robot;
-- no action starts while its precondition is false in the simulated world;
-- every agent's stack is empty at the end;
-- no agent crashes, and no task is left running.
+checks, on every run, the invariants of
+:class:`~htnagent.testing.invariants.RunChecker` (every goal ends exactly once;
+beliefs match the robot; no action starts against the world; a reached goal
+has the robot there; emergencies are served at once; stacks end empty; no
+agent crashes) and that no task is left running.
 
 :func:`storm` runs one seeded storm and returns what it saw; the test suite
 runs a bounded number through hypothesis, the benchmark many more.
@@ -29,12 +26,10 @@ from typing import Any
 
 import anyio
 
-from htnagent.executors.robot import Robot
 from htnagent.maps import generate_map, map_to_yaml_data
-from htnagent.runtime import Runtime
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
-from htnagent.terms import Atom, parse
+from htnagent.testing.invariants import RunChecker
 from htnagent.trace import Event
 
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -109,71 +104,30 @@ def storm_data(seed: int) -> dict[str, Any]:
 
 
 async def storm(seed: int) -> StormResult:
-    """Run one storm and check the invariants."""
+    """Run one storm and check the invariants (:class:`~htnagent.testing.invariants.RunChecker`)."""
     data = storm_data(seed)
     scenario = parse_scenario(data, f"<storm {seed}>")
     result = StormResult(seed=seed)
     result.goals = len(data["goals"])
     result.emergencies = sum(1 for g in data["goals"] if g.get("emergency"))
     result.doors = len(data["events"])
-    holder: dict[str, Runtime] = {}
-    finished: dict[int, int] = {}
-    nav = "navigator"
-
-    def start(runtime: Runtime) -> None:
-        holder["rt"] = runtime
-
-    def robot_of(runtime: Runtime) -> Robot:
-        robot = runtime.executor
-        assert isinstance(robot, Robot)
-        return robot
+    checker = RunChecker()
 
     def observe(event: Event) -> None:
-        runtime = holder["rt"]
-        robot = robot_of(runtime)
-        kind = event["event"]
-        if kind == "goal_finished" and "ticket" in event:
-            finished[event["ticket"]] = finished.get(event["ticket"], 0) + 1
-        elif kind == "goal_suspended":
-            result.max_depth = max(result.max_depth, int(event["stack_depth"]))
-        elif kind == "action_finished" and event.get("reason", "").startswith("the move failed"):
+        if event["event"] == "action_finished" and event.get("reason", "").startswith("the move failed"):
             result.failures_injected += 1
-        elif kind == "agent_crashed":
-            result.violations.append(f"t={event['t']}: {event['agent']} crashed: {event['error']}")
-        if event["agent"] != nav:
-            return
-        if kind == "action_started":
-            problem = _world_refuses(robot, parse(event["action"]))
-            if problem:
-                result.violations.append(f"t={event['t']}: {event['action']} started but {problem}")
-        elif kind == "action_finished" and event["result"] != "suspended":
-            believed = sorted(
-                str(f) for f in runtime.agents[nav].belief.dynamic if f.name in ("at", "on_arc")
-            )
-            truth = _robot_facts(robot)
-            if believed != truth:
-                result.violations.append(f"t={event['t']}: navigator believes {believed}, robot is {truth}")
 
     before = _tasks()
-    report = await run_scenario(scenario, observers=[observe], on_start=start)
-    runtime = holder["rt"]
-    for ticket, outcome in runtime.outcomes.items():
-        count = finished.get(ticket, 0)
-        if outcome.status is None:
-            result.lost += 1
-            result.violations.append(f"goal {outcome.goal} (ticket {ticket}) never ended")
-        elif count > 1:
-            result.violations.append(f"goal {outcome.goal} (ticket {ticket}) ended {count} times")
+    report = await run_scenario(scenario, observers=[checker, observe], on_start=checker.attach)
+    result.violations += checker.finish()
+    result.max_depth = checker.max_depth
+    assert checker.runtime is not None
+    result.lost = sum(1 for o in checker.runtime.outcomes.values() if o.status is None)
     for row in report.summary["goals"]:
         if row["status"] == "success":
             result.succeeded += 1
         else:
             result.failed += 1
-    for name, agent in runtime.agents.items():
-        if agent.stack:
-            result.violations.append(
-                f"{name}'s stack is not empty at the end: {[str(e.goal) for e in agent.stack]}"
-            )
     left = _tasks() - before
     if left:
         result.violations.append(f"{len(left)} task(s) left running")
@@ -184,36 +138,6 @@ def _tasks() -> set[Any]:
     return {t for t in anyio.get_running_tasks() if t.name is not None} - {
         t for t in anyio.get_running_tasks() if t.id == anyio.get_current_task().id
     }
-
-
-def _robot_facts(robot: Robot) -> list[str]:
-    state = robot.state
-    if state.on_arc is not None:
-        arc, frm, to, _ = state.on_arc
-        return [f"on_arc({arc},{frm},{to})"]
-    return [f"at({state.at})"]
-
-
-def _world_refuses(robot: Robot, action: Atom) -> str | None:
-    """Why the simulated world would not let the action start, if it would not."""
-    state = robot.state
-    if action.name == "move":
-        frm, to, arc = (str(a) for a in action.args)
-        if state.on_arc is not None:
-            return f"the robot is on {state.on_arc[0]}"
-        if state.at != frm:
-            return f"the robot is at {state.at}"
-        if arc in state.closed:
-            return f"{arc} is closed"
-        return None
-    inner = action.args[0] if action.args else None
-    if action.name in ("resume", "rollback") and isinstance(inner, Atom):
-        frm, to, arc = (str(a) for a in inner.args)
-        if state.on_arc is None or state.on_arc[:3] != (arc, frm, to):
-            return f"the robot is not half way along {arc} from {frm} to {to}"
-        if action.name == "resume" and arc in state.closed:
-            return f"{arc} is closed"
-    return None
 
 
 def main(runs: int = 300) -> int:

@@ -95,6 +95,8 @@ class GoalEntry:
     """The parent asked to suspend this goal; it stops after the running action."""
     failures: dict[Atom, int] = field(default_factory=dict)
     """Failures in a row, per action."""
+    arrival: int = 0
+    """When the goal arrived, as a count: only a later emergency suspends it."""
 
 
 @dataclass
@@ -164,6 +166,7 @@ class Agent(ExecutorActor):
         self.current: GoalEntry | None = None
         self.running: _Running | None = None
         self._seq = itertools.count(1)
+        self._arrivals = itertools.count(1)
         self._shown: tuple[Atom, ...] | None = None
 
     # -- the loop ------------------------------------------------------------------------
@@ -216,7 +219,9 @@ class Agent(ExecutorActor):
                 reason = f"{self.name} cannot do {order.action}"
                 self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
                 return False
-            self._begin(GoalEntry(order.action, self._planset(order.action), order_seq=order.seq))
+            entry = GoalEntry(order.action, self._planset(order.action), order_seq=order.seq)
+            entry.arrival = next(self._arrivals)
+            self._begin(entry)
             return True
         held = self._held(order.action)
         if isinstance(order, Resume):
@@ -252,7 +257,9 @@ class Agent(ExecutorActor):
             # an emergency or a suspension came with the last result.
             self._end(entry, GoalStatus.SUCCESS)
             return
-        if self.emergencies or entry.stop_requested:
+        if entry.stop_requested or any(e.arrival > entry.arrival for e in self.emergencies):
+            # Algorithm 3: an emergency that arrived after this goal suspends it (one that
+            # arrived with it, in the same instant, waits until it has ended).
             self._suspend_current(entry)
             return
         if not ps.ensure(self.belief):
@@ -467,6 +474,7 @@ class Agent(ExecutorActor):
 
     def _submitted(self, message: Submit) -> None:
         entry = GoalEntry(message.goal, self._planset(message.goal), message.emergency, message.ticket)
+        entry.arrival = next(self._arrivals)
         self.trace.emit(
             self.name,
             "goal_received",

@@ -9,7 +9,8 @@ real second); either way only the time keeper moves ``now``, so results do not
 depend on the pace.
 
 Timers are messages too: :meth:`Clock.call_at` delivers a message into a
-mailbox at a simulated time.
+mailbox at a simulated time; all the timers due at one instant are delivered
+together.
 """
 
 from __future__ import annotations
@@ -145,7 +146,15 @@ class Clock:
             if nxt.cancelled:
                 continue
             self._now = max(self._now, nxt.when)
-            nxt.deliver()
+            # Everything due at this instant is delivered together, before anyone acts on
+            # any of it: two emergencies of one instant are seen together (§4).
+            batch = [nxt]
+            while self._timers and self._timers[0].when <= nxt.when:
+                later = heapq.heappop(self._timers)
+                if not later.cancelled:
+                    batch.append(later)
+            for timer in batch:
+                timer.deliver()
 
 
 class Mailbox(Generic[T]):
