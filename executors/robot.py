@@ -93,6 +93,10 @@ class RobotWorld:
     on_arc: tuple[str, str, str, float] | None = None  # (arc, from, to, fraction from 'from')
     closed: set[str] = field(default_factory=set)
     visited: list[str] = field(default_factory=list)
+    """The nodes reached, in order — kept only with ``keep_path`` (a run's summary asks
+    for it); a long-lived robot keeps just the count, :attr:`arrivals`."""
+    keep_path: bool = False
+    arrivals: int = 0
     distance: float = 0.0
 
     def where(self) -> dict[str, str]:
@@ -133,7 +137,7 @@ class Robot(ExecutorActor):
         self.durations = dict(durations or {})
         self.activity: Activity | None = None
         self.kept: dict[Atom, float] = {}  # suspended activities: the fraction already done
-        if world.at is not None and not world.visited:
+        if world.keep_path and world.at is not None and not world.visited:
             world.visited.append(world.at)
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
@@ -325,7 +329,9 @@ class Robot(ExecutorActor):
         node = motion.to if motion.end >= 1.0 else motion.frm
         self.state.on_arc = None
         self.state.at = node
-        self.state.visited.append(node)
+        self.state.arrivals += 1
+        if self.state.keep_path:
+            self.state.visited.append(node)
         self.reply(Success(action=motion.order.action, seq=motion.order.seq))
 
     def _fail(self, order: Execute | Resume, reason: str) -> None:

@@ -58,7 +58,7 @@ from htnagent.messages import (
     Timeout,
 )
 from htnagent.planner import PlannerSettings
-from htnagent.planset import PlanningStats, PlanSet, Replanning
+from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
 from htnagent.terms import Atom
 from htnagent.trace import Trace
 
@@ -127,6 +127,14 @@ class AgentConfig:
     """How often in a row the same action may fail before the goal fails."""
     max_depth: int = 10_000
     """How many goals the stack may hold; an emergency beyond that fails at once."""
+    maintained_depth: int = 32
+    """How many of the stack's top goals keep their plans valid after every event.
+
+    Keeping a stacked goal's plans valid costs work at every action (§2); a storm of
+    emergencies nested hundreds deep would make each action cost as much as the
+    stack is deep.  Goals deeper than this let their plans go and are planned afresh
+    if they come back to the top (as in naive replanning).  No real use nests so deep.
+    """
 
 
 class Agent(ExecutorActor):
@@ -277,23 +285,27 @@ class Agent(ExecutorActor):
             )
         action = best.steps[0].action
         self._shown = best.actions[1:]
-        result = await self._act(action)
-        if isinstance(result, Failure):
-            self._shown = None
-            failures = entry.failures[action] = entry.failures.get(action, 0) + 1
-            if failures >= self.config.max_failures:
-                # The same action keeps failing although the belief says it can run.
-                times = "once" if failures == 1 else f"{failures} times"
-                self._end(entry, GoalStatus.FAILURE, f"{action} failed {times}: {result.reason}")
-        else:
+        result, asked = await self._act(action)
+        if isinstance(result, Success) or (isinstance(result, Suspended) and asked):
             entry.failures.pop(action, None)
+            return
+        # A failure, or an executor that stopped the action without being asked (its
+        # belief follows, but the action did not get done): count it, so that an
+        # executor that keeps doing so ends the goal instead of looping.
+        self._shown = None
+        why = result.reason if isinstance(result, Failure) else "the executor stopped it unasked"
+        failures = entry.failures[action] = entry.failures.get(action, 0) + 1
+        if failures >= self.config.max_failures:
+            # The same action keeps failing although the belief says it can run.
+            times = "once" if failures == 1 else f"{failures} times"
+            self._end(entry, GoalStatus.FAILURE, f"{action} failed {times}: {why}")
 
     def _suspend_current(self, entry: GoalEntry) -> None:
         """Algorithm 3 / 5: push the running goal with its plans and suspended action."""
         held = entry.stop_requested
         entry.stop_requested = False
         entry.held = held
-        self.stack.append(entry)
+        self._push(entry)
         self.current = None
         self.trace.emit(self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack))
         if held:
@@ -342,12 +354,14 @@ class Agent(ExecutorActor):
         """The half-done ``action`` will not be resumed: update the belief and all plans."""
         before = self.belief
         self.belief = self.domain.clear(before, action)
+        memo = SearchMemo()
         for ps in self._plansets():
-            ps.suspension_cleared(action, before, self.belief)
+            ps.suspension_cleared(action, before, self.belief, memo)
 
     # -- acting -----------------------------------------------------------------------------
 
-    async def _act(self, action: Atom) -> Success | Failure | Suspended:
+    async def _act(self, action: Atom) -> tuple[Success | Failure | Suspended, bool]:
+        """Carry out the action; its result, and whether a suspension of it was asked for."""
         seq = next(self._seq)
         inner = half_done(action) if action.name == "resume" else None
         ordered = inner if inner is not None else action
@@ -376,7 +390,7 @@ class Agent(ExecutorActor):
             result=result.kind,
             **({"reason": result.reason} if isinstance(result, Failure) else {}),
         )
-        return result
+        return result, running.suspend_sent
 
     async def _await_result(self, running: _Running) -> Success | Failure | Suspended:
         while True:
@@ -403,11 +417,12 @@ class Agent(ExecutorActor):
         before = self.belief
         sets = self._plansets()
         inner = half_done(action)
+        memo = SearchMemo()  # the stacked goals often repeat: their searches are shared
         if isinstance(result, Success):
             after = self.domain.progress(before, action)
             self.belief = after
             for ps in sets:
-                ps.action_succeeded(action, before, after)
+                ps.action_succeeded(action, before, after, memo)
             if inner is not None:
                 # The half-done action was finished or undone: nothing is left to clear.
                 holder = self._holder(inner)
@@ -424,12 +439,12 @@ class Agent(ExecutorActor):
             after = self.domain.suspend(before, action)
             self.belief = after
             for ps in sets:
-                ps.action_suspended(action, before, after)
+                ps.action_suspended(action, before, after, memo)
             if self.current is not None:
                 self.current.suspended.append(action)
         else:
             for ps in sets:
-                ps.action_failed(action, before, before)
+                ps.action_failed(action, before, before, memo)
             if action.name == "resume" and inner is not None:
                 # The executor could not finish A: what was kept for it is no use, and the
                 # same resume must not be planned again from the same belief (§5).
@@ -453,8 +468,18 @@ class Agent(ExecutorActor):
             entries.append(self.current)
         return entries
 
+    def _push(self, entry: GoalEntry) -> None:
+        self.stack.append(entry)
+        sunk = len(self.stack) - 1 - self.config.maintained_depth
+        if sunk >= 0:
+            # Too deep to keep up (see AgentConfig.maintained_depth): planned afresh if it
+            # comes back to the top.
+            self.stack[sunk].plans.drop()
+
     def _plansets(self) -> list[PlanSet]:
-        return [e.plans for e in self._entries()]
+        """The plan sets kept valid: the running goal's and the top stacked goals' (§2)."""
+        deep = max(len(self.stack) - self.config.maintained_depth, 0)
+        return [e.plans for e in self._entries()[deep:]]
 
     # -- messages -------------------------------------------------------------------------------
 
@@ -468,8 +493,9 @@ class Agent(ExecutorActor):
         elif isinstance(message, BeliefUpdate):
             before = self.belief
             self.belief = before.updated(message.add, message.delete)
+            memo = SearchMemo()
             for ps in self._plansets():
-                ps.belief_changed(before, self.belief)
+                ps.belief_changed(before, self.belief, memo)
         # Anything else is a late answer to an abandoned order: ignored.
 
     def _submitted(self, message: Submit) -> None:
@@ -519,7 +545,7 @@ class Agent(ExecutorActor):
                     order.action, self._planset(order.action), order_seq=order.seq, held=True
                 )
                 self.trace.emit(self.name, "goal_received", goal=str(order.action), emergency=False)
-                self.stack.append(entry)
+                self._push(entry)
                 self.trace.emit(
                     self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack)
                 )

@@ -19,12 +19,13 @@ import heapq
 import itertools
 import math
 import time
+from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
 import anyio
-from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
+import anyio.lowlevel
 
 T = TypeVar("T")
 
@@ -84,8 +85,12 @@ class Clock:
         return self.call_at(self._now + max(delay, 0.0), deliver)
 
     def on_idle(self, callback: Callable[[], None]) -> None:
-        """Call ``callback`` whenever the runtime is idle with no timer left."""
+        """Call ``callback`` whenever the runtime is idle with no timer left.
+
+        Also when it is idle already: the time keeper looks again at once.
+        """
         self._idle_callbacks.append(callback)
+        self._poke()
 
     # -- work accounting ------------------------------------------------------------
 
@@ -162,15 +167,14 @@ class Mailbox(Generic[T]):
 
     A message counts from :meth:`send` until its receiver asks for the next
     one (or calls :meth:`settle`), so the clock never advances while a message
-    is being handled.
+    is being handled.  One task receives; any code of the runtime may send.
     """
 
     def __init__(self, clock: Clock, name: str) -> None:
         self.clock = clock
         self.name = name
-        send, receive = anyio.create_memory_object_stream[T](math.inf)
-        self._send: MemoryObjectSendStream[T] = send
-        self._receive: MemoryObjectReceiveStream[T] = receive
+        self._queue: deque[T] = deque()
+        self._wakeup: anyio.Event | None = None
         self._held = 0
         self.closed = False
 
@@ -179,18 +183,24 @@ class Mailbox(Generic[T]):
         if self.closed:
             return
         self.clock.add_work()
-        try:
-            self._send.send_nowait(message)
-        except (anyio.ClosedResourceError, anyio.BrokenResourceError):
-            self.clock.done_work()
-            self.closed = True
+        self._queue.append(message)
+        if self._wakeup is not None:
+            self._wakeup.set()
 
     async def receive(self) -> T:
-        """The next message; what was received before counts as handled."""
+        """The next message; what was received before counts as handled.
+
+        Raises ``anyio.EndOfStream`` once the mailbox is closed.
+        """
         self.settle()
-        message = await self._receive.receive()
+        await anyio.lowlevel.checkpoint()
+        while not self._queue:
+            if self.closed:
+                raise anyio.EndOfStream
+            self._wakeup = anyio.Event()
+            await self._wakeup.wait()
         self._held += 1
-        return message
+        return self._queue.popleft()
 
     def receive_nowait(self) -> T | None:
         """The next message if one is waiting, else None (never blocks).
@@ -198,14 +208,10 @@ class Mailbox(Generic[T]):
         What is received counts as held, like :meth:`receive`'s, until the
         receiver next blocks.
         """
-        if self.closed:
-            return None
-        try:
-            message = self._receive.receive_nowait()
-        except (anyio.WouldBlock, anyio.EndOfStream, anyio.ClosedResourceError):
+        if not self._queue:
             return None
         self._held += 1
-        return message
+        return self._queue.popleft()
 
     def settle(self) -> None:
         """The receiver has finished with what it holds (it will block next)."""
@@ -219,14 +225,9 @@ class Mailbox(Generic[T]):
             return
         self.closed = True
         self.settle()
-        dropped = 0
-        while True:
-            try:
-                self._receive.receive_nowait()
-            except (anyio.WouldBlock, anyio.EndOfStream, anyio.ClosedResourceError):
-                break
-            dropped += 1
+        dropped = len(self._queue)
+        self._queue.clear()
         if dropped:
             self.clock.done_work(dropped)
-        self._send.close()
-        self._receive.close()
+        if self._wakeup is not None:
+            self._wakeup.set()

@@ -7,7 +7,8 @@
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
     ├── PlanningError        a task names something the domain cannot do
-    └── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
+    ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
+    └── RuntimeClosedError   a goal is given to a runtime that is not running
 
 Planning that finds no plan is a result (:class:`htnagent.planner.PlanStatus`),
 not an exception; exceptions are for misuse and invalid input.  Faults while
@@ -51,3 +52,7 @@ class PlanningError(HtnAgentError):
 
 class PlotError(HtnAgentError):
     """Raised when the picture of a run cannot be drawn (no matplotlib, unwritable file)."""
+
+
+class RuntimeClosedError(HtnAgentError):
+    """Raised when a goal is submitted to a runtime that is not running (not entered, or closed)."""

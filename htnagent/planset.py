@@ -201,7 +201,9 @@ class PlanSet:
 
     # -- events ---------------------------------------------------------------
 
-    def action_succeeded(self, action: Atom, before: State, after: State) -> None:
+    def action_succeeded(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         with self._timed():
             undo = self.domain.undo_of(action)
@@ -239,7 +241,7 @@ class PlanSet:
                     r.plan = Plan(steps[1:])
                 elif undo is not None:
                     r.plan = Plan(self._behind(undo, steps))
-            self._revise(before, after)
+            self._revise(before, after, memo=memo)
 
     def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
         """The steps behind the undo of an action another goal made (§2.1), tidied.
@@ -256,7 +258,9 @@ class PlanSet:
         )
         return tidy(self.domain, (Step(undo, self.domain.cost(undo), None), *rest), front=True)
 
-    def action_failed(self, action: Atom, before: State, after: State) -> None:
+    def action_failed(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
         """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
         with self._timed():
             if self.mode is Replanning.NAIVE:
@@ -266,9 +270,11 @@ class PlanSet:
             # §2.2 takes a kept alternative at once; but one that still means to do the
             # failed action later is no better than planning afresh (§2.4).
             broke = bool(self.plans) and action in self.plans[0].actions
-            self._revise(before, after, best_broke=broke)
+            self._revise(before, after, best_broke=broke, memo=memo)
 
-    def action_suspended(self, action: Atom, before: State, after: State) -> None:
+    def action_suspended(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
         """The running action was stopped half way (§3, Algorithm 1, steps 2–3).
 
         ``after`` is the belief with the suspension effect (step 1, done by the caller).
@@ -297,9 +303,11 @@ class PlanSet:
                 q = suspended(r.plan)
                 r.plan = q if q is not None else r.plan
             # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
-            self._revise(before, after)
+            self._revise(before, after, memo=memo)
 
-    def suspension_cleared(self, action: Atom, before: State, after: State) -> None:
+    def suspension_cleared(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
         """The half-done ``action`` will never be resumed; its half-done facts are gone.
 
         A kept plan that still meant to ``resume(action)`` does the whole action
@@ -320,9 +328,9 @@ class PlanSet:
                 self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
                 self._checked = after
                 return
-            self._revise(before, after)
+            self._revise(before, after, memo=memo)
 
-    def belief_changed(self, before: State, after: State) -> None:
+    def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
         """The world changed from outside (§2.3): every plan is re-checked."""
         with self._timed():
             if self.mode is Replanning.NAIVE:
@@ -330,7 +338,7 @@ class PlanSet:
                     self.plans = []
                 self._checked = after
                 return
-            self._revise(before, after)
+            self._revise(before, after, memo=memo)
 
     def shorten_detours(self, state: State) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
@@ -380,7 +388,9 @@ class PlanSet:
 
     # -- the machinery --------------------------------------------------------
 
-    def _revise(self, before: State, after: State, *, best_broke: bool = False) -> None:
+    def _revise(
+        self, before: State, after: State, *, best_broke: bool = False, memo: SearchMemo | None = None
+    ) -> None:
         """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first.
 
         When the best plan breaks, whatever takes its place must be as good as a
@@ -396,7 +406,7 @@ class PlanSet:
         candidates = self._revivable(before, after)
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
-        cache = _Scratch(min(self.settings.budget, _LOCAL_BUDGET))
+        cache = _Scratch(min(self.settings.budget, _LOCAL_BUDGET), memo)
         kept = len(self.plans)
         trusted, self._trusted = self._trusted, set()
         for n, p in enumerate([*self.plans, *candidates]):
@@ -601,13 +611,29 @@ _LOCAL_BUDGET = 2_000
 
 
 @dataclass
-class _Scratch:
-    """What the searches of one update share: their results, what proved impossible,
-    and the expansions left for repairs below the goal."""
+class SearchMemo:
+    """Searches made during one update of an agent's plan sets, shared between them.
 
-    local_left: int
+    The goals on a stack often repeat, and all of them are updated from the same
+    belief: a search one plan set made (a goal from a state, or a task list found
+    impossible) answers for the others.  Make one per update; never keep it.
+    """
+
     results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
     impossible: set[tuple[object, ...]] = field(default_factory=set)
+
+
+class _Scratch:
+    """What the searches of one plan set's update share, and the expansions left for
+    repairs below the goal."""
+
+    __slots__ = ("impossible", "local_left", "results")
+
+    def __init__(self, local_left: int, memo: SearchMemo | None = None) -> None:
+        memo = memo if memo is not None else SearchMemo()
+        self.local_left = local_left
+        self.results = memo.results
+        self.impossible = memo.impossible
 
 
 def _belief_key(state: State) -> tuple[object, ...]:

@@ -21,7 +21,7 @@ Works under asyncio and trio (anyio).
 from __future__ import annotations
 
 import itertools
-import math
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
@@ -29,16 +29,19 @@ from typing import Any
 
 import anyio
 from anyio.abc import TaskGroup, TaskStatus
-from anyio.streams.memory import MemoryObjectReceiveStream, MemoryObjectSendStream
 
 from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
+from htnagent.errors import RuntimeClosedError
 from htnagent.executor import AdapterActor, Executor, ExecutorActor
-from htnagent.messages import Clear, Execute, Failure, Resume, Suspend
+from htnagent.messages import Clear, Execute, Failure, Resume, Submit, Suspend
 from htnagent.terms import Atom
-from htnagent.trace import Event, Observer, Trace
+from htnagent.trace import EventStream, Observer, Trace
 
 ExecutorFactory = Callable[[Clock, Trace], ExecutorActor]
+
+CLOSED = "runtime closed"
+"""The reason of every goal still open when the runtime is left."""
 
 
 @dataclass
@@ -79,7 +82,10 @@ class Runtime:
         executor: ExecutorFactory | Executor,
         *,
         speed: float | None = None,
+        keep_outcomes: int | None = 10_000,
     ) -> None:
+        """``keep_outcomes`` bounds how many ended goals' outcomes are kept (the oldest go
+        first; None keeps all): a runtime that lives long must not grow without bound."""
         if not agents:
             raise ValueError("a runtime needs at least one agent")
         if isinstance(executor, Executor) and speed is None:
@@ -108,16 +114,23 @@ class Runtime:
             self._parents[below_name] = self.agents[name]
         self._tickets = itertools.count(1)
         self.outcomes: dict[int, GoalOutcome] = {}
+        """Every goal given, by ticket: open ones, and the latest ``keep_outcomes`` ended ones."""
+        self.keep_outcomes = keep_outcomes
+        self._ended: deque[int] = deque()
         self._resolved: dict[int, anyio.Event] = {}
         self._tg: TaskGroup | None = None
-        self._streams: list[MemoryObjectSendStream[Event]] = []
+        self._state = "new"
+        self._streams: list[EventStream] = []
 
     # -- lifetime -------------------------------------------------------------------
 
     async def __aenter__(self) -> Runtime:
+        if self._state != "new":
+            raise RuntimeClosedError("a runtime can be entered once")
         tg = anyio.create_task_group()
         await tg.__aenter__()
         self._tg = tg
+        self._state = "running"
         try:
             tg.start_soon(self.clock.keep_time)
             await tg.start(self._guard, self.executor)
@@ -127,6 +140,8 @@ class Runtime:
             tg.cancel_scope.cancel()
             try:
                 await tg.__aexit__(None, None, None)
+            except BaseExceptionGroup as group:
+                raise _unwrapped(group) from None
             finally:
                 self._tg = None
                 self._close()
@@ -145,16 +160,22 @@ class Runtime:
                 await self._tg.__aexit__(None, None, None)
                 return None
             return await self._tg.__aexit__(exc_type, exc, tb)
+        except BaseExceptionGroup as group:
+            # KeyboardInterrupt or SystemExit from user code reaches the caller as itself.
+            raise _unwrapped(group) from None
         finally:
             self._tg = None
             self._close()
 
     def _close(self) -> None:
+        self._state = "closed"
         for actor in [*self.agents.values(), self.executor]:
             actor.inbox.close()
+        # Nothing will end the goals still open: they fail, and whoever waits is woken.
+        self.fail_unfinished(CLOSED)
         # No more events: every events() stream ends.
-        for send in self._streams:
-            send.close()
+        for stream in self._streams:
+            stream.close()
         self._streams.clear()
 
     async def _guard(
@@ -191,15 +212,21 @@ class Runtime:
                 actor.reply(Failure(action=message.action, seq=message.seq, reason=reason))
             elif isinstance(message, Clear):
                 continue
-            elif hasattr(message, "ticket"):
+            elif isinstance(message, Submit):
                 self._resolve(message.ticket, GoalStatus.FAILURE, reason)
 
     # -- goals ----------------------------------------------------------------------------
 
     def submit(self, agent: str, goal: Atom, *, emergency: bool = False) -> int:
-        """Give a goal to an agent now; returns its ticket."""
+        """Give a goal to an agent now; returns its ticket.
+
+        Raises :class:`~htnagent.errors.RuntimeClosedError` outside ``async with``.
+        """
         if agent not in self.agents:
             raise KeyError(f"no agent named {agent!r}; agents: {', '.join(self.agents)}")
+        if self._state != "running":
+            when = "has not been entered" if self._state == "new" else "is closed"
+            raise RuntimeClosedError(f"cannot give {goal} to {agent}: the runtime {when} (use async with)")
         ticket = next(self._tickets)
         self.outcomes[ticket] = GoalOutcome(ticket, agent, goal, emergency)
         self._resolved[ticket] = anyio.Event()
@@ -207,9 +234,13 @@ class Runtime:
         return ticket
 
     async def outcome(self, ticket: int) -> GoalOutcome:
-        """Wait until the goal has ended."""
-        await self._resolved[ticket].wait()
-        return self.outcomes[ticket]
+        """Wait until the goal has ended (at once if it has)."""
+        outcome = self.outcomes.get(ticket)
+        if outcome is None:
+            raise KeyError(f"no goal with ticket {ticket} (never given, or ended long ago)")
+        if not outcome.done:
+            await self._resolved[ticket].wait()
+        return outcome
 
     async def achieve(self, agent: str, goal: Atom, *, emergency: bool = False) -> GoalOutcome:
         """Submit a goal and wait for its outcome."""
@@ -221,11 +252,15 @@ class Runtime:
             return
         outcome.status = status
         outcome.reason = reason
-        self._resolved[ticket].set()
+        self._resolved.pop(ticket).set()
+        self._ended.append(ticket)
+        if self.keep_outcomes is not None:
+            while len(self._ended) > self.keep_outcomes:
+                self.outcomes.pop(self._ended.popleft(), None)
 
     def fail_unfinished(self, reason: str) -> None:
         """End every goal that has not ended, as a failure (the run is over)."""
-        for ticket, outcome in self.outcomes.items():
+        for ticket, outcome in list(self.outcomes.items()):
             if not outcome.done:
                 self._resolve(ticket, GoalStatus.FAILURE, reason)
 
@@ -235,17 +270,28 @@ class Runtime:
         """Call ``observer`` with every trace event; returns the unsubscribe function."""
         return self.trace.subscribe(observer)
 
-    def events(self) -> MemoryObjectReceiveStream[Event]:
-        """A stream of every trace event from now on; it ends when the runtime closes (close it to stop)."""
-        send, receive = anyio.create_memory_object_stream[Event](math.inf)
-        self._streams.append(send)
+    def events(self, limit: int = 10_000) -> EventStream:
+        """A stream of every trace event from now on; it ends when the runtime closes.
 
-        def forward(event: Event) -> None:
-            try:
-                send.send_nowait(event)
-            except (anyio.ClosedResourceError, anyio.BrokenResourceError):
-                unsubscribe()
-                send.close()
+        A reader that falls ``limit`` events behind loses the oldest ones and is told
+        so by an ``events_dropped`` event (see :class:`~htnagent.trace.EventStream`);
+        close it (``aclose``) to stop reading.
+        """
+        stream = EventStream(self.trace, limit)
+        if self._state == "closed":
+            stream.close()
+        else:
+            self._streams.append(stream)
+        return stream
 
-        unsubscribe = self.trace.subscribe(forward)
-        return receive
+
+def _unwrapped(group: BaseExceptionGroup[BaseException]) -> BaseException:
+    """The KeyboardInterrupt or SystemExit inside a task group's exception group, else the group."""
+    for kind in (KeyboardInterrupt, SystemExit):
+        match, _ = group.split(kind)
+        if match is not None:
+            first = match.exceptions[0]
+            while isinstance(first, BaseExceptionGroup):
+                first = first.exceptions[0]
+            return first
+    return group

@@ -52,7 +52,7 @@ def build_runtime(
 ) -> tuple[Runtime, RobotWorld]:
     """The scenario's agents over a simulated robot, ready to enter."""
     mode = Replanning(replanning or scenario.replanning)
-    world = RobotWorld(scenario.world, at=scenario.robot.start)
+    world = RobotWorld(scenario.world, at=scenario.robot.start, keep_path=True)
     configs = [
         AgentConfig(
             name=spec.name,
@@ -77,7 +77,8 @@ def build_runtime(
             scenario.robot.durations,
         )
 
-    return Runtime(configs, robot, speed=speed), world
+    # The summary names every goal's outcome: keep them all (a scenario lists its goals).
+    return Runtime(configs, robot, speed=speed, keep_outcomes=None), world
 
 
 async def run_scenario(
