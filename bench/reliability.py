@@ -26,13 +26,18 @@ from typing import Any
 
 import anyio
 
-from htnagent.maps import generate_map, map_to_yaml_data
+from htnagent.domain import Estimate, State
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.simulation import build_runtime, run_scenario
+from htnagent.terms import Atom
 from htnagent.testing.invariants import RunChecker
+from htnagent.testing.storms import nested_storm_data, storm_data
 from htnagent.trace import Event
 
 RESULTS = Path(__file__).resolve().parent / "results"
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+HANG = 60.0
+"""Real seconds after which a run counts as hung."""
 
 
 @dataclass
@@ -49,58 +54,6 @@ class StormResult:
     lost: int = 0
     max_depth: int = 0
     violations: list[str] = field(default_factory=list)
-
-
-def storm_data(seed: int) -> dict[str, Any]:
-    """A random scenario (as parsed YAML) for ``seed``."""
-    rng = random.Random(seed)
-    world = generate_map(rng.randint(1, 3), rng.randint(1, 3), rng.randint(2, 3), seed)
-    nodes = sorted(world.nodes)
-    arcs = sorted(world.arcs)
-    two_levels = rng.random() < 0.7
-    agents = (
-        [
-            {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
-            {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
-        ]
-        if two_levels
-        else [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
-    )
-    top = agents[0]["name"]
-    task = "goto" if two_levels else "goto_node"
-    goals: list[dict[str, Any]] = [
-        {"agent": top, "task": f"{task}({rng.choice(nodes)})"} for _ in range(rng.randint(1, 3))
-    ]
-    for _ in range(rng.randint(0, 4)):
-        goals.append(
-            {
-                "agent": top,
-                "task": f"{task}({rng.choice(nodes)})",
-                "emergency": True,
-                "when": {"time": round(rng.uniform(0.0, 40.0), 2)},
-            }
-        )
-    events: list[dict[str, Any]] = []
-    for _ in range(rng.randint(0, 4)):
-        arc = rng.choice(arcs)
-        shut = round(rng.uniform(0.0, 60.0), 2)
-        events.append({"when": {"time": shut}, "close": arc})
-        if rng.random() < 0.7:
-            events.append({"when": {"time": round(shut + rng.uniform(1.0, 30.0), 2)}, "open": arc})
-    return {
-        "name": f"storm {seed}",
-        "map": map_to_yaml_data(world),
-        "robot": {
-            "start": rng.choice(nodes),
-            "speed": 1.0,
-            "failure_rate": rng.choice([0.0, 0.0, 0.05, 0.15]),
-            "seed": seed,
-        },
-        "agents": agents,
-        "action_timeout": 200.0,
-        "goals": goals,
-        "events": events,
-    }
 
 
 async def storm(seed: int) -> StormResult:
@@ -140,9 +93,143 @@ def _tasks() -> set[Any]:
     }
 
 
+async def crash_run(seed: int) -> tuple[int, int, bool, list[str]]:
+    """A storm in which one agent's domain raises part way (a bug).
+
+    Returns the goals given, the goals lost, whether an agent crashed, and the violations.
+    """
+    rng = random.Random(seed)
+    data = storm_data(seed)
+    data["robot"]["failure_rate"] = 0.0
+    scenario = parse_scenario(data, f"<crash {seed}>")
+    victim = rng.choice(scenario.agent_names)
+    domain = scenario.domain_for(victim)
+    calls = [0]
+    fuse = rng.randint(1, 400)
+    for name, estimate in list(domain.estimates.items()):
+
+        def exploding(task: Atom, state: State, estimate: Estimate = estimate) -> float:
+            calls[0] += 1
+            if calls[0] == fuse:
+                raise RuntimeError(f"injected bug after {fuse} estimates")
+            return estimate(task, state)
+
+        domain.estimates[name] = exploding
+    checker = RunChecker()
+    with anyio.fail_after(HANG):
+        await run_scenario(scenario, observers=[checker], on_start=checker.attach)
+    checker.finish()
+    assert checker.runtime is not None
+    lost = sum(1 for o in checker.runtime.outcomes.values() if o.status is None)
+    # A crash is the fault injected here, not a violation; everything else still must hold.
+    crashed = [v for v in checker.violations if "crashed" in v]
+    violations = [v for v in checker.violations if "crashed" not in v]
+    return len(data["goals"]), lost, bool(crashed), violations
+
+
+async def close_run(seed: int) -> tuple[int, int, int]:
+    """Goals given, then the runtime left at a random moment: (goals, lost, woken waiters)."""
+    rng = random.Random(seed)
+    data = storm_data(seed)
+    scenario = parse_scenario(data, f"<close {seed}>")
+    runtime, _ = build_runtime(scenario)
+    top = scenario.agent_names[0]
+    tickets: list[int] = []
+    woken = [0]
+
+    async def wait(ticket: int) -> None:
+        await runtime.outcome(ticket)
+        woken[0] += 1
+
+    with anyio.fail_after(HANG):
+        async with anyio.create_task_group() as waiters, runtime:
+            for goal in scenario.goals:
+                ticket = runtime.submit(top, goal.task, emergency=goal.emergency)
+                tickets.append(ticket)
+                waiters.start_soon(wait, ticket)
+            leave = anyio.Event()
+            runtime.clock.call_at(rng.uniform(0.0, 30.0), leave.set)
+            await leave.wait()
+    lost = sum(1 for t in tickets if not runtime.outcomes[t].done)
+    return len(tickets), lost, woken[0]
+
+
+async def nested_run(count: int, mode: str) -> dict[str, Any]:
+    """``count`` emergencies nesting: depth reached, goals lost, seconds taken."""
+    scenario = parse_scenario(nested_storm_data(count), "<nested>", SCENARIOS)
+    checker = RunChecker()
+    started = time.perf_counter()
+    with anyio.fail_after(HANG * 10):
+        report = await run_scenario(scenario, replanning=mode, observers=[checker], on_start=checker.attach)
+    checker.finish()
+    assert checker.runtime is not None
+    statuses = [g["status"] for g in report.summary["goals"]]
+    return {
+        "emergencies": count,
+        "mode": mode,
+        "max_depth": checker.max_depth,
+        "goals": len(statuses),
+        "succeeded": statuses.count("success"),
+        "lost": sum(1 for o in checker.runtime.outcomes.values() if o.status is None),
+        "violations": len(checker.violations),
+        "seconds": round(time.perf_counter() - started, 1),
+    }
+
+
 def main(runs: int = 300) -> int:
-    """Run ``runs`` storms; print and write the figures."""
-    totals: dict[str, int] = {
+    """Run ``runs`` storms, crashes and closes, and the 1,000-deep storm; print and write the figures."""
+    totals = _storms(runs)
+    bad: list[str] = totals.pop("examples")  # type: ignore[assignment]
+    started = time.perf_counter()
+    crashes = {"runs": 0, "crashed": 0, "goals": 0, "lost": 0, "hangs": 0, "violations": 0}
+    closes = {"runs": 0, "goals": 0, "lost": 0, "waiters_woken": 0, "hangs": 0}
+    for seed in range(runs):
+        crashes["runs"] += 1
+        closes["runs"] += 1
+        try:
+            goals, lost, crashed, violations = anyio.run(crash_run, seed)
+            crashes["crashed"] += crashed
+            crashes["goals"] += goals
+            crashes["lost"] += lost
+            crashes["violations"] += len(violations)
+            bad += [f"crash {seed}: {v}" for v in violations]
+        except TimeoutError:
+            crashes["hangs"] += 1
+            bad.append(f"crash {seed}: hung")
+        try:
+            goals, lost, woken = anyio.run(close_run, seed)
+            closes["goals"] += goals
+            closes["lost"] += lost
+            closes["waiters_woken"] += woken
+        except TimeoutError:
+            closes["hangs"] += 1
+            bad.append(f"close {seed}: hung")
+        if (seed + 1) % 100 == 0:
+            elapsed = time.perf_counter() - started
+            print(f"{seed + 1}/{runs} crash and close runs, {elapsed:.0f} s", file=sys.stderr, flush=True)
+    if crashes["lost"] or closes["lost"] or closes["waiters_woken"] != closes["goals"]:
+        bad.append("goals lost in crash or close runs")
+    nested = []
+    for mode in ("online", "naive"):
+        print(f"1,000 nested emergencies, {mode} ...", file=sys.stderr, flush=True)
+        row = anyio.run(nested_run, 1000, mode)
+        nested.append(row)
+        if row["lost"] or row["violations"] or row["succeeded"] != row["goals"]:
+            bad.append(f"nested storm ({mode}): {row}")
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    result = {"storms": totals, "crashes": crashes, "closes": closes, "nested": nested, "examples": bad[:20]}
+    (RESULTS / "reliability.json").write_text(json.dumps(result, indent=2) + "\n")
+    for name, figures in (("storms", totals), ("crashes", crashes), ("closes", closes)):
+        print(f"{name}: " + ", ".join(f"{k} {v}" for k, v in figures.items()))
+    for row in nested:
+        print("nested: " + ", ".join(f"{k} {v}" for k, v in row.items()))
+    for line in bad[:20]:
+        print("  " + line)
+    return 1 if bad else 0
+
+
+def _storms(runs: int) -> dict[str, Any]:
+    totals: dict[str, Any] = {
         "runs": 0,
         "goals": 0,
         "emergencies": 0,
@@ -169,16 +256,8 @@ def main(runs: int = 300) -> int:
         totals["max_stack_depth"] = max(totals["max_stack_depth"], r.max_depth)
         totals["violations"] += len(r.violations)
         bad += [f"seed {seed}: {v}" for v in r.violations]
-        if (seed + 1) % 50 == 0:
-            print(
-                f"{seed + 1}/{runs} storms, {time.perf_counter() - started:.0f} s",
-                file=sys.stderr,
-                flush=True,
-            )
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "reliability.json").write_text(json.dumps({**totals, "examples": bad[:20]}, indent=2) + "\n")
-    for key, value in totals.items():
-        print(f"{key:>20}: {value}")
-    for line in bad[:20]:
-        print("  " + line)
-    return 1 if bad else 0
+        if (seed + 1) % 100 == 0:
+            elapsed = time.perf_counter() - started
+            print(f"{seed + 1}/{runs} storms, {elapsed:.0f} s", file=sys.stderr, flush=True)
+    totals["examples"] = bad
+    return totals

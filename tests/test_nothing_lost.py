@@ -21,6 +21,7 @@ from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import Atom
+from htnagent.testing.storms import nested_storm_data
 from htnagent.trace import Event
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -209,31 +210,9 @@ def test_a_keyboard_interrupt_from_an_executor_is_not_wrapped(backend: str) -> N
 # -- emergencies nest without recursion, up to a bound ----------------------------------------------
 
 
-def _storm(count: int, **extra: Any) -> dict[str, Any]:
-    goals: list[dict[str, Any]] = [{"agent": "navigator", "task": "goto_node(n1)"}]
-    nodes = ["n38", "n35", "n40", "n31"]
-    goals += [
-        {
-            "agent": "navigator",
-            "task": f"goto_node({nodes[i % 4]})",
-            "emergency": True,
-            "when": {"time": 1.0 + i},  # one a second
-        }
-        for i in range(count)
-    ]
-    return {
-        "name": "storm",
-        "map": "museum_map.yaml",
-        "robot": {"start": "n40", "speed": 0.001},  # so slow that every emergency nests
-        "agents": [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}],
-        "goals": goals,
-        **extra,
-    }
-
-
 def test_hundreds_of_nested_emergencies_all_end() -> None:
     # (python -m bench reliability nests them 1,000 deep.)
-    scenario = parse_scenario(_storm(300), "storm.yaml", SCENARIOS)
+    scenario = parse_scenario(nested_storm_data(300), "storm.yaml", SCENARIOS)
     depth = [0]
 
     def watch(event: Event) -> None:
@@ -248,7 +227,7 @@ def test_hundreds_of_nested_emergencies_all_end() -> None:
 
 
 def test_an_emergency_beyond_the_maximum_depth_fails_at_once() -> None:
-    scenario = parse_scenario(_storm(8), "storm.yaml", SCENARIOS)
+    scenario = parse_scenario(nested_storm_data(8), "storm.yaml", SCENARIOS)
     configs: list[AgentConfig] = []
 
     async def go() -> Any:
