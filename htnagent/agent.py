@@ -30,6 +30,7 @@ sent (:meth:`Agent._drain`).
 
 from __future__ import annotations
 
+import functools
 import itertools
 import time
 from collections import deque
@@ -39,6 +40,7 @@ from enum import Enum
 from typing import Any
 
 import anyio
+import anyio.lowlevel
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
@@ -49,6 +51,7 @@ from htnagent.messages import (
     Clear,
     Execute,
     Failure,
+    Prepare,
     Refused,
     Resume,
     Submit,
@@ -57,6 +60,7 @@ from htnagent.messages import (
     Suspended,
     Timeout,
 )
+from htnagent.plan import replay
 from htnagent.planner import PlannerSettings
 from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
 from htnagent.terms import Atom
@@ -97,6 +101,8 @@ class GoalEntry:
     """Failures in a row, per action."""
     arrival: int = 0
     """When the goal arrived, as a count: only a later emergency suspends it."""
+    ready: _Ready | None = None
+    """How it resumes, worked out ahead while the action before that ran (§4)."""
 
 
 @dataclass
@@ -175,6 +181,10 @@ class Agent(ExecutorActor):
         self.running: _Running | None = None
         self._seq = itertools.count(1)
         self._arrivals = itertools.count(1)
+        self._later: deque[Callable[[], None]] = deque()
+        self._prepared: _Prepared | None = None
+        self._hint: Atom | None = None
+        self._ready: dict[Atom, tuple[tuple[object, ...], PlanSet]] = {}
         self._shown: tuple[Atom, ...] | None = None
 
     # -- the loop ------------------------------------------------------------------------
@@ -187,6 +197,7 @@ class Agent(ExecutorActor):
             if entry is not None:
                 await self._step(entry)
             elif not self._start_next():
+                self._flush()  # nothing to do but wait: keep the stacked plans up to date now
                 self._on_message(await self.inbox.receive())
 
     def _drain(self) -> None:
@@ -217,6 +228,7 @@ class Agent(ExecutorActor):
 
     def _begin(self, entry: GoalEntry) -> None:
         self.current = entry
+        entry.plans.lazy = False  # the running goal's plans are repaired at once
         self._shown = None
 
     def _take_order(self, order: Execute | Resume | Clear) -> bool:
@@ -227,7 +239,7 @@ class Agent(ExecutorActor):
                 reason = f"{self.name} cannot do {order.action}"
                 self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
                 return False
-            entry = GoalEntry(order.action, self._planset(order.action), order_seq=order.seq)
+            entry = GoalEntry(order.action, self._ready_plans(order.action), order_seq=order.seq)
             entry.arrival = next(self._arrivals)
             self._begin(entry)
             return True
@@ -314,25 +326,31 @@ class Agent(ExecutorActor):
 
     def _resume(self, entry: GoalEntry) -> None:
         """Algorithm 2 for a resumed goal: reuse (online) or remake (naive) its plans."""
-        self._begin(entry)
-        ps = entry.plans
         started = time.perf_counter()
-        if self.mode is Replanning.NAIVE:
-            ps.drop()
+        self._flush()  # whatever maintenance still waits, before the kept plans are used
+        self._begin(entry)
+        ready, entry.ready = entry.ready, None
+        if self.mode is Replanning.ONLINE and ready is not None and ready.holds_for(self.belief, entry):
+            # Made ready while the last action before this moment ran (_get_ready): the
+            # plans, and which suspended actions to clear, are already worked out.
+            entry.plans.adopt(ready.plans)
+            for action in ready.cleared:
+                entry.suspended.remove(action)
+                self.order(self.executor, Clear(action=action))
+                before = self.belief
+                self.belief = self.domain.clear(before, action)
+                update = functools.partial(_cleared, action, before, self.belief)
+                self._maintain(update, skip=entry.plans)
         else:
-            ps.confirm_achieved(self.belief)
-        ps.ensure(self.belief)
-        ps.shorten_detours(self.belief)
-        best = ps.best
-        needed = {a for s in best.steps if (a := half_done(s.action)) is not None} if best else set()
-        # A plan that rolls an action back, or finishes it later (after walking back to
-        # where it was stopped), still needs what was kept for it.
-        unused = [a for a in entry.suspended if a not in needed]
-        if unused:
-            # Algorithm 2: the selected plan will not resume these: clear them below.
-            self._clear_suspended(entry, unused)
-            ps.ensure(self.belief)
-            ps.shorten_detours(self.belief)
+            ps = entry.plans
+            if self.mode is Replanning.NAIVE:
+                ps.drop()
+            unused = _make_ready(ps, self.belief, entry.suspended)
+            if unused:
+                # Algorithm 2: the selected plan will not resume these: clear them below.
+                self._clear_suspended(entry, unused)
+                ps.ensure(self.belief)
+                ps.shorten_detours(self.belief)
         # CONTRACTS.md: wall-clock time spent making the resumed goal's plan.
         replan_ms = (time.perf_counter() - started) * 1000
         self.trace.emit(
@@ -342,6 +360,25 @@ class Agent(ExecutorActor):
             replanning=self.mode.value,
             replan_ms=round(replan_ms, 4),
         )
+
+    def _get_ready(self, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]) -> None:
+        """Work out, ahead, how ``entry`` resumes from ``belief`` with ``plans`` (a fork
+        updated up to that belief, once the actions ``done`` have succeeded): what
+        :meth:`_resume` would do, kept in ``entry.ready``."""
+        plans.lazy = False
+        # A resume or rollback among the actions done settles what it finished or undid.
+        settled = {a for step in done if (a := half_done(step)) is not None}
+        suspended = [a for a in entry.suspended if a not in settled]
+        unused = _make_ready(plans, belief, suspended)
+        final = belief
+        for action in unused:
+            cleared = self.domain.clear(final, action)
+            plans.suspension_cleared(action, final, cleared)
+            final = cleared
+        if unused:
+            plans.ensure(final)
+            plans.shorten_detours(final)
+        entry.ready = _Ready(_belief_key(belief), tuple(suspended), plans, unused)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
         """Tell the executor to forget the goal's suspended actions (all, by default)."""
@@ -353,10 +390,8 @@ class Agent(ExecutorActor):
     def _forget_half(self, action: Atom) -> None:
         """The half-done ``action`` will not be resumed: update the belief and all plans."""
         before = self.belief
-        self.belief = self.domain.clear(before, action)
-        memo = SearchMemo()
-        for ps in self._plansets():
-            ps.suspension_cleared(action, before, self.belief, memo)
+        after = self.belief = self.domain.clear(before, action)
+        self._maintain(lambda ps, memo: ps.suspension_cleared(action, before, after, memo))
 
     # -- acting -----------------------------------------------------------------------------
 
@@ -377,12 +412,19 @@ class Agent(ExecutorActor):
         self.running = running
         self.trace.emit(self.name, "action_started", action=str(action))
         try:
+            if self._later or self._hint is not None or self._will_resume_after(action):
+                # The order is on its way: let the executor take it, then do the plan
+                # maintenance that waited for this moment (§4, Algorithm 3), and get
+                # ready for what comes after this action while it runs.
+                await anyio.lowlevel.checkpoint()
+                self._flush()
+                self._prepare_resumption(action)
             result = await self._await_result(running)
         finally:
             if running.timer is not None:
                 running.timer.cancel()
             self.running = None
-        self._update(action, result)
+        self._update(action, result, running.suspend_sent)
         self.trace.emit(
             self.name,
             "action_finished",
@@ -412,17 +454,30 @@ class Agent(ExecutorActor):
                 )
             self._on_message(message)
 
-    def _update(self, action: Atom, result: Success | Failure | Suspended) -> None:
-        """Update the belief and every plan set, active and stacked (§2, §3)."""
+    def _update(self, action: Atom, result: Success | Failure | Suspended, asked: bool) -> None:
+        """Update the belief and every plan set, active and stacked (§2, §3).
+
+        ``asked``: a suspension of the action was asked for (the running goal will be
+        stacked).
+        """
         before = self.belief
-        sets = self._plansets()
         inner = half_done(action)
-        memo = SearchMemo()  # the stacked goals often repeat: their searches are shared
         if isinstance(result, Success):
             after = self.domain.progress(before, action)
             self.belief = after
-            for ps in sets:
-                ps.action_succeeded(action, before, after, memo)
+            prepared = self._prepared
+            if prepared is not None and prepared.came_true(action, before, after):
+                # The stacked goals were updated (and the next one made ready) for this
+                # very result while the action ran: take that over.
+                self._prepared = None
+                for ps in self._plansets():
+                    fork = prepared.forks.get(id(ps))
+                    if fork is not None:
+                        ps.adopt(fork)
+                    else:
+                        ps.action_succeeded(action, before, after)
+            else:
+                self._maintain(lambda ps, memo: ps.action_succeeded(action, before, after, memo))
             if inner is not None:
                 # The half-done action was finished or undone: nothing is left to clear.
                 holder = self._holder(inner)
@@ -438,13 +493,13 @@ class Agent(ExecutorActor):
             # Algorithm 1, step 1: the belief takes the suspension effect.
             after = self.domain.suspend(before, action)
             self.belief = after
-            for ps in sets:
-                ps.action_suspended(action, before, after, memo)
+            # The running goal is being suspended: its own update (Algorithm 1) can wait
+            # until the emergency's first action is on its way (§4, Algorithm 3).
+            self._maintain(lambda ps, memo: ps.action_suspended(action, before, after, memo), eager=not asked)
             if self.current is not None:
                 self.current.suspended.append(action)
         else:
-            for ps in sets:
-                ps.action_failed(action, before, before, memo)
+            self._maintain(lambda ps, memo: ps.action_failed(action, before, before, memo))
             if action.name == "resume" and inner is not None:
                 # The executor could not finish A: what was kept for it is no use, and the
                 # same resume must not be planned again from the same belief (§5).
@@ -453,6 +508,127 @@ class Agent(ExecutorActor):
                     holder.suspended.remove(inner)
                 self.order(self.executor, Clear(action=inner))
                 self._forget_half(inner)
+
+    def _maintain(
+        self,
+        update: Callable[[PlanSet, SearchMemo], None],
+        *,
+        eager: bool = True,
+        skip: PlanSet | None = None,
+    ) -> None:
+        """Apply a belief change to every plan set kept valid (§2), in event order.
+
+        The running goal's plans are updated now (``eager``): its next action is
+        chosen from them.  The stacked goals' updates wait in a queue that is worked
+        off once the next action is on its way (:meth:`_flush`) — keeping them valid
+        must not delay the agent's reaction (§4, Algorithm 3).  The stacked goals
+        often repeat: one memo lets their searches be shared.
+        """
+        self._prepared = None  # the belief went another way than predicted
+        memo = SearchMemo()
+        now = self.current.plans if eager and self.current is not None else None
+        for ps in self._plansets():
+            if ps is skip:
+                continue
+            if ps is now:
+                update(ps, memo)
+            else:
+                self._later.append(functools.partial(update, ps, memo))
+
+    def _flush(self) -> None:
+        """Do the plan maintenance that waited (see :meth:`_maintain`), oldest first."""
+        while self._later:
+            self._later.popleft()()
+        if self._hint is not None:
+            self._prepare_order(self._hint)
+            self._hint = None
+
+    # -- getting ready for what comes next, while an action runs (§4) -----------------------------
+
+    def _will_resume_after(self, action: Atom) -> bool:
+        """Whether the running goal ends with this action and a stacked goal resumes then."""
+        current = self.current
+        if self.mode is not Replanning.ONLINE or current is None or not self.stack:
+            return False
+        best = current.plans.best
+        top = self.stack[-1]
+        return (
+            best is not None
+            and best.actions == (action,)
+            and not top.held
+            and not self.emergencies
+            and not current.stop_requested
+        )
+
+    def _prepare_resumption(self, action: Atom) -> None:
+        """Update the stacked goals for the action's predicted success, and make the goal
+        that resumes then ready (its plans re-checked, repaired, shortened) — so that
+        resuming costs nothing when the prediction comes true.  A child agent is told
+        the first order of the resumed plan (:class:`~htnagent.messages.Prepare`)."""
+        if not self._will_resume_after(action):
+            return
+        before = self.belief
+        after = self.domain.progress(before, action)
+        memo = SearchMemo()
+        forks: dict[int, PlanSet] = {}
+        top = self.stack[-1]
+        current = self.current.plans if self.current is not None else None
+        for ps in self._plansets():
+            if ps is current:
+                continue
+            fork = ps.fork()
+            if ps is top.plans:
+                fork.lazy = False
+            fork.action_succeeded(action, before, after, memo)
+            forks[id(ps)] = fork
+        self._prepared = _Prepared(action, before, after, forks)
+        if id(top.plans) not in forks:
+            return
+        self._get_ready(top, forks[id(top.plans)].fork(), after, (action,))
+        assert top.ready is not None
+        best = top.ready.plans.best
+        if isinstance(self.executor, Agent) and best is not None and best.steps:
+            # The child agent gets ready for this order too (or for resuming its goal).
+            self.order(self.executor, Prepare(action=best.steps[0].action))
+
+    def _prepare_order(self, action: Atom) -> None:
+        """Get ready for a likely next order of the parent's (Prepare), from the belief this
+        agent will have when its running goal's plan is done: plan a new goal, or make a
+        held goal ready to resume."""
+        if self.mode is not Replanning.ONLINE:
+            return
+        predicted: State | None = self.belief
+        current = self.current
+        steps = current.plans.best.actions if current is not None and current.plans.best is not None else ()
+        predicted = replay(self.domain, self.belief, steps)
+        if predicted is None:
+            return
+        inner = half_done(action) if action.name == "resume" else None
+        if inner is not None:
+            held = self._held(inner)
+            if held is not None:
+                plans = held.plans.fork()
+                state = self.belief
+                for step in steps:  # the updates the held goal's plans will get meanwhile
+                    after = self.domain.progress(state, step)
+                    plans.action_succeeded(step, state, after)
+                    state = after
+                self._get_ready(held, plans, state, steps)
+            return
+        if not self.domain.knows(action):
+            return
+        ps = self._planset(action)
+        ps.ensure(predicted)
+        if len(self._ready) >= 4:
+            self._ready.pop(next(iter(self._ready)))
+        self._ready[action] = (_belief_key(predicted), ps)
+
+    def _ready_plans(self, action: Atom) -> PlanSet:
+        """The plans prepared for this order, if the belief is the one they were made for."""
+        ready = self._ready.pop(action, None)
+        if ready is not None and ready[0] == _belief_key(self.belief):
+            return ready[1]
+        return self._planset(action)
 
     def _holder(self, action: Atom) -> GoalEntry | None:
         """The goal whose suspended action ``action`` is: the running one's, else the latest."""
@@ -470,6 +646,7 @@ class Agent(ExecutorActor):
 
     def _push(self, entry: GoalEntry) -> None:
         self.stack.append(entry)
+        entry.plans.lazy = True  # see PlanSet.lazy: made good when it is about to run again
         sunk = len(self.stack) - 1 - self.config.maintained_depth
         if sunk >= 0:
             # Too deep to keep up (see AgentConfig.maintained_depth): planned afresh if it
@@ -490,12 +667,12 @@ class Agent(ExecutorActor):
             self.orders.append(message)
         elif isinstance(message, Suspend):
             self._parent_suspends(message)
+        elif isinstance(message, Prepare):
+            self._hint = message.action  # planned when there is time (see _flush)
         elif isinstance(message, BeliefUpdate):
             before = self.belief
-            self.belief = before.updated(message.add, message.delete)
-            memo = SearchMemo()
-            for ps in self._plansets():
-                ps.belief_changed(before, self.belief, memo)
+            after = self.belief = before.updated(message.add, message.delete)
+            self._maintain(lambda ps, memo: ps.belief_changed(before, after, memo))
         # Anything else is a late answer to an abandoned order: ignored.
 
     def _submitted(self, message: Submit) -> None:
@@ -615,3 +792,56 @@ class Agent(ExecutorActor):
 
 def _achieved(plans: PlanSet) -> bool:
     return plans.finished
+
+
+def _cleared(action: Atom, before: State, after: State, plans: PlanSet, memo: SearchMemo) -> None:
+    plans.suspension_cleared(action, before, after, memo)
+
+
+def _belief_key(state: State) -> tuple[object, ...]:
+    return (state.dynamic, state.static)
+
+
+def _make_ready(plans: PlanSet, belief: State, suspended: list[Atom]) -> list[Atom]:
+    """Make a resumed goal's plans good from ``belief``; the suspended actions the selected
+    plan does not need (they are to be cleared).  Algorithm 2, §2.7, §2.8."""
+    plans.confirm_achieved(belief)
+    plans.ensure(belief)
+    plans.shorten_detours(belief)
+    best = plans.best
+    # A plan that rolls an action back, or finishes it later (after walking back to where
+    # it was stopped), still needs what was kept for it.
+    needed = {a for s in best.steps if (a := half_done(s.action)) is not None} if best else set()
+    return [a for a in suspended if a not in needed]
+
+
+@dataclass
+class _Ready:
+    """How a stacked goal resumes, worked out ahead for one belief."""
+
+    belief: tuple[object, ...]
+    suspended: tuple[Atom, ...]
+    plans: PlanSet
+    cleared: list[Atom]
+
+    def holds_for(self, belief: State, entry: GoalEntry) -> bool:
+        """Whether things went as predicted: the belief and the goal's suspended actions."""
+        return self.belief == _belief_key(belief) and self.suspended == tuple(entry.suspended)
+
+
+@dataclass
+class _Prepared:
+    """The stacked goals' plan sets updated for an action's predicted success."""
+
+    action: Atom
+    before: State
+    after: State
+    forks: dict[int, PlanSet]
+
+    def came_true(self, action: Atom, before: State, after: State) -> bool:
+        return (
+            action == self.action
+            and before is self.before
+            and after.dynamic == self.after.dynamic
+            and after.static is self.after.static
+        )

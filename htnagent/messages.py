@@ -2,7 +2,7 @@
 
 Frozen pydantic models, each with a literal ``kind`` as discriminator.  Going
 down to an executor: :class:`Execute`, :class:`Suspend`, :class:`Resume`,
-:class:`Clear`.  Coming back: :class:`Success`, :class:`Failure`,
+:class:`Clear` (and the hint :class:`Prepare`).  Coming back: :class:`Success`, :class:`Failure`,
 :class:`Suspended`, :class:`Refused` (the running action cannot be suspended:
 it goes on).  Into an agent from outside: :class:`Submit` (a goal) and
 :class:`BeliefUpdate` (the world changed).  ``seq`` ties a result to the order
@@ -50,6 +50,18 @@ class Clear(_Message):
     """Forget what was kept to resume ``action``: it will not be resumed."""
 
     kind: Literal["clear"] = "clear"
+    action: Atom
+
+
+class Prepare(_Message):
+    """A hint: ``action`` is likely to be ordered next; plan it ahead if there is time.
+
+    An agent sends it to a child agent when it has prepared the plan it will resume
+    with (ALGORITHMS.md §4: work off the critical path).  The child may ignore it;
+    nothing answers it.
+    """
+
+    kind: Literal["prepare"] = "prepare"
     action: Atom
 
 
@@ -110,7 +122,7 @@ class Timeout(_Message):
     seq: int
 
 
-Order = Annotated[Execute | Suspend | Resume | Clear, Field(discriminator="kind")]
+Order = Annotated[Execute | Suspend | Resume | Clear | Prepare, Field(discriminator="kind")]
 Result = Annotated[Success | Failure | Suspended | Refused, Field(discriminator="kind")]
 AgentMessage = Annotated[
     Order | Result | Submit | BeliefUpdate | Timeout,

@@ -28,6 +28,7 @@ Pure and synchronous: the agent runtime calls it; no event loop inside.
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
@@ -104,6 +105,10 @@ class PlanSet:
     revival_capacity: int = 32
     plans: list[Plan] = field(default_factory=list)
     last_status: PlanStatus | None = None
+    lazy: bool = False
+    """Set while the goal waits on the stack: a plan an event breaks is not repaired at
+    once but put aside (for revival); what is left is made good when the goal is about
+    to run again (prepared or resumed) — one search then, instead of one per event."""
     _removed: list[_Removed] = field(default_factory=list)
     _updates: int = 0
     _checked: State | None = None  # every kept plan is valid from this belief
@@ -125,6 +130,24 @@ class PlanSet:
     def __len__(self) -> int:
         return len(self.plans)
 
+    def fork(self) -> PlanSet:
+        """A copy to update speculatively (the plans themselves are immutable values)."""
+        copy = dataclasses.replace(self)
+        copy.plans = list(self.plans)
+        copy._removed = [_Removed(r.plan, r.key, r.update) for r in self._removed]
+        copy._trusted = set(self._trusted)
+        return copy
+
+    def adopt(self, other: PlanSet) -> None:
+        """Take over the state of a fork (a speculation that came true)."""
+        self.plans = other.plans
+        self.last_status = other.last_status
+        self._removed = other._removed
+        self._updates = other._updates
+        self._checked = other._checked
+        self._trusted = other._trusted
+        self._unsolvable = other._unsolvable
+
     # -- making plans ---------------------------------------------------------
 
     def make(self, state: State) -> PlanResult:
@@ -144,8 +167,41 @@ class PlanSet:
             self.last_status = PlanStatus.UNSOLVABLE
             return False
         with self._timed():
-            self._from_scratch(state)
+            # One plan: the alternatives are worth their search only for a goal that
+            # gets suspended (see widen).
+            self._from_scratch(state, self._single())
         return bool(self.plans)
+
+    def widen(self, state: State, *, failed: Atom | None = None) -> None:
+        """Add alternative plans (up to K) to the kept ones (§1, §4).
+
+        Called for a goal that was just suspended, off the critical path (after the
+        emergency's first action is on its way), and when an action ``failed`` left
+        no plan: the alternatives are then the plans that do not start with it
+        (§2.2).  ``state`` is the belief the kept plans are valid from.  In naive
+        mode nothing is kept, so nothing is added.
+        """
+        k = self.settings.alternatives
+        if self.mode is Replanning.NAIVE or k <= 1 or len(self.plans) >= k:
+            return
+        with self._timed():
+            wanted = PlannerSettings(
+                alternatives=k + (failed is not None),
+                budget=self.settings.budget,
+                alternatives_effort=self.settings.alternatives_effort,
+                rollbacks=self.settings.rollbacks,
+            )
+            result = plan(self.domain, state, [self.goal], wanted)
+            self.stats.from_scratch += 1
+            self.stats.expansions += result.expansions
+            seen = {p.actions for p in self.plans}
+            extra = [
+                p
+                for p in result.plans
+                if p.actions not in seen and not (failed is not None and p.actions[:1] == (failed,))
+            ]
+            self.plans = sorted([*self.plans, *extra], key=lambda q: q.cost)[:k]
+            self._checked = state
 
     def drop(self) -> None:
         """Forget every plan (naive mode's "plan needed again")."""
@@ -177,9 +233,9 @@ class PlanSet:
             with self._timed():
                 self._as_good_as_fresh(state, _Scratch(0))
 
-    def _from_scratch(self, state: State) -> PlanResult:
+    def _from_scratch(self, state: State, settings: PlannerSettings | None = None) -> PlanResult:
         self.stats.from_scratch += 1
-        result = plan(self.domain, state, [self.goal], self._settings())
+        result = plan(self.domain, state, [self.goal], settings or self._settings())
         self.stats.expansions += result.expansions
         self.last_status = result.status
         self.plans = list(result.plans)
@@ -266,9 +322,14 @@ class PlanSet:
             if self.mode is Replanning.NAIVE:
                 self.plans = []
                 return
+            had = bool(self.plans)
             self.plans = [p for p in self.plans if not (p.steps and p.steps[0].action == action)]
-            # §2.2 takes a kept alternative at once; but one that still means to do the
-            # failed action later is no better than planning afresh (§2.4).
+            if had and not self.plans and not self.lazy:
+                # §2.2 takes a kept alternative at once: the first plan came alone, so
+                # find the alternatives now — those that do not start with the failure.
+                self.widen(before, failed=action)
+            # An alternative that still means to do the failed action later is no better
+            # than planning afresh (§2.4).
             broke = bool(self.plans) and action in self.plans[0].actions
             self._revise(before, after, best_broke=broke, memo=memo)
 
@@ -415,7 +476,7 @@ class PlanSet:
                 checked: Plan | None = p
             else:
                 p = Plan(tidy(self.domain, p.steps))
-                checked = self._recheck(p, after, cache, allow_repair=not revived)
+                checked = self._recheck(p, after, cache, allow_repair=not revived, remember=not revived)
                 if n == 0 and checked is not p:
                     best_broke = True
             if checked is None:
@@ -428,7 +489,7 @@ class PlanSet:
                 out.append(checked)
         out.sort(key=lambda q: q.cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
-        if best_broke:
+        if best_broke and not self.lazy:
             self._as_good_as_fresh(after, cache)
         self._checked = after
         self._removed = [r for r in self._removed if self._updates - r.update <= self.revival_window]
@@ -477,15 +538,20 @@ class PlanSet:
             states.append(nxt)
         return states
 
-    def _recheck(self, p: Plan, state: State, cache: _Scratch, *, allow_repair: bool) -> Plan | None:
+    def _recheck(
+        self, p: Plan, state: State, cache: _Scratch, *, allow_repair: bool, remember: bool
+    ) -> Plan | None:
         """The plan if valid, else its repair, else None (and it is kept for revival)."""
         self.stats.rechecks += 1
         failure = self._first_failure(p, state)
         if failure is None:
             return p
-        if not allow_repair:
-            return None
         index, at_failure = failure
+        if not allow_repair or self.lazy:
+            if remember:
+                self.stats.removed += 1
+                self._remember(p, p.steps[index].action, at_failure)
+            return None
         repaired = self._repair(p, index, self._states(p, state, index), cache)
         if repaired is not None:
             self.stats.repairs += 1

@@ -216,7 +216,9 @@ async def test_goal_is_planned_and_its_cheapest_plan_executed_in_order() -> None
 
 async def test_failed_action_switches_to_a_kept_alternative() -> None:
     rt, events, outcomes = await run(courier(), robot(fail=["go(a,b)"]), Goal("goto(d)"))
-    # Expect: go(a,b) fails; the kept plan through c is selected without planning again.
+    # Expect: go(a,b) fails; the first plan came alone (K = 1 until a goal is suspended),
+    # so the alternatives are looked for now, and the one through c (not starting with
+    # the failed action) is taken (§2.2).
     assert story(events) == [
         "0 goal_received goto(d)",
         "0 plan_selected goto(d): go(a,b) go(b,d)",
@@ -230,13 +232,13 @@ async def test_failed_action_switches_to_a_kept_alternative() -> None:
         "2 goal_finished goto(d) success",
     ]
     assert statuses(outcomes) == ["success"]
-    assert rt.agents[COURIER].stats.from_scratch == 1
+    assert rt.agents[COURIER].stats.from_scratch == 2
 
 
 async def test_goal_whose_actions_keep_failing_fails_after_the_cap() -> None:
     rt, events, outcomes = await run(courier(), robot(fail=["go(a,b)", "go(a,c)"]), Goal("goto(d)"))
-    # Expect 1. go(a,b) fails     -> the kept alternative
-    #        2. go(a,c) fails     -> no plan left: plan from scratch (§2.7), and so on
+    # Expect 1. go(a,b) fails     -> the alternative not starting with it (found now)
+    #        2. go(a,c) fails     -> likewise, the other one, and so on
     #        5. go(a,b) fails     -> its third failure (max_failures = 3): the goal fails
     assert [e["action"] for e in kinds(events, "action_finished")] == [
         "go(a,b)",
@@ -245,7 +247,7 @@ async def test_goal_whose_actions_keep_failing_fails_after_the_cap() -> None:
         "go(a,c)",
         "go(a,b)",
     ]
-    assert rt.agents[COURIER].stats.from_scratch == 3
+    assert rt.agents[COURIER].stats.from_scratch == 6  # the first plan, then once per failure
     assert story(events)[-1] == "0 goal_finished goto(d) failure (go(a,b) failed 3 times: scripted failure)"
     assert statuses(outcomes) == ["failure"]
     assert outcomes[0].reason == "go(a,b) failed 3 times: scripted failure"
