@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from bench import differential, reliability, replanning, scaling
+from bench import differential, fleet, reaction, reliability, replanning, scaling
 
 
 def main() -> int:
@@ -13,11 +13,15 @@ def main() -> int:
         "study",
         nargs="?",
         default="replanning",
-        choices=("replanning", "scaling", "reliability", "differential"),
+        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction"),
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     args = parser.parse_args()
+    if args.study == "reaction":
+        return reaction.main(runs=args.runs or 300)
+    if args.study == "fleet":
+        return fleet.main()
     if args.study == "differential":
         return differential.main(runs=args.runs or 1000)
     if args.study == "reliability":

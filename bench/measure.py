@@ -1,30 +1,34 @@
-"""Measuring one run: resume replanning time at the parent and the child, and totals.
+"""Measuring one run: resume time at the parent and the child, and whole-run planning.
 
-The resume replanning time is wall-clock time measured inside the agents when
-the suspended goals are resumed:
+Resume time is measured the same way in both modes, on the wall clock, from
+outside the agents (trace observers run inside ``emit``, at the very moment of
+the event):
 
-- **parent**: the ``replan_ms`` of the top agent's ``goal_resumed`` event for the
-  first goal (reusing or remaking its plans, the clear of a suspended action
-  that will not be resumed with the repairs it causes, and the detour check);
-- **child**: the ``replan_ms`` of the next agent's ``goal_resumed`` event for the
-  goal it stacked when the emergency came — whenever the parent resumes it,
-  which can be during the emergency if the emergency plan starts by finishing
-  the suspended move — or, when the parent clears that goal instead, the
-  planning the child does for the parent's next order.
+- it starts when the emergency goal ends at the top agent (its ``goal_finished``);
+- **parent**: until the top agent's first order to its child after that (the
+  resumed goal's first action, sent down);
+- **child**: from there until the first order the bottom agent sends to the
+  robot — the resumed goal's first move;
+- **total**: parent plus child.  With one agent, the parent's time runs to the
+  first order to the robot and the child's is 0.
 
-Planning happens synchronously inside an agent's task and simulated time does
-not move meanwhile, so reading the agents' planning counters at those trace
-events measures exactly that work.
+Everything done between those instants counts: re-using or re-making plans, the
+clear of a suspended action that will not be resumed, message passing.  Work
+done earlier (while the emergency's last action ran) does not.  Simulated time
+does not move meanwhile: nothing else runs.  ``planning_ms`` is the agents' own
+count of wall-clock time spent planning and keeping plans, over the whole run.
 """
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 
-from htnagent.runtime import Runtime
 from htnagent.scenario import Scenario
 from htnagent.simulation import run_scenario
 from htnagent.trace import Event
+
+_ORDERS = ("execute", "resume")
 
 
 @dataclass
@@ -35,8 +39,9 @@ class RunFigures:
     child_ms: float | None = None
     distance: float = 0.0
     planning_ms: float = 0.0
-    resumes: list[float] = field(default_factory=list)
     succeeded: bool = False
+    resumes: list[float] = field(default_factory=list)
+    """The top agent's own ``replan_ms`` of every resumption (for nested emergencies)."""
 
     @property
     def total_ms(self) -> float | None:
@@ -49,39 +54,36 @@ class RunFigures:
 async def measure_run(scenario: Scenario, mode: str) -> RunFigures:
     """Run the scenario once in ``mode`` and return its figures."""
     figures = RunFigures()
-    top = scenario.agent_names[0]
-    child = scenario.agent_names[1] if len(scenario.agent_names) > 1 else None
-    first_goal = str(scenario.goals[0].task)
-    holder: dict[str, Runtime] = {}
-    watching: dict[str, float] = {}
-    stacked_goal: dict[str, str] = {}
-
-    def start(runtime: Runtime) -> None:
-        holder["rt"] = runtime
+    names = scenario.agent_names
+    top, bottom = names[0], names[-1]
+    emergency = next(str(g.task) for g in scenario.goals if g.emergency)
+    marks: dict[str, float] = {}
 
     def observe(event: Event) -> None:
-        runtime = holder["rt"]
+        now = time.perf_counter()
         kind, agent = event["event"], event["agent"]
         if kind == "goal_resumed" and agent == top:
             figures.resumes.append(float(event["replan_ms"]))
-            if event["goal"] == first_goal and figures.parent_ms is None:
-                figures.parent_ms = float(event["replan_ms"])
-        elif child is None or agent != child or figures.child_ms is not None:
+        if figures.total_ms is not None and "child" in marks:
             return
-        elif kind == "goal_suspended" and "stacked" not in watching:
-            watching["stacked"] = 1.0
-            stacked_goal["goal"] = event["goal"]
-        elif kind == "goal_resumed" and event["goal"] == stacked_goal.get("goal"):
-            figures.child_ms = float(event["replan_ms"])
-        elif kind == "goal_cleared" and event["goal"] == stacked_goal.get("goal"):
-            watching["since"] = runtime.agents[child].stats.seconds
-        elif kind == "action_started" and "since" in watching:
-            figures.child_ms = (runtime.agents[child].stats.seconds - watching.pop("since")) * 1000
+        if "ended" not in marks:
+            if kind == "goal_finished" and agent == top and event["goal"] == emergency:
+                marks["ended"] = now
+            return
+        if kind != "message" or event.get("kind") not in _ORDERS:
+            return
+        if agent == top and "parent" not in marks:
+            marks["parent"] = now
+            figures.parent_ms = (now - marks["ended"]) * 1000
+        if agent == bottom and event.get("to") == "robot" and "child" not in marks:
+            marks["child"] = now
+            if top == bottom:
+                figures.parent_ms, figures.child_ms = (now - marks["ended"]) * 1000, 0.0
+            else:
+                figures.child_ms = (now - marks.get("parent", marks["ended"])) * 1000
 
-    report = await run_scenario(scenario, replanning=mode, observers=[observe], on_start=start)
+    report = await run_scenario(scenario, replanning=mode, observers=[observe])
     figures.distance = float(report.summary["distance"])
     figures.planning_ms = float(sum(report.summary["planning_ms"].values()))
     figures.succeeded = report.succeeded
-    if child is not None and figures.parent_ms is not None and figures.child_ms is None:
-        figures.child_ms = 0.0  # the child had nothing left to plan
     return figures

@@ -97,8 +97,8 @@ class GoalEntry:
     """On the stack by the parent's ``suspend``: it waits for the parent's resume or clear."""
     stop_requested: bool = False
     """The parent asked to suspend this goal; it stops after the running action."""
-    failures: dict[Atom, int] = field(default_factory=dict)
-    """Failures in a row, per action."""
+    failures: dict[Atom, tuple[tuple[object, ...], int]] = field(default_factory=dict)
+    """Failures in a row per action, from one belief: (that belief, count)."""
     arrival: int = 0
     """When the goal arrived, as a count: only a later emergency suspends it."""
     ready: _Ready | None = None
@@ -130,7 +130,7 @@ class AgentConfig:
     executor): an order to a child agent is a whole goal and takes as long as it takes.
     """
     max_failures: int = 3
-    """How often in a row the same action may fail before the goal fails."""
+    """How often in a row (from the same belief) the same action may fail before the goal fails."""
     max_depth: int = 10_000
     """How many goals the stack may hold; an emergency beyond that fails at once."""
     maintained_depth: int = 32
@@ -284,7 +284,8 @@ class Agent(ExecutorActor):
             return
         if not ps.ensure(self.belief):
             status = ps.last_status.value if ps.last_status else "none"
-            self._end(entry, GoalStatus.FAILURE, f"no plan for {entry.goal} ({status})")
+            # No plan from here: the parent should not ask the same again from its belief.
+            self._end(entry, GoalStatus.FAILURE, f"no plan for {entry.goal} ({status})", permanent=True)
             return
         if _achieved(ps):  # a plan made just now has nothing left to do
             self._end(entry, GoalStatus.SUCCESS)
@@ -305,8 +306,17 @@ class Agent(ExecutorActor):
         # belief follows, but the action did not get done): count it, so that an
         # executor that keeps doing so ends the goal instead of looping.
         self._shown = None
+        if isinstance(result, Failure) and result.permanent:
+            # §5: what the executor says it cannot do from here is not planned again from
+            # the same belief (a child agent found no plan for it).
+            entry.plans.cannot_do(action, self.belief)
         why = result.reason if isinstance(result, Failure) else "the executor stopped it unasked"
-        failures = entry.failures[action] = entry.failures.get(action, 0) + 1
+        # In a row means from the same belief: a failure long ago, from elsewhere, says
+        # nothing about trying now.
+        key = _belief_key(self.belief)
+        last = entry.failures.get(action)
+        failures = last[1] + 1 if last is not None and last[0] == key else 1
+        entry.failures[action] = (key, failures)
         if failures >= self.config.max_failures:
             # The same action keeps failing although the belief says it can run.
             times = "once" if failures == 1 else f"{failures} times"
@@ -745,8 +755,13 @@ class Agent(ExecutorActor):
     def _planset(self, goal: Atom) -> PlanSet:
         return PlanSet(self.domain, goal, self.mode, self.settings, self.stats)
 
-    def _end(self, entry: GoalEntry, status: GoalStatus, reason: str = "") -> None:
-        """The goal has ended: report it (once) to whoever is waiting for it."""
+    def _end(
+        self, entry: GoalEntry, status: GoalStatus, reason: str = "", *, permanent: bool = False
+    ) -> None:
+        """The goal has ended: report it (once) to whoever is waiting for it.
+
+        ``permanent``: it failed because there is no plan for it from the belief.
+        """
         if self.current is entry:
             self.current = None
         # What was kept below for resuming the goal's stopped actions is of no use now.
@@ -765,7 +780,8 @@ class Agent(ExecutorActor):
             if status is GoalStatus.SUCCESS:
                 self.reply(Success(action=entry.goal, seq=entry.order_seq))
             else:
-                self.reply(Failure(action=entry.goal, seq=entry.order_seq, reason=reason))
+                failure = Failure(action=entry.goal, seq=entry.order_seq, reason=reason, permanent=permanent)
+                self.reply(failure)
 
     def unfinished(self) -> list[GoalEntry]:
         """Every goal that has not ended: running, stacked, emergencies, waiting."""

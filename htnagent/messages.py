@@ -80,6 +80,9 @@ class Failure(_Message):
     action: Atom
     seq: int
     reason: str = ""
+    permanent: bool = False
+    """The executor cannot do the action from where it stands (a child agent found no
+    plan for it): trying it again unchanged would fail the same way."""
 
 
 class Suspended(_Message):

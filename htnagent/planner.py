@@ -126,8 +126,12 @@ def plan(
     settings: PlannerSettings | None = None,
     *,
     recover: bool = True,
+    avoid: frozenset[Atom] = frozenset(),
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``avoid``: actions not to take in the state itself (its executor has just said it
+    cannot do them from there); elsewhere in the plan they are allowed.
 
     ``tasks`` are atoms or ``(atom, record)`` pairs (a record places re-planned
     tasks under an existing decomposition, for repair).  With ``recover`` the
@@ -160,7 +164,7 @@ def plan(
                 continue
             for b in satisfiers(op.pre, state, {}):
                 action = substitute(op.head, b)
-                if not action.is_ground:
+                if not action.is_ground or action in avoid:
                     continue
                 child = _Node(
                     op.action_cost(action),
@@ -217,6 +221,8 @@ def plan(
                 applied = _apply_task(domain, st, task)
                 primitive_cache[cache_key] = applied
             for action, c, dyn in applied:
+                if avoid and action in avoid and node.dynamic == state.dynamic:
+                    continue
                 child = _Node(node.g + c, dyn, rest_t, rest_r, Step(action, c, record), node)
                 if check_loops and child.revisits():
                     continue

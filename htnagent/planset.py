@@ -105,6 +105,9 @@ class PlanSet:
     revival_capacity: int = 32
     plans: list[Plan] = field(default_factory=list)
     last_status: PlanStatus | None = None
+    avoid: tuple[tuple[object, ...], frozenset[Atom]] | None = None
+    """Actions the executor has said it cannot do from one belief (a child agent found
+    no plan for them): no plan starts with them from that belief."""
     lazy: bool = False
     """Set while the goal waits on the stack: a plan an event breaks is not repaired at
     once but put aside (for revival); what is left is made good when the goal is about
@@ -191,7 +194,7 @@ class PlanSet:
                 alternatives_effort=self.settings.alternatives_effort,
                 rollbacks=self.settings.rollbacks,
             )
-            result = plan(self.domain, state, [self.goal], wanted)
+            result = plan(self.domain, state, [self.goal], wanted, avoid=self._avoided(state))
             self.stats.from_scratch += 1
             self.stats.expansions += result.expansions
             seen = {p.actions for p in self.plans}
@@ -202,6 +205,17 @@ class PlanSet:
             ]
             self.plans = sorted([*self.plans, *extra], key=lambda q: q.cost)[:k]
             self._checked = state
+
+    def cannot_do(self, action: Atom, state: State) -> None:
+        """The executor cannot do ``action`` from ``state``: plan around it from there."""
+        key = _belief_key(state)
+        known = self.avoid[1] if self.avoid is not None and self.avoid[0] == key else frozenset()
+        self.avoid = (key, known | {action})
+
+    def _avoided(self, state: State) -> frozenset[Atom]:
+        if self.avoid is not None and self.avoid[0] == _belief_key(state):
+            return self.avoid[1]
+        return frozenset()
 
     def drop(self) -> None:
         """Forget every plan (naive mode's "plan needed again")."""
@@ -235,7 +249,8 @@ class PlanSet:
 
     def _from_scratch(self, state: State, settings: PlannerSettings | None = None) -> PlanResult:
         self.stats.from_scratch += 1
-        result = plan(self.domain, state, [self.goal], settings or self._settings())
+        settings = settings or self._settings()
+        result = plan(self.domain, state, [self.goal], settings, avoid=self._avoided(state))
         self.stats.expansions += result.expansions
         self.last_status = result.status
         self.plans = list(result.plans)
@@ -617,13 +632,13 @@ class PlanSet:
     ) -> Plan | None:
         # Records do not change whether tasks can be done: a search that found the
         # task list impossible from a state answers for every plan that asks again.
-        impossible: tuple[object, ...] = (state.dynamic, *(t for t, _ in tasks))
+        impossible: tuple[object, ...] = (state.dynamic, self._avoided(state), *(t for t, _ in tasks))
         if impossible in cache.impossible:
             return None
         key: tuple[object, ...] = (*impossible, *(id(r) for _, r in tasks))
         if key in cache.results:
             return cache.results[key]
-        result = plan(self.domain, state, tasks, settings)
+        result = plan(self.domain, state, tasks, settings, avoid=self._avoided(state))
         self.stats.expansions += result.expansions
         found = result.best
         cache.results[key] = found

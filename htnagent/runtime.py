@@ -83,15 +83,24 @@ class Runtime:
         *,
         speed: float | None = None,
         keep_outcomes: int | None = 10_000,
+        clock: Clock | None = None,
     ) -> None:
         """``keep_outcomes`` bounds how many ended goals' outcomes are kept (the oldest go
-        first; None keeps all): a runtime that lives long must not grow without bound."""
+        first; None keeps all): a runtime that lives long must not grow without bound.
+
+        ``clock``: a clock shared by many runtimes (a fleet of robots in one process):
+        simulated time then moves for all of them together, and one task keeps it —
+        run ``clock.keep_time()`` yourself, once, beside the runtimes.
+        """
         if not agents:
             raise ValueError("a runtime needs at least one agent")
-        if isinstance(executor, Executor) and speed is None:
+        if clock is not None and speed is not None:
+            raise ValueError("a shared clock has its own speed: give speed to the Clock")
+        if isinstance(executor, Executor) and speed is None and clock is None:
             # A user's executor acts in the real world: its time is the wall clock's.
             speed = 1.0
-        self.clock = Clock(speed)
+        self._own_clock = clock is None
+        self.clock = clock if clock is not None else Clock(speed)
         self.trace = Trace(self.clock)
         if isinstance(executor, Executor):
             bottom: ExecutorActor = AdapterActor("executor", self.clock, self.trace, executor)
@@ -132,7 +141,8 @@ class Runtime:
         self._tg = tg
         self._state = "running"
         try:
-            tg.start_soon(self.clock.keep_time)
+            if self._own_clock:
+                tg.start_soon(self.clock.keep_time)
             await tg.start(self._guard, self.executor)
             for agent in reversed(list(self.agents.values())):
                 await tg.start(self._guard, agent)
