@@ -22,6 +22,7 @@ from rich.console import Console
 
 from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, plan
 from htnagent.plot import check_plot_target, draw_run
@@ -49,13 +50,17 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{message} (see {self.prog} --help)")
 
 
-def _positive_float(text: str) -> float:
+def _speed(text: str) -> float:
+    """``--speed``: a finite pace a clock can keep (1e-320 would never advance, 1e300 is no pace)."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    if not MIN_SPEED <= value <= MAX_SPEED:  # also refuses nan
+        raise argparse.ArgumentTypeError(
+            f"expected a number from {MIN_SPEED:g} to {MAX_SPEED:g} (simulated seconds per real second), "
+            f"got {text!r}"
+        )
     return value
 
 
@@ -75,7 +80,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--json", action="store_true", help="JSON Lines on stdout, the last line a summary")
     run.add_argument(
         "--speed",
-        type=_positive_float,
+        type=_speed,
         metavar="X",
         help="simulated seconds per real second (default: as fast as possible)",
     )
