@@ -27,12 +27,13 @@ its closing parenthesis, and the pieces the split produced are dropped.
 
 from __future__ import annotations
 
+import contextlib
 import gc
 import os
 import re
 import stat
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -51,7 +52,7 @@ from htnagent.limits import (
     max_file_bytes,
 )
 
-__all__ = ["load_yaml_text", "read_text", "read_yaml"]
+__all__ = ["gc_paused", "load_yaml_text", "read_text", "read_yaml"]
 
 # libyaml's parser when PyYAML was built with it (the usual wheels are), else the pure-Python one.
 _Parser: Callable[[str], Any] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -281,13 +282,9 @@ def load_yaml_text(text: str, file: str) -> Any:
     document nested more than :data:`~htnagent.limits.MAX_YAML_DEPTH` deep,
     aliases that repeat too much, and the like.
     """
-    # Reading a big map builds a million containers; the cyclic garbage collector would
-    # walk them again and again meanwhile, for nothing (they form no cycles: recursive
-    # aliases are refused), so it waits until the data is built.
-    collecting = gc.isenabled()
-    gc.disable()
     try:
-        return _build(text, file)
+        with gc_paused():
+            return _build(text, file)
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
@@ -305,6 +302,20 @@ def load_yaml_text(text: str, file: str) -> Any:
         raise ScenarioError(file, "", f"not valid Unicode text at character {e.start}") from None
     except (MemoryError, RecursionError):
         raise ScenarioError(file, "", "too big or too deeply nested to read") from None
+
+
+@contextlib.contextmanager
+def gc_paused() -> Iterator[None]:
+    """No cyclic garbage collection while building big acyclic data (a map of 100,000 nodes).
+
+    The collector would walk the million new containers again and again, for
+    nothing: they form no cycles (recursive aliases are refused).  It runs
+    again, as before, on leaving.
+    """
+    collecting = gc.isenabled()
+    gc.disable()
+    try:
+        yield
     finally:
         if collecting:
             gc.enable()
@@ -414,20 +425,20 @@ class _Builder:
         while True:
             event = replay.popleft() if replay else get_event()
             kind = type(event)
-            if flow:
-                assert top is not None
+            # In a flow collection, a text form cut at commas may start or go on here.
+            if (
+                flow
+                and top is not None
+                and (top.mend is not None or (kind is scalar_event and "(" in event.value))
+            ):
                 top.key, top.key_event = key, key_event
                 if top.mend is not None:
                     self._mend_step(top, event)
-                    top = stack[-1] if stack else None  # the text form's pieces may have closed it
-                elif kind is scalar_event and self._mend_begins(top, event):
-                    self.count += 1
-                else:
-                    top = None  # not a text form: go on below
-                if top is not None:
                     key, key_event = top.key, top.key_event
                     continue
-                top = stack[-1]
+                if self._mend_begins(top, event):
+                    self.count += 1
+                    continue
             if kind is scalar_event:
                 self.count += 1
                 value = event.value

@@ -40,7 +40,7 @@ from pydantic import (
 from htnagent.domain import Domain, State
 from htnagent.errors import ScenarioError, shown
 from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
-from htnagent.loading import read_yaml
+from htnagent.loading import gc_paused, read_yaml
 from htnagent.maps import WorldMap, parse_map
 from htnagent.planner import PlannerSettings
 from htnagent.terms import Atom, parse
@@ -515,7 +515,8 @@ def _load_map(spec: Any, file: str, base_dir: Path, max_file_bytes: int | None) 
         raise ScenarioError(file, "map", f"cannot read map file {shown(map_file, 200)}: {reason}") from None
     data = read_yaml(map_file, "map", max_file_bytes)
     # An error inside the map file names that file and the key path in it.
-    return parse_map(data, map_file, "")
+    with gc_paused():
+        return parse_map(data, map_file, "")
 
 
 # -- pydantic errors as key paths ----------------------------------------------------
