@@ -300,8 +300,10 @@ def load_yaml_text(text: str, file: str) -> Any:
         raise ScenarioError(file, "", f"invalid YAML: {' '.join(str(e).split())}") from None
     except UnicodeEncodeError as e:  # lone surrogates (only from text not read from a file)
         raise ScenarioError(file, "", f"not valid Unicode text at character {e.start}") from None
-    except (MemoryError, RecursionError):
-        raise ScenarioError(file, "", "too big or too deeply nested to read") from None
+    except MemoryError:
+        raise ScenarioError(file, "", "ran out of memory reading it; the file is too big") from None
+    except RecursionError:  # cannot be (the loop keeps its own stack); said plainly all the same
+        raise ScenarioError(file, "", "too deeply nested to read") from None
 
 
 @contextlib.contextmanager
