@@ -139,8 +139,11 @@ def _nested(depth: int, name: str = "f") -> str:
 
 def gen_nested_terms(rng: random.Random) -> Case:
     depth = rng.choice([20, 33, 100, 250, 1000, 10_000, 200_000])
-    term = _nested(depth, rng.choice(["f", "goto", "resume", "move"]))
+    name = rng.choice(["f", "goto", "resume", "move"])
     where = rng.choice(["task", "trigger", "plan"])
+    if where == "plan":  # a command-line argument may be at most 128 KiB (MAX_ARG_STRLEN)
+        depth = min(depth, 100_000 // (len(name) + 2))
+    term = _nested(depth, name)
     text = BASE
     if where == "task":
         text = text.replace("task: goto(n1)", f"task: goto({term})")

@@ -20,9 +20,12 @@ the document is read, before anything has grown.  The values are those of
 - the tags ``!!set``, ``!!omap``, ``!!pairs`` and application tags are refused.
 
 Text forms inside flow collections are mended: in ``{action:
-move(n40,n35,arc59), progress: 0.5}`` YAML splits the action at its commas,
-so a plain scalar with more ``(`` than ``)`` is read on in the source up to
-its closing parenthesis, and the pieces the split produced are dropped.
+move(n40,n35,arc59), progress: 0.5}`` YAML splits the action at its commas.
+A plain value or item with more ``(`` than ``)`` is joined with the plain
+pieces that follow it, comma after comma, until its parentheses balance; the
+text form is then the source from its start to there.  If something else
+comes first (a quoted value, a ``:``, the end of the collection), the pieces
+stay as YAML read them.  Each piece is looked at once, so mending is linear.
 """
 
 from __future__ import annotations

@@ -316,8 +316,11 @@ def parse_scenario(
         where, reason = _first_error(e)
         raise ScenarioError(file, where, reason) from None
     scenario._file = file
-    scenario._world = _load_map(scenario.map, file, Path(base_dir), max_file_bytes)
-    _cross_check(scenario, Path(base_dir))
+    # Big maps make millions of objects (the map, the domains' tables); collecting garbage
+    # meanwhile would walk them again and again for nothing, so it waits until the end.
+    with gc_paused():
+        scenario._world = _load_map(scenario.map, file, Path(base_dir), max_file_bytes)
+        _cross_check(scenario, Path(base_dir))
     return scenario
 
 
@@ -515,8 +518,7 @@ def _load_map(spec: Any, file: str, base_dir: Path, max_file_bytes: int | None) 
         raise ScenarioError(file, "map", f"cannot read map file {shown(map_file, 200)}: {reason}") from None
     data = read_yaml(map_file, "map", max_file_bytes)
     # An error inside the map file names that file and the key path in it.
-    with gc_paused():
-        return parse_map(data, map_file, "")
+    return parse_map(data, map_file, "")
 
 
 # -- pydantic errors as key paths ----------------------------------------------------
