@@ -1,10 +1,10 @@
-"""``python -m bench`` (the six published cases), ``python -m bench scaling|reliability|differential``."""
+"""``python -m bench`` (the six published cases), or a study: ``python -m bench STUDY`` (see --help)."""
 
 from __future__ import annotations
 
 import argparse
 
-from bench import differential, fleet, reaction, reliability, replanning, scaling
+from bench import differential, fleet, fuzz, reaction, reliability, replanning, scaling
 
 
 def main() -> int:
@@ -13,11 +13,13 @@ def main() -> int:
         "study",
         nargs="?",
         default="replanning",
-        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction"),
+        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction", "fuzz"),
     )
-    parser.add_argument("--runs", type=int, default=None, help="measured runs per cell")
+    parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     args = parser.parse_args()
+    if args.study == "fuzz":
+        return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":
         return reaction.main(runs=args.runs or 300)
     if args.study == "fleet":

@@ -1,9 +1,17 @@
 """The command line: ``python -m htnagent run|plan|check SCENARIO`` (CONTRACTS.md).
 
 The CLI owns the console.  Exit codes: 0 success, 1 no plan / a goal failed,
-2 invalid input or usage.  Every error of kind 2 is exactly one line on stderr,
-``htnagent: error: <file>: <key path or line>: <reason>`` (usage errors have no
-file), never a traceback.
+2 invalid input or usage, 130 interrupted.  Every error of kind 2 is exactly one
+line on stderr, ``htnagent: error: <file>: <key path or line>: <reason>`` (usage
+errors have no file), never a traceback.
+
+Ctrl-C and SIGTERM: until a run starts there is nothing to save, and
+``python -m htnagent`` ends at once with exit 130 (:mod:`htnagent.__main__`).
+Once a run has started, :class:`_RunSignals` takes both signals over until
+the command returns: the first stops the run, which still prints its summary;
+any later one (while the run winds down, the summary or the picture is
+written) is only noted.  Either way the exit code is 130 and stderr says
+``htnagent: interrupted``, never a traceback.
 """
 
 from __future__ import annotations
@@ -14,14 +22,17 @@ import json
 import os
 import signal
 import sys
+import threading
 from collections.abc import Awaitable, Callable, Sequence
-from typing import NoReturn, TextIO
+from types import FrameType, TracebackType
+from typing import Any, NoReturn, TextIO
 
 import anyio
 from rich.console import Console
 
 from htnagent.console import JsonLines, LiveTrace, print_summary
-from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
+from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, plan
 from htnagent.plot import check_plot_target, draw_run
@@ -49,13 +60,17 @@ class _Parser(argparse.ArgumentParser):
         raise _UsageError(f"{message} (see {self.prog} --help)")
 
 
-def _positive_float(text: str) -> float:
+def _speed(text: str) -> float:
+    """``--speed``: a finite pace a clock can keep (1e-320 would never advance, 1e300 is no pace)."""
     try:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+    if not MIN_SPEED <= value <= MAX_SPEED:  # also refuses nan
+        raise argparse.ArgumentTypeError(
+            f"expected a number from {MIN_SPEED:g} to {MAX_SPEED:g} (simulated seconds per real second), "
+            f"got {text!r}"
+        )
     return value
 
 
@@ -75,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
     run.add_argument("--json", action="store_true", help="JSON Lines on stdout, the last line a summary")
     run.add_argument(
         "--speed",
-        type=_positive_float,
+        type=_speed,
         metavar="X",
         help="simulated seconds per real second (default: as fast as possible)",
     )
@@ -92,8 +107,13 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def main(argv: Sequence[str] | None = None) -> int:
-    """Run the command line with ``argv`` (default: ``sys.argv[1:]``); return the exit code."""
+def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> int:
+    """Run the command line with ``argv`` (default: ``sys.argv[1:]``); return the exit code.
+
+    ``owns_process``: the caller exits right after (``python -m htnagent``), so
+    the signal handlers a run installs stay until then instead of being put
+    back -- a late Ctrl-C is then noted, never a traceback.
+    """
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -106,12 +126,12 @@ def main(argv: Sequence[str] | None = None) -> int:
             return _check(args)
         if args.command == "plan":
             return _plan(args)
-        return _run(args)
+        return _run(args, restore_signals=not owns_process)
     except HtnAgentError as e:
         return _fail(str(e))
-    except KeyboardInterrupt:
+    except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
         print(f"{PROG}: interrupted", file=sys.stderr)
-        return 130
+        return EXIT_INTERRUPTED
     except BrokenPipeError:
         # The reader of our output went away (| head): stop quietly.
         devnull = os.open(os.devnull, os.O_WRONLY)
@@ -189,50 +209,109 @@ def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: S
     print(f"{len(found)} {noun} found (the best first), costs {costs}", file=out)
 
 
-def _run(args: argparse.Namespace) -> int:
+def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     scenario = load_scenario(args.scenario)
     if args.plot:
         check_plot_target(args.plot)
-    observers: list[Observer] = []
-    console = Console(highlight=False)
-    if args.json:
-        observers.append(JsonLines(sys.stdout))
-    else:
-        console.print(f"[bold]{scenario.name}[/bold]  ({args.replanning or scenario.replanning} replanning)")
-        observers.append(LiveTrace(console, scenario.agent_names))
-    run = functools.partial(
-        run_scenario,
-        scenario,
-        replanning=args.replanning,
-        speed=args.speed,
-        observers=observers,
-        keep_events=bool(args.plot),
-    )
-    report = anyio.run(_until_interrupted, run)
-    if not args.json:
-        print_summary(console, report.summary)
-    if args.plot:
-        draw_run(scenario, report.events, args.plot)
+    with _RunSignals(restore=restore_signals) as signals:
+        observers: list[Observer] = []
+        console = Console(highlight=False)
+        if args.json:
+            observers.append(JsonLines(sys.stdout))
+        else:
+            mode = args.replanning or scenario.replanning
+            console.print(f"[bold]{scenario.name}[/bold]  ({mode} replanning)")
+            observers.append(LiveTrace(console, scenario.agent_names))
+        run = functools.partial(
+            run_scenario,
+            scenario,
+            replanning=args.replanning,
+            speed=args.speed,
+            observers=observers,
+            keep_events=bool(args.plot),
+        )
+        report = anyio.run(_until_interrupted, run, signals)
         if not args.json:
-            console.print(f"picture saved to {args.plot}")
-    if report.interrupted:
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
+            print_summary(console, _summary_of(report))
+        if args.plot:
+            try:
+                draw_run(scenario, report.events, args.plot)
+            except PlotError as e:
+                # Checked before the run, yet it failed after: say so, but the run's result stands.
+                print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
+            else:
+                if not args.json:
+                    console.print(f"picture saved to {args.plot}")
+        if report.interrupted or signals.received:
+            print(f"{PROG}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
 
 
-async def _until_interrupted(run: Callable[..., Awaitable[RunReport]]) -> RunReport:
-    """Run; Ctrl-C (SIGINT) or SIGTERM stops the run cleanly with its summary."""
+def _summary_of(report: RunReport) -> dict[str, Any]:
+    """The run's summary event.
+
+    ``report.summary`` is the last event traced; when a run is interrupted, a
+    reply still on its way (a robot's message) can come after the summary.
+    """
+    if report.summary.get("event") == "summary":
+        return report.summary
+    found = [e for e in reversed(report.events) if e.get("event") == "summary"]
+    return found[0] if found else report.summary
+
+
+class _RunSignals:
+    """SIGINT and SIGTERM while a run is under way: noted, never raised.
+
+    The handler only counts; the run looks at the count (see
+    :func:`_until_interrupted`) and stops itself, so no exception can land in
+    the middle of the runtime or of printing the summary, and a second signal
+    during shutdown changes nothing.  The handlers in place before are put back
+    on exit if ``restore``.  Only the main thread can take signals over;
+    elsewhere this does nothing (and a run there is stopped by its caller).
+    """
+
+    SIGNALS = (signal.SIGINT, signal.SIGTERM)
+
+    def __init__(self, restore: bool = True) -> None:
+        self.received = 0
+        self._restore = restore
+        self._saved: list[tuple[int, object]] = []
+
+    def _note(self, signum: int, frame: FrameType | None) -> None:
+        self.received += 1
+
+    def __enter__(self) -> _RunSignals:
+        if threading.current_thread() is threading.main_thread():
+            for sig in self.SIGNALS:
+                self._saved.append((sig, signal.signal(sig, self._note)))
+        return self
+
+    def __exit__(
+        self, kind: type[BaseException] | None, error: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if self._restore:
+            for sig, handler in reversed(self._saved):
+                signal.signal(sig, handler)  # type: ignore[arg-type]  # as getsignal gave it
+        self._saved.clear()
+
+
+# How often a run looks for a signal: a handler cannot wake an event loop on every
+# backend, so the run polls; 50 ms is quick for a person and costs nothing.
+_SIGNAL_POLL_S = 0.05
+
+
+async def _until_interrupted(run: Callable[..., Awaitable[RunReport]], signals: _RunSignals) -> RunReport:
+    """Run; the first SIGINT or SIGTERM (noted by ``signals``) stops the run cleanly with its summary."""
     stop = anyio.Event()
 
-    async def listen() -> None:
-        with anyio.open_signal_receiver(signal.SIGINT, signal.SIGTERM) as signals:
-            async for _ in signals:
-                stop.set()
-                return
+    async def watch() -> None:
+        while not signals.received:  # noqa: ASYNC110  (a signal handler cannot set an anyio.Event)
+            await anyio.sleep(_SIGNAL_POLL_S)
+        stop.set()
 
     async with anyio.create_task_group() as tg:
-        tg.start_soon(listen)
+        tg.start_soon(watch)
         report = await run(stop=stop)
         tg.cancel_scope.cancel()
     return report

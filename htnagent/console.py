@@ -22,14 +22,23 @@ _STYLES = ["bold cyan", "bold green", "bold magenta", "bold yellow", "bold blue"
 
 
 class JsonLines:
-    """Writes each event as one JSON line."""
+    """Writes each event as one JSON line, the ``summary`` last (CONTRACTS.md ``run --json``).
+
+    When a run is interrupted, a reply already on its way (a robot's
+    ``message``) can be traced after the summary; such stragglers are left out,
+    so that the summary stays the last line.
+    """
 
     def __init__(self, out: IO[str]) -> None:
         self.out = out
+        self.done = False
 
     def __call__(self, event: Event) -> None:
+        if self.done:
+            return
         self.out.write(json.dumps(event, separators=(",", ":")) + "\n")
         self.out.flush()
+        self.done = event.get("event") == "summary"
 
 
 class LiveTrace:

@@ -10,6 +10,10 @@
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     └── RuntimeClosedError   a goal is given to a runtime that is not running
 
+Messages quote what they refuse with :func:`shown`, never with a bare ``repr``:
+a hostile file can hold values whose ``repr`` is huge, slow or refused outright
+(an integer of 5,000 digits), and one line on stderr must stay one short line.
+
 Planning that finds no plan is a result (:class:`htnagent.planner.PlanStatus`),
 not an exception; exceptions are for misuse and invalid input.  Faults while
 agents run (an executor that raises, hangs or crashes) become failed actions and
@@ -17,6 +21,9 @@ agents run (an executor that raises, hangs or crashes) become failed actions and
 """
 
 from __future__ import annotations
+
+import reprlib
+from typing import Any
 
 
 class HtnAgentError(Exception):
@@ -39,11 +46,12 @@ class ScenarioError(HtnAgentError):
     """
 
     def __init__(self, file: str, where: str, reason: str) -> None:
-        self.file = file
-        self.where = where
-        self.reason = reason
-        place = f"{file}: {where}" if where else file
-        super().__init__(f"{place}: {reason}")
+        # Each part is clipped: a file name, a key or a quoted value may be as long as the file.
+        self.file = _clipped(file, 512)
+        self.where = _clipped(where, 300)
+        self.reason = _clipped(reason, 1000)
+        place = f"{self.file}: {self.where}" if self.where else self.file
+        super().__init__(f"{place}: {self.reason}")
 
 
 class PlanningError(HtnAgentError):
@@ -52,6 +60,51 @@ class PlanningError(HtnAgentError):
 
 class PlotError(HtnAgentError):
     """Raised when the picture of a run cannot be drawn (no matplotlib, unwritable file)."""
+
+
+class _Short(reprlib.Repr):
+    """``reprlib`` bounds, plus integers too long to print (Python refuses 4,300+ digits)."""
+
+    def __init__(self, width: int) -> None:
+        super().__init__()
+        self.maxlevel = 3
+        self.maxstring = width
+        self.maxother = width
+        self.maxlong = width
+
+    def repr_int(self, x: int, level: int) -> str:
+        if x.bit_length() > 200:
+            digits = int(x.bit_length() * 0.30103) + 1
+            return f"<a whole number of about {digits} digits>"
+        return super().repr_int(x, level)
+
+    def repr_bytes(self, x: bytes, level: int) -> str:
+        return self.repr_instance(x[: 2 * self.maxother], level)  # only a slice is ever turned into text
+
+
+_SHORT = _Short(60)
+
+
+def shown(value: Any, width: int = 60) -> str:
+    """``repr(value)`` for an error message: at most about ``width`` characters, cheap for any value.
+
+    Containers show their first few items, long text its start; nothing is
+    turned into text whole, so quoting a value costs the same however big it is.
+    """
+    short = _SHORT if width == 60 else _Short(width)
+    try:
+        text = short.repr(value)
+    except Exception:  # a value whose repr fails (user objects): name its type instead
+        text = f"<{type(value).__name__}>"
+    return text if len(text) <= width + 3 else text[:width] + "..."
+
+
+def _clipped(text: str, limit: int) -> str:
+    """``text`` with its middle left out if longer than ``limit``: one error line stays readable."""
+    if len(text) <= limit:
+        return text
+    half = (limit - 3) // 2
+    return f"{text[:half]}...{text[-half:]}"
 
 
 class RuntimeClosedError(HtnAgentError):

@@ -1,11 +1,16 @@
 """A picture of a run: the map, the robot's path, the emergency detours marked (``--plot``).
 
 Needs matplotlib (``pip install 'htnagent[plot]'``); without it ``--plot`` is a
-clear usage error.
+clear usage error.  Whether the picture can be written is checked before the
+run (:func:`check_plot_target`), so that a run is not wasted on a file name
+that was wrong from the start; a failure that still comes after the run is
+reported by the CLI without hiding the run's own result.
 """
 
 from __future__ import annotations
 
+import os
+import stat
 from pathlib import Path
 
 from htnagent.errors import PlotError
@@ -14,7 +19,11 @@ from htnagent.trace import Event
 
 
 def check_plot_target(file: str) -> None:
-    """Fail early, before the run, if the picture could not be saved."""
+    """Fail early, before the run, if the picture could not be saved.
+
+    The file is opened for writing as the picture will be: an existing file
+    without truncating it, a new one by creating it and removing it again.
+    """
     try:
         import matplotlib  # noqa: F401
     except ImportError:
@@ -22,12 +31,45 @@ def check_plot_target(file: str) -> None:
     path = Path(file)
     if path.suffix.lower() != ".png":
         raise PlotError(f"{file}: --plot writes PNG; give a file name ending in .png")
-    if not path.parent.exists() or not path.parent.is_dir():
-        raise PlotError(f"{file}: the folder {path.parent} does not exist")
+    try:
+        try:
+            info: os.stat_result | None = os.stat(file)
+        except FileNotFoundError:
+            info = None
+        if info is None:
+            folder = path.parent
+            if not folder.is_dir():
+                raise PlotError(f"{file}: the folder {folder} does not exist")
+            # O_NONBLOCK: a FIFO made meanwhile must not block the check.
+            fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NONBLOCK, 0o666)
+            os.close(fd)
+            os.unlink(file)
+        elif stat.S_ISDIR(info.st_mode):
+            raise PlotError(f"{file}: is a directory; give a file name ending in .png")
+        elif not stat.S_ISREG(info.st_mode):
+            raise PlotError(f"{file}: is not a regular file; give a file name ending in .png")
+        else:
+            os.close(os.open(file, os.O_WRONLY | os.O_APPEND | _NONBLOCK))
+    except OSError as e:  # no permission, a read-only file system, a name too long, ...
+        raise PlotError(f"{file}: cannot write the picture there: {e.strerror or e}") from None
+    except ValueError:  # a NUL in the name
+        raise PlotError(f"{file}: cannot write the picture there: the name holds a NUL character") from None
+
+
+_NONBLOCK = getattr(os, "O_NONBLOCK", 0)
 
 
 def draw_run(scenario: Scenario, events: list[Event], file: str) -> None:
-    """Draw the map and the path the robot travelled, emergency legs in red."""
+    """Draw the map and the path the robot travelled, emergency legs in red; PlotError if it cannot."""
+    try:
+        _draw(scenario, events, file)
+    except PlotError:
+        raise
+    except Exception as e:  # matplotlib may fail in ways of its own; the run's result must survive it
+        raise PlotError(f"{file}: drawing the picture failed: {type(e).__name__}: {e}") from None
+
+
+def _draw(scenario: Scenario, events: list[Event], file: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")

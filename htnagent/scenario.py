@@ -9,21 +9,21 @@ is resolved against the map and the agents' domains.  Whatever is wrong is
 reported as one :class:`~htnagent.errors.ScenarioError` naming the file and the
 key path (``goals[1].when.progress``) or, for YAML syntax, the line.
 
-Text forms inside YAML flow mappings need care: in ``{action: move(n40,n35,arc59),
-progress: 0.5}`` YAML itself splits the action at its commas.  The loader puts
-such a text form back together from the source, so the contract's own example
-reads as written.
+Files are read by :mod:`htnagent.loading`, which trusts nothing in them (special
+files, sizes, nesting, aliases; see :mod:`htnagent.limits`) and puts text forms
+that YAML split at flow commas back together, so the contract's own example
+``{action: move(n40,n35,arc59), progress: 0.5}`` reads as written.  A domain
+named as ``package.module:attribute`` is the user's own code, and runs
+(:mod:`htnagent.user_domains`).
 """
 
 from __future__ import annotations
 
-import importlib
-import types
+import os
 from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Annotated, Any, Literal, get_args
 
-import yaml
 from pydantic import (
     BaseModel,
     ConfigDict,
@@ -36,14 +36,15 @@ from pydantic import (
     field_validator,
     model_validator,
 )
-from yaml.constructor import ConstructorError
 
 from htnagent.domain import Domain, State
-from htnagent.domains import BUILTIN
-from htnagent.errors import ScenarioError
+from htnagent.errors import ScenarioError, shown
+from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
+from htnagent.loading import gc_paused, read_yaml
 from htnagent.maps import WorldMap, parse_map
 from htnagent.planner import PlannerSettings
 from htnagent.terms import Atom, parse
+from htnagent.user_domains import resolve_domain
 
 __all__ = [
     "AgentSpec",
@@ -71,7 +72,7 @@ TextForm = Annotated[Atom, PlainValidator(_parse_atom), PlainSerializer(str)]
 """A task or action written ``name(arg,...)`` in the file, held as an :class:`Atom`."""
 
 Name = Annotated[str, Field(min_length=1)]
-PositiveSeconds = Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
+PositiveSeconds = Annotated[float, Strict(), Field(gt=0, le=MAX_SECONDS, allow_inf_nan=False)]
 
 
 class _Spec(BaseModel):
@@ -82,7 +83,7 @@ class RobotSpec(_Spec):
     """The simulated robot: where it starts, how fast it goes, how often an action fails."""
 
     start: Name
-    speed: Annotated[float, Strict(), Field(gt=0, allow_inf_nan=False)]
+    speed: Annotated[float, Strict(), Field(ge=MIN_SPEED, le=MAX_SPEED, allow_inf_nan=False)]
     """Metres per simulated second."""
     failure_rate: Annotated[float, Strict(), Field(ge=0, le=1)] = 0.0
     """The chance that an action fails of itself (for failure experiments)."""
@@ -124,7 +125,7 @@ class Trigger(_Spec):
     ``robot.durations``), followed through suspensions and resumptions; any
     agent's action may trigger with 1, when it (or its ``resume``) succeeds.
     """
-    time: Annotated[float, Strict(), Field(ge=0, allow_inf_nan=False)] | None = None
+    time: Annotated[float, Strict(), Field(ge=0, le=MAX_SECONDS, allow_inf_nan=False)] | None = None
     """Simulated seconds from the start."""
 
     @model_validator(mode="after")
@@ -280,16 +281,27 @@ class Scenario(_Spec):
         _check_map_names(self.agent(agent_name).domain, task, self.world, self._file, where)
 
 
-def load_scenario(path: str | Path) -> Scenario:
-    """Read and check a scenario file; raise ScenarioError naming what is wrong and where."""
+def load_scenario(path: str | Path, *, max_file_bytes: int | None = None) -> Scenario:
+    """Read and check a scenario file; raise ScenarioError naming what is wrong and where.
+
+    Only regular files of at most ``max_file_bytes`` bytes are read, the
+    scenario and its map file alike (default: the environment variable
+    ``HTNAGENT_MAX_FILE_BYTES``, else 64 MiB; see :mod:`htnagent.limits`).
+    A domain named as ``package.module:attribute`` is imported from the
+    scenario file's folder or the installed packages, and runs.
+    """
     file = str(path)
-    p = Path(path)
-    data = _read_yaml(p, file, "scenario")
-    return parse_scenario(data, file, p.parent)
+    data = read_yaml(path, "scenario", max_file_bytes)
+    return parse_scenario(data, file, Path(file).parent, max_file_bytes=max_file_bytes)
 
 
-def parse_scenario(data: Any, file: str, base_dir: str | Path = ".") -> Scenario:
-    """Check a scenario given as parsed YAML; ``base_dir`` is where a map file name is looked up."""
+def parse_scenario(
+    data: Any, file: str, base_dir: str | Path = ".", *, max_file_bytes: int | None = None
+) -> Scenario:
+    """Check a scenario given as parsed YAML.
+
+    ``base_dir`` is where a map file name and a user's domain module are looked up.
+    """
     if not isinstance(data, Mapping):
         raise ScenarioError(
             file,
@@ -304,15 +316,18 @@ def parse_scenario(data: Any, file: str, base_dir: str | Path = ".") -> Scenario
         where, reason = _first_error(e)
         raise ScenarioError(file, where, reason) from None
     scenario._file = file
-    scenario._world = _load_map(scenario.map, file, Path(base_dir))
-    _cross_check(scenario)
+    # Big maps make millions of objects (the map, the domains' tables); collecting garbage
+    # meanwhile would walk them again and again for nothing, so it waits until the end.
+    with gc_paused():
+        scenario._world = _load_map(scenario.map, file, Path(base_dir), max_file_bytes)
+        _cross_check(scenario, Path(base_dir))
     return scenario
 
 
 # -- cross references -------------------------------------------------------------
 
 
-def _cross_check(s: Scenario) -> None:
+def _cross_check(s: Scenario, base_dir: Path) -> None:
     file, world = s.file, s.world
     if s.robot.start not in world.nodes:
         raise ScenarioError(file, "robot.start", f"unknown node {s.robot.start!r}; it is not on the map")
@@ -336,7 +351,7 @@ def _cross_check(s: Scenario) -> None:
                 f"expected {what}, got {a.executor!r}; agents form a chain, parent first",
             )
     for i, a in enumerate(s.agents):
-        s._domains[a.name] = _resolve_domain(a.domain, world, file, f"agents[{i}].domain")
+        s._domains[a.name] = resolve_domain(a.domain, world, base_dir, file, f"agents[{i}].domain")
     _check_durations(s)
     _check_timeout(s)
     for i, g in enumerate(s.goals):
@@ -486,181 +501,24 @@ def _no_agent(name: str, names: Sequence[str]) -> str:
     return f"no agent named {name!r}; the agents are {', '.join(names)}"
 
 
-# -- domains ------------------------------------------------------------------------
-
-
-def _resolve_domain(spec: str, world: WorldMap, file: str, where: str) -> Domain:
-    """A built-in domain by name, or a user's ``package.module:attribute``."""
-    factory = BUILTIN.get(spec)
-    if factory is not None:
-        return factory(world)
-    if ":" not in spec:
-        raise ScenarioError(
-            file,
-            where,
-            f"unknown domain {spec!r}; built-in domains are {', '.join(sorted(BUILTIN))}, "
-            "or name your own as package.module:attribute",
-        )
-    module_name, _, attr_path = spec.partition(":")
-    if not module_name or not attr_path:
-        raise ScenarioError(file, where, f"{spec!r}: expected package.module:attribute")
-    try:
-        module = importlib.import_module(module_name)
-    except ModuleNotFoundError as e:
-        raise ScenarioError(file, where, f"cannot import module {module_name!r}: {e}") from None
-    except Exception as e:  # a user's module may fail to import in any way
-        raise ScenarioError(file, where, f"importing {module_name!r} failed: {_one_line(e)}") from None
-    target: Any = module
-    for part in attr_path.split("."):
-        if not hasattr(target, part):
-            raise ScenarioError(file, where, f"module {module_name!r} has no attribute {attr_path!r}")
-        target = getattr(target, part)
-    if isinstance(target, Domain):
-        return target
-    if not callable(target) or isinstance(target, types.ModuleType):
-        raise ScenarioError(
-            file,
-            where,
-            f"{spec} is a {type(target).__name__}, not a Domain nor a function of the map returning one",
-        )
-    try:
-        built = target(world)
-    except Exception as e:  # the user's factory
-        raise ScenarioError(file, where, f"calling {spec}(map) failed: {_one_line(e)}") from None
-    if not isinstance(built, Domain):
-        raise ScenarioError(file, where, f"{spec}(map) returned a {type(built).__name__}, not a Domain")
-    return built
-
-
 # -- maps ---------------------------------------------------------------------------
 
 
-def _load_map(spec: Any, file: str, base_dir: Path) -> WorldMap:
+def _load_map(spec: Any, file: str, base_dir: Path, max_file_bytes: int | None) -> WorldMap:
     if isinstance(spec, Mapping):
         return parse_map(spec, file, "map")
-    map_path = base_dir / str(spec)
-    if not map_path.exists():
-        raise ScenarioError(file, "map", f"map file {str(map_path)!r} not found")
-    map_file = str(map_path)
-    data = _read_yaml(map_path, map_file, "map")
+    map_file = str(base_dir / str(spec))
+    # A map file that is not there is the scenario's mistake; one that is there but bad, the map's.
+    try:
+        os.stat(map_file)
+    except FileNotFoundError:
+        raise ScenarioError(file, "map", f"map file {shown(map_file, 200)} not found") from None
+    except (OSError, ValueError) as e:  # a name too long, a path through a file, a NUL in the name
+        reason = e.strerror if isinstance(e, OSError) and e.strerror else str(e)
+        raise ScenarioError(file, "map", f"cannot read map file {shown(map_file, 200)}: {reason}") from None
+    data = read_yaml(map_file, "map", max_file_bytes)
     # An error inside the map file names that file and the key path in it.
     return parse_map(data, map_file, "")
-
-
-# -- YAML ---------------------------------------------------------------------------
-
-
-def _read_yaml(path: Path, file: str, what: str) -> Any:
-    if path.is_dir():
-        raise ScenarioError(file, "", f"is a directory, not a {what} file")
-    try:
-        text = path.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ScenarioError(file, "", "no such file") from None
-    except UnicodeDecodeError as e:
-        raise ScenarioError(
-            file, "", f"not UTF-8 text (byte {e.start}); expected a YAML {what} file"
-        ) from None
-    except OSError as e:
-        raise ScenarioError(file, "", f"cannot read the file: {e.strerror or e}") from None
-    try:
-        data = yaml.load(text, Loader=_Loader)  # _Loader is a SafeLoader
-    except yaml.MarkedYAMLError as e:
-        mark = e.problem_mark or e.context_mark
-        where = f"line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
-        reason = e.problem or e.context or "invalid YAML"
-        if e.context and e.context_mark is not None and e.problem:
-            reason += f" ({e.context} at line {e.context_mark.line + 1})"
-        raise ScenarioError(file, where, f"invalid YAML: {reason}") from None
-    except yaml.YAMLError as e:
-        raise ScenarioError(file, "", f"invalid YAML: {_one_line(e)}") from None
-    if data is None:
-        raise ScenarioError(file, "", f"the file is empty; expected a {what}")
-    return data
-
-
-class _Loader(yaml.SafeLoader):
-    """A safe loader that refuses duplicate keys and mends text forms split by flow commas."""
-
-    def construct_mapping(self, node: yaml.MappingNode, deep: bool = False) -> dict[Any, Any]:
-        if node.flow_style:
-            node.value = _mend_pairs(node.value)
-        seen: dict[Any, int] = {}
-        for key_node, _ in node.value:
-            if isinstance(key_node, yaml.ScalarNode):
-                key = self.construct_object(key_node)
-                if key in seen:
-                    raise ConstructorError(
-                        None,
-                        None,
-                        f"duplicate key {key!r} (first at line {seen[key]})",
-                        key_node.start_mark,
-                    )
-                seen[key] = key_node.start_mark.line + 1
-        return super().construct_mapping(node, deep)
-
-    def construct_sequence(self, node: yaml.SequenceNode, deep: bool = False) -> list[Any]:
-        if node.flow_style:
-            node.value = _mend_items(node.value)
-        return super().construct_sequence(node, deep)
-
-
-def _text_form_end(node: yaml.Node) -> int | None:
-    """Where the text form begun by ``node`` really ends, if a flow comma cut it short."""
-    if not isinstance(node, yaml.ScalarNode) or node.style is not None:
-        return None
-    value = str(node.value)
-    if value.count("(") <= value.count(")"):
-        return None
-    buf = node.start_mark.buffer
-    if not isinstance(buf, str):
-        return None
-    depth = 0
-    for i in range(node.start_mark.index, len(buf)):
-        c = buf[i]
-        if c == "(":
-            depth += 1
-        elif c == ")":
-            depth -= 1
-            if depth == 0:
-                return i + 1
-        elif c in "{}[]:\n\0":
-            return None
-    return None
-
-
-def _mended(node: yaml.Node, end: int) -> yaml.ScalarNode:
-    buf = str(node.start_mark.buffer)
-    text = buf[node.start_mark.index : end]
-    return yaml.ScalarNode("tag:yaml.org,2002:str", text, node.start_mark, node.end_mark)
-
-
-def _mend_pairs(pairs: list[tuple[yaml.Node, yaml.Node]]) -> list[tuple[yaml.Node, yaml.Node]]:
-    out: list[tuple[yaml.Node, yaml.Node]] = []
-    end = -1
-    for key, value in pairs:
-        if key.start_mark.index < end:
-            continue  # a piece of the text form mended into the previous value
-        stop = _text_form_end(value)
-        if stop is not None:
-            end = stop
-            value = _mended(value, stop)
-        out.append((key, value))
-    return out
-
-
-def _mend_items(items: list[yaml.Node]) -> list[yaml.Node]:
-    out: list[yaml.Node] = []
-    end = -1
-    for item in items:
-        if item.start_mark.index < end:
-            continue
-        stop = _text_form_end(item)
-        if stop is not None:
-            end = stop
-            item = _mended(item, stop)
-        out.append(item)
-    return out
 
 
 # -- pydantic errors as key paths ----------------------------------------------------
@@ -685,28 +543,28 @@ def _first_error(e: ValidationError) -> tuple[str, str]:
     elif kind in ("tuple_type", "list_type"):
         reason = f"expected a list, got {_kind(got)}"
     elif kind == "string_type":
-        reason = f"expected text, got {_shown(got)}"
+        reason = f"expected text, got {shown(got)}"
     elif kind == "string_too_short":
         reason = "must not be empty"
     elif kind in ("float_type", "float_parsing", "finite_number"):
-        reason = f"expected a finite number, got {_shown(got)}"
+        reason = f"expected a finite number, got {shown(got)}"
     elif kind in ("int_type", "int_parsing", "int_from_float"):
-        reason = f"expected a whole number, got {_shown(got)}"
+        reason = f"expected a whole number, got {shown(got)}"
     elif kind in ("bool_type", "bool_parsing"):
-        reason = f"expected true or false, got {_shown(got)}"
+        reason = f"expected true or false, got {shown(got)}"
     elif kind in ("greater_than", "greater_than_equal", "less_than", "less_than_equal"):
         sign = {"greater_than": "gt", "greater_than_equal": "ge", "less_than": "lt", "less_than_equal": "le"}
         words = {"gt": "greater than", "ge": "at least", "lt": "less than", "le": "at most"}
         bound = sign[kind]
-        reason = f"must be {words[bound]} {_number(ctx.get(bound))}, got {_shown(got)}"
+        reason = f"must be {words[bound]} {_number(ctx.get(bound))}, got {shown(got)}"
     elif kind == "too_short":
         reason = "must not be empty" if ctx.get("min_length") == 1 else str(err["msg"])
     elif kind == "literal_error":
-        reason = f"expected {ctx.get('expected', 'one of the allowed values')}, got {_shown(got)}"
+        reason = f"expected {ctx.get('expected', 'one of the allowed values')}, got {shown(got)}"
     elif kind in ("value_error", "assertion_error"):
         reason = str(err["msg"]).removeprefix("Value error, ").removeprefix("Assertion failed, ")
     else:
-        reason = f"{err['msg']}, got {_shown(got)}"
+        reason = f"{err['msg']}, got {shown(got)}"
     return where, reason
 
 
@@ -756,19 +614,9 @@ def _kind(value: object) -> str:
     if isinstance(value, bool):
         return f"{value!r}".lower()
     if isinstance(value, str):
-        return f"text {_shown(value)}"
-    return f"{type(value).__name__} {_shown(value)}"
-
-
-def _shown(value: object) -> str:
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + "..."
+        return f"text {shown(value)}"
+    return f"{type(value).__name__} {shown(value)}"
 
 
 def _number(value: object) -> str:
     return f"{value:g}" if isinstance(value, float) else str(value)
-
-
-def _one_line(e: BaseException) -> str:
-    text = " ".join(str(e).split())
-    return f"{type(e).__name__}: {text}" if text else type(e).__name__

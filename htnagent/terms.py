@@ -5,14 +5,20 @@ tuple of arguments, each argument a constant (``str``) or a nested atom
 (``resume(move(n40,n35,arc59))``).  In domain definitions a constant that starts
 with ``?`` is a variable.  This module parses and prints the text form of
 CONTRACTS.md and unifies patterns with ground atoms (SHOP-style binding).
+
+Atoms nest at most :data:`~htnagent.limits.MAX_TERM_DEPTH` deep when parsed:
+everything that walks an atom does so recursively, and a text form typed by
+hand never comes near the bound.
 """
 
 from __future__ import annotations
 
+import re
 from collections.abc import Iterable, Mapping
 from typing import NamedTuple, Union
 
-from htnagent.errors import TextFormError
+from htnagent.errors import TextFormError, shown
+from htnagent.limits import MAX_TERM_DEPTH
 
 Term = Union[str, "Atom"]
 Bindings = dict[str, Term]
@@ -55,6 +61,7 @@ def is_variable(term: Term) -> bool:
 
 
 _DELIMS = frozenset("(),")
+_NAME = re.compile(r"[^(),\s\"']*")
 
 
 def parse(text: str) -> Atom:
@@ -64,16 +71,21 @@ def parse(text: str) -> Atom:
     src = text.strip()
     if not src:
         raise TextFormError("empty text; expected name(arg,...)")
-    atom, pos = _parse_at(src, 0, text)
+    atom, pos = _parse_at(src, 0, text, 1)
     if pos != len(src):
-        raise TextFormError(f"{text!r}: unexpected {src[pos:]!r} after the closing parenthesis")
+        raise TextFormError(f"{shown(text)}: unexpected {shown(src[pos:])} after the closing parenthesis")
     return atom
 
 
-def _parse_at(src: str, pos: int, whole: str) -> tuple[Atom, int]:
+def _parse_at(src: str, pos: int, whole: str, depth: int) -> tuple[Atom, int]:
     name, pos = _read_name(src, pos, whole)
     if pos >= len(src) or src[pos] != "(":
         return Atom(name), pos
+    if depth > MAX_TERM_DEPTH:
+        raise TextFormError(
+            f"{shown(whole)}: nested more than {MAX_TERM_DEPTH} deep (at position {pos}); "
+            "a text form is name(arg,...) with few levels"
+        )
     pos += 1
     args: list[Term] = []
     if pos < len(src) and src[pos] == ")":
@@ -82,29 +94,28 @@ def _parse_at(src: str, pos: int, whole: str) -> tuple[Atom, int]:
         start = pos
         token, pos = _read_name(src, pos, whole)
         if pos < len(src) and src[pos] == "(":
-            nested, pos = _parse_at(src, start, whole)
+            nested, pos = _parse_at(src, start, whole, depth + 1)
             args.append(nested)
         else:
             args.append(token)
         if pos >= len(src):
-            raise TextFormError(f"{whole!r}: missing ')'")
+            raise TextFormError(f"{shown(whole)}: missing ')'")
         if src[pos] == ",":
             pos += 1
             continue
         if src[pos] == ")":
             return Atom(name, tuple(args)), pos + 1
-        raise TextFormError(f"{whole!r}: unexpected {src[pos]!r} at position {pos}")
+        raise TextFormError(f"{shown(whole)}: unexpected {src[pos]!r} at position {pos}")
 
 
 def _read_name(src: str, pos: int, whole: str) -> tuple[str, int]:
-    start = pos
-    while pos < len(src) and src[pos] not in _DELIMS:
-        if src[pos].isspace() or src[pos] in "\"'":
-            raise TextFormError(f"{whole!r}: no spaces or quotes allowed in the text form (position {pos})")
-        pos += 1
-    if pos == start:
-        raise TextFormError(f"{whole!r}: a name is missing at position {pos}")
-    return src[start:pos], pos
+    # A regular expression, not a loop over characters: a hostile text form may be megabytes long.
+    end = _NAME.match(src, pos).end()  # type: ignore[union-attr]  # matches the empty string at worst
+    if end < len(src) and src[end] not in _DELIMS:
+        raise TextFormError(f"{shown(whole)}: no spaces or quotes allowed in the text form (position {end})")
+    if end == pos:
+        raise TextFormError(f"{shown(whole)}: a name is missing at position {pos}")
+    return src[pos:end], end
 
 
 def atom(text: str | Atom) -> Atom:

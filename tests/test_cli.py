@@ -153,8 +153,10 @@ def test_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
 
 USER_DOMAIN = '''
 from htnagent.domain import Domain
+from htnagent.domains import domain_factory
 
 
+@domain_factory
 def make(world):
     """A tiny domain: greet(X) is said aloud, one say per visitor."""
     d = Domain("greeter")
@@ -168,12 +170,18 @@ READY = make(None)
 NOT_A_DOMAIN = 42
 
 
+@domain_factory
 def wrong_kind(world):
     return "a string"
 
 
+@domain_factory
 def broken(world):
     raise RuntimeError("no map for me")
+
+
+def not_marked(world):
+    return make(world)
 '''
 
 
@@ -218,6 +226,7 @@ def test_a_user_domain_given_as_module_attribute_plans(
         ("wrong_kind", ":wrong_kind(map) returned a str, not a Domain"),
         ("broken", ":broken(map) failed: RuntimeError: no map for me"),
         ("missing", "has no attribute 'missing'"),
+        ("not_marked", ":not_marked is a function, not a Domain nor a function marked @htnagent.domains"),
     ],
 )
 def test_a_user_domain_that_is_not_a_domain_is_refused(

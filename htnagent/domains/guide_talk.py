@@ -31,6 +31,7 @@ is not on the scenario's map are left out.
 from __future__ import annotations
 
 from htnagent.domain import Domain, Effect, Suspension
+from htnagent.domains import domain_factory
 from htnagent.domains.museum import nodes_domain
 from htnagent.maps import WorldMap
 from htnagent.terms import Atom
@@ -47,6 +48,7 @@ EXPLAIN_COST = 10.0
 """The planner's cost of a whole explanation (resuming one costs half)."""
 
 
+@domain_factory
 def talk_domain(world: WorldMap) -> Domain:
     """The guide robot's domain: walking over the nodes of ``world``, and talking."""
     d = nodes_domain(world)

@@ -1,0 +1,168 @@
+"""Ctrl-C and SIGTERM at any moment: exit 130, one line, never a traceback; the summary once a run started.
+
+Real processes get SIGINT or SIGTERM at random moments: during the imports,
+while loading, during the run, while it winds down, while the summary or the
+picture is written -- and often a second signal shortly after the first.
+Whatever the moment, the process must end by itself (never killed by the
+signal), with exit 130 and ``htnagent: interrupted`` on stderr (or with its
+normal result if it had finished), and, once a run had started, with its
+summary printed.
+
+The delays count from the moment ``python -m htnagent`` has installed its
+handlers (seen in /proc/PID/status).  Before that the interpreter is still
+importing the package itself (``htnagent/__init__``), where a signal meets
+Python's own handling.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import random
+import signal
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+MUSEUM = str(ROOT / "scenarios" / "museum.yaml")
+
+pytestmark = pytest.mark.skipif(not Path("/proc/self/status").exists(), reason="needs /proc")
+
+
+def handlers_installed(pid: int) -> bool:
+    """Whether the process catches SIGTERM: python -m htnagent has installed its handlers."""
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    for line in status.splitlines():
+        if line.startswith("SigCgt:"):
+            return bool(int(line.split()[1], 16) >> (signal.SIGTERM - 1) & 1)
+    return False
+
+
+@dataclass
+class Trial:
+    argv: list[str]
+    delay: float
+    first: signal.Signals
+    second: signal.Signals | None
+    second_delay: float
+
+
+@dataclass
+class Outcome:
+    trial: Trial
+    code: int
+    out: str
+    err: str
+
+
+def attempt(trial: Trial) -> Outcome:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "htnagent", *trial.argv],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "COLUMNS": "200"},
+    )
+    deadline = time.monotonic() + 30
+    while not handlers_installed(proc.pid) and proc.poll() is None and time.monotonic() < deadline:
+        time.sleep(0.002)
+    time.sleep(trial.delay)
+    if proc.poll() is None:
+        proc.send_signal(trial.first)
+        if trial.second is not None:
+            time.sleep(trial.second_delay)
+            if proc.poll() is None:
+                proc.send_signal(trial.second)
+    try:
+        out, err = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, err = proc.communicate()
+        return Outcome(trial, -999, out, err)
+    return Outcome(trial, proc.returncode, out, err)
+
+
+def check(outcome: Outcome, tmp_path: Path) -> None:
+    trial, code, out, err = outcome.trial, outcome.code, outcome.out, outcome.err
+    why = f"{trial}: exit {code}\nstdout: {out[-500:]}\nstderr: {err[-1500:]}"
+    assert code in (0, 1, 130), why  # never killed by a signal, never hung (-999)
+    assert "Traceback" not in err, why
+    if code == 130:
+        assert err == "htnagent: interrupted\n", why
+    else:
+        assert err == "", why
+    if trial.argv[0] == "check":
+        assert out in ("", "ok\n"), why
+        return
+    if not out:
+        assert code == 130, why  # interrupted before the run started: nothing printed, nothing to sum up
+        return
+    # The run had started: it ends with its summary, however it was stopped.
+    if "--json" in trial.argv:
+        events = [json.loads(line) for line in out.splitlines()]
+        assert events[-1]["event"] == "summary", why
+        if code == 130 and events[-1]["goals"][-1]["status"] != "success":
+            assert any(g.get("reason") == "interrupted before it ended" for g in events[-1]["goals"]), why
+    else:
+        assert "planning time:" in out.splitlines()[-1] or "picture saved to" in out.splitlines()[-1], why
+        assert "goals" in out, why
+
+
+def test_signals_at_random_moments_end_cleanly(tmp_path: Path) -> None:
+    rng = random.Random(130)
+    commands = [
+        ["run", MUSEUM, "--json", "--speed", "40"],
+        ["run", MUSEUM, "--speed", "40"],
+        ["run", MUSEUM, "--json"],
+        ["run", MUSEUM, "--speed", "80", "--plot", str(tmp_path / "run.png")],
+        ["check", MUSEUM],
+    ]
+    trials = []
+    for i in range(25):
+        second = rng.choice([None, signal.SIGINT, signal.SIGTERM])
+        trials.append(
+            Trial(
+                argv=commands[i % len(commands)],
+                delay=rng.uniform(0, 1.5),
+                first=rng.choice([signal.SIGINT, signal.SIGTERM]),
+                second=second,
+                second_delay=rng.uniform(0, 0.3),
+            )
+        )
+    with ThreadPoolExecutor(max_workers=6) as pool:
+        outcomes = list(pool.map(attempt, trials))
+    for outcome in outcomes:
+        check(outcome, tmp_path)
+    # The trials covered the moments that matter: some were stopped, some ran on.
+    assert sum(o.code == 130 for o in outcomes) >= 8
+
+
+@pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
+def test_a_second_signal_while_the_run_winds_down_is_ignored(second: signal.Signals) -> None:
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "htnagent", "run", MUSEUM, "--json", "--speed", "10"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    assert proc.stdout is not None
+    first = proc.stdout.readline()  # the run has started
+    assert first
+    proc.send_signal(signal.SIGTERM)
+    for _ in range(5):  # and again, while it stops and prints its summary
+        time.sleep(0.01)
+        if proc.poll() is None:
+            proc.send_signal(second)
+    out, err = proc.communicate(timeout=20)
+    assert proc.returncode == 130
+    assert err == "htnagent: interrupted\n"
+    assert json.loads((first + out).splitlines()[-1])["event"] == "summary"
