@@ -3,44 +3,123 @@
 The planner and plan maintenance are pure synchronous code (:mod:`htnagent.planner`,
 :mod:`htnagent.planset`); the runtime of agents on anyio sits on top
 (:mod:`htnagent.runtime`, :mod:`htnagent.agent`).
+
+The names below are imported on first use: ``import htnagent`` itself costs
+nothing, so the command line can install its signal handlers before anything
+heavy is loaded (see :mod:`htnagent.launch`).
 """
 
 from __future__ import annotations
 
+import importlib
 import logging
-
-from htnagent.agent import Agent, AgentConfig, GoalStatus
-from htnagent.domain import Domain, Effect, State, Suspension
-from htnagent.executor import Executor, ExecutorActor, Outcome
-from htnagent.plan import Plan, Step
-from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
-from htnagent.planset import PlanSet, Replanning
-from htnagent.runtime import GoalOutcome, Runtime
-from htnagent.terms import Atom, parse
+from typing import TYPE_CHECKING, Any
 
 logging.getLogger("htnagent").addHandler(logging.NullHandler())
+
+_WHERE = {
+    "Agent": "agent",
+    "AgentConfig": "agent",
+    "GoalStatus": "agent",
+    "Domain": "domain",
+    "Effect": "domain",
+    "State": "domain",
+    "Suspension": "domain",
+    "DomainError": "errors",
+    "HtnAgentError": "errors",
+    "PlanningError": "errors",
+    "PlotError": "errors",
+    "RuntimeClosedError": "errors",
+    "ScenarioError": "errors",
+    "TextFormError": "errors",
+    "Executor": "executor",
+    "ExecutorActor": "executor",
+    "Outcome": "executor",
+    "Plan": "plan",
+    "Step": "plan",
+    "PlannerSettings": "planner",
+    "PlanResult": "planner",
+    "PlanStatus": "planner",
+    "plan": "planner",
+    "PlanSet": "planset",
+    "Replanning": "planset",
+    "GoalOutcome": "runtime",
+    "Runtime": "runtime",
+    "Scenario": "scenario",
+    "load_scenario": "scenario",
+    "RunReport": "simulation",
+    "run_scenario": "simulation",
+    "Atom": "terms",
+    "parse": "terms",
+}
 
 __all__ = [
     "Agent",
     "AgentConfig",
     "Atom",
     "Domain",
+    "DomainError",
     "Effect",
     "Executor",
     "ExecutorActor",
     "GoalOutcome",
     "GoalStatus",
+    "HtnAgentError",
     "Outcome",
     "Plan",
     "PlanResult",
     "PlanSet",
     "PlanStatus",
     "PlannerSettings",
+    "PlanningError",
+    "PlotError",
     "Replanning",
+    "RunReport",
     "Runtime",
+    "RuntimeClosedError",
+    "Scenario",
+    "ScenarioError",
     "State",
     "Step",
     "Suspension",
+    "TextFormError",
+    "load_scenario",
     "parse",
     "plan",
+    "run_scenario",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    module = _WHERE.get(name)
+    if module is None:
+        raise AttributeError(f"module 'htnagent' has no attribute {name!r}")
+    value = getattr(importlib.import_module(f"htnagent.{module}"), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted([*globals(), *_WHERE])
+
+
+if TYPE_CHECKING:
+    from htnagent.agent import Agent, AgentConfig, GoalStatus
+    from htnagent.domain import Domain, Effect, State, Suspension
+    from htnagent.errors import (
+        DomainError,
+        HtnAgentError,
+        PlanningError,
+        PlotError,
+        RuntimeClosedError,
+        ScenarioError,
+        TextFormError,
+    )
+    from htnagent.executor import Executor, ExecutorActor, Outcome
+    from htnagent.plan import Plan, Step
+    from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
+    from htnagent.planset import PlanSet, Replanning
+    from htnagent.runtime import GoalOutcome, Runtime
+    from htnagent.scenario import Scenario, load_scenario
+    from htnagent.simulation import RunReport, run_scenario
+    from htnagent.terms import Atom, parse

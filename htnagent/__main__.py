@@ -1,38 +1,5 @@
-"""``python -m htnagent``: the command line (see :mod:`htnagent.cli`).
+"""``python -m htnagent``: the command line (see :mod:`htnagent.launch` and :mod:`htnagent.cli`)."""
 
-Ctrl-C or SIGTERM must end the command cleanly (exit 130, one line, no
-traceback) however early or late it comes:
+from htnagent.launch import run
 
-- The handlers are installed here, with the standard library only, before the
-  command line's heavy imports (rich, pydantic, anyio, the planner).  Until a
-  run starts there is nothing to save, and the handler ends the process at once.
-- A run installs its own handlers, which let it stop and print its summary
-  (:class:`htnagent.cli._RunSignals`), and keeps them to the end.
-- Once the command has returned, signals are ignored: at shutdown Python would
-  put the default actions back, and a late SIGTERM would kill the process
-  after its result was printed.
-
-The package's ``__init__`` is imported before this file runs; a signal during
-that import still meets Python's own handling.
-"""
-
-import os
-import signal
-
-
-def _interrupted(signum: int, frame: object) -> None:
-    os.write(2, b"htnagent: interrupted\n")
-    os._exit(130)  # nothing to flush or save yet; and no exception to land in half-done imports
-
-
-signal.signal(signal.SIGINT, _interrupted)
-signal.signal(signal.SIGTERM, _interrupted)
-
-from htnagent.cli import main  # noqa: E402  (after the handlers, on purpose)
-
-try:
-    code = main(owns_process=True)
-finally:
-    signal.signal(signal.SIGINT, signal.SIG_IGN)
-    signal.signal(signal.SIGTERM, signal.SIG_IGN)
-raise SystemExit(code)
+run()

@@ -168,6 +168,7 @@ async def run_scenario(
         runtime.fail_unfinished(INTERRUPTED if interrupted else STALLED)
         summary = _summary(scenario, runtime, world, tickets)
         runtime.trace.emit("runtime", "summary", **summary)
+        runtime.trace.close()  # the summary is the run's last event, whatever stopping it does
     final = events[-1] if keep_events else {"event": "summary", **summary}
     return RunReport(summary=final, events=events, interrupted=interrupted)
 

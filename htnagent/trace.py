@@ -32,6 +32,12 @@ class Trace:
     def __init__(self, clock: Clock) -> None:
         self.clock = clock
         self.observers: list[Observer] = []
+        self.closed = False
+        """Set by :meth:`close`: nothing more is published (a run's summary is its last event)."""
+
+    def close(self) -> None:
+        """Publish nothing more (what the agents do while they are being stopped is not told)."""
+        self.closed = True
 
     def subscribe(self, observer: Observer) -> Callable[[], None]:
         """Add an observer; returns a function that removes it."""
@@ -41,6 +47,8 @@ class Trace:
     def emit(self, agent: str, event: str, **fields: Any) -> Event:
         """Publish an event now."""
         record: Event = {"t": round(self.clock.now(), 6), "agent": agent, "event": event, **fields}
+        if self.closed:
+            return record
         log.debug("%s", record)
         for observer in list(self.observers):
             try:
