@@ -17,6 +17,10 @@ from typing import TYPE_CHECKING, Any
 
 logging.getLogger("htnagent").addHandler(logging.NullHandler())
 
+# ``htnagent.plan`` is also a module (plans as values), which importing it would bind
+# here: bind the planning function now, once that module is loaded (both are light).
+from htnagent.planner import plan  # noqa: E402
+
 _WHERE = {
     "Agent": "agent",
     "AgentConfig": "agent",
@@ -40,7 +44,6 @@ _WHERE = {
     "PlannerSettings": "planner",
     "PlanResult": "planner",
     "PlanStatus": "planner",
-    "plan": "planner",
     "PlanSet": "planset",
     "Replanning": "planset",
     "GoalOutcome": "runtime",
