@@ -21,6 +21,7 @@ the robot stops where it is.
 
 from __future__ import annotations
 
+import functools
 import random
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -78,9 +79,12 @@ class Activity:
 
 @dataclass
 class Arrived:
-    """The timer message that ends a motion (or an activity)."""
+    """The timer message that ends the motion (or activity) of order ``seq``.
 
-    motion: Motion | Activity
+    It names the order, not the motion: a timer holding the motion that holds the
+    timer would be a reference cycle, garbage only the collector can free."""
+
+    seq: int
     kind: str = "arrived"
 
 
@@ -145,10 +149,11 @@ class Robot(ExecutorActor):
         while True:
             message: Any = await self.inbox.receive()
             if isinstance(message, Arrived):
-                if isinstance(message.motion, Activity):
-                    self._done(message.motion)
-                else:
-                    self._arrive(message.motion)
+                if self.activity is not None and self.activity.order.seq == message.seq:
+                    self._done(self.activity)
+                elif self.motion is not None and self.motion.order.seq == message.seq:
+                    self._arrive(self.motion)
+                # else: a stale timer of a suspended motion or activity
             elif isinstance(message, Execute):
                 self._execute(message)
             elif isinstance(message, Resume):
@@ -263,10 +268,8 @@ class Robot(ExecutorActor):
             return False
         duration = (1.0 - done) * self.durations[action.name]
         now = self.clock.now()
-        box: list[Activity] = []
-        timer = self.clock.call_at(now + duration, lambda: self.inbox.send(Arrived(box[0])))
+        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
         activity = Activity(order, action, done, now, duration, timer)
-        box.append(activity)
         self.activity = activity
         self.trace.emit(
             self.name,
@@ -288,6 +291,9 @@ class Robot(ExecutorActor):
         self.kept[activity.action] = activity.fraction_at(self.clock.now())
         self.reply(Suspended(action=order.action, seq=activity.order.seq))
 
+    def _timer_done(self, seq: int) -> None:
+        self.inbox.send(Arrived(seq))
+
     def _done(self, activity: Activity) -> None:
         if self.activity is not activity:
             return  # a stale timer of a suspended activity
@@ -302,10 +308,8 @@ class Robot(ExecutorActor):
     def _start(self, order: Execute | Resume, arc: str, frm: str, to: str, start: float, end: float) -> None:
         duration = abs(end - start) * self._length(arc) / self.speed
         now = self.clock.now()
-        motion_box: list[Motion] = []
-        timer = self.clock.call_at(now + duration, lambda: self.inbox.send(Arrived(motion_box[0])))
+        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
         motion = Motion(order, arc, frm, to, start, end, now, duration, timer)
-        motion_box.append(motion)
         self.motion = motion
         self.state.on_arc = (arc, frm, to, start)
         self.state.at = None

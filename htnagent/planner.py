@@ -23,7 +23,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
-from htnagent.domain import Domain, State, satisfiers
+from htnagent.domain import Domain, State, all_satisfiers, satisfiers
 from htnagent.errors import PlanningError
 from htnagent.plan import Decomposition, Plan, Step, tidy
 from htnagent.terms import Atom, Bindings, substitute, unify
@@ -152,8 +152,25 @@ def plan(
     k = settings.alternatives
     check_loops = k > 1
 
+    estimates = domain.estimates
+    methods = domain.methods
+    h_cache: dict[tuple[frozenset[Atom], Atom], float] = {}
+
     def push(node: _Node, st: State) -> None:
-        h = domain.h(node.tasks, st) if node.tasks else 0.0
+        # h is the first compound task's estimate (Domain.h); the children of one node
+        # mostly share their state and that task, so it is worked out once for them.
+        h = 0.0
+        for t in node.tasks:
+            fn = estimates.get(t.name)
+            if fn is not None:
+                key = (node.dynamic, t)
+                cached = h_cache.get(key)
+                if cached is None:
+                    cached = h_cache[key] = fn(t, st)
+                h = cached
+                break
+            if t.name in methods:
+                break
         heapq.heappush(heap, (node.g + h, -node.g, next(counter), node))
 
     push(root, state)
@@ -258,10 +275,11 @@ def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float
     """The ways to apply a primitive task: (action, cost, dynamic facts after)."""
     operators = domain.operators[task.name]
     if len(operators) == 1 and task.is_ground:
-        if _unify_head(operators[0].head, task) is None:
+        compiled = domain.compiled_or_none(task)
+        if compiled is None:
             return []  # e.g. rollback(A) for an A of another domain: a dead end, not an error
         dynamic = domain.step(st, task)
-        return [] if dynamic is None else [(task, domain.cost(task), dynamic)]
+        return [] if dynamic is None else [(task, compiled.cost, dynamic)]
     out = []
     for op in domain.operators[task.name]:
         hb = _unify_head(op.head, task)
@@ -283,7 +301,7 @@ def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[A
         hb = _unify_head(m.head, task)
         if hb is None:
             continue
-        for b in satisfiers(m.pre, st, hb):
+        for b in all_satisfiers(m.pre, st, hb):
             subtasks = tuple(substitute(s, b) for s in m.subtasks)
             if subtasks not in seen:
                 seen.add(subtasks)
