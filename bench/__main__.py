@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import argparse
 
-from bench import differential, fleet, fuzz, reaction, reliability, replanning, scaling
+from bench import differential, fleet, fuzz, reaction, reliability, replanning, scaling, step
 
 
 def main() -> int:
@@ -13,11 +13,13 @@ def main() -> int:
         "study",
         nargs="?",
         default="replanning",
-        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction", "fuzz"),
+        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction", "fuzz", "step"),
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     args = parser.parse_args()
+    if args.study == "step":
+        return step.main()
     if args.study == "fuzz":
         return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":

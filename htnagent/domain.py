@@ -651,9 +651,16 @@ class Domain:
             self._compiled[action] = found
         return found
 
+    def known_action(self, action: Atom) -> CompiledAction | None:
+        """The compiled ground action if it was compiled before (a plain look-up)."""
+        return self._compiled.get(action)
+
     def step(self, state: State, action: Atom) -> frozenset[Atom] | None:
         """The dynamic facts after the ground action, or None when its precondition is false."""
-        c = self.compiled(action)
+        return self.step_compiled(state, self.compiled(action))
+
+    def step_compiled(self, state: State, c: CompiledAction) -> frozenset[Atom] | None:
+        """:meth:`step` for an action already compiled."""
         if c.checks is None:
             full = c.op.applicable(state, c.bindings)
             return None if full is None else c.op.progress(state.dynamic, full)

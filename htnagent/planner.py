@@ -84,6 +84,29 @@ class PlanResult:
         return self.plans[0] if self.plans else None
 
 
+class _Key:
+    """A search node's (state, task list), hashed once: atoms are tuples, whose hash
+    Python works out again at every look-up."""
+
+    __slots__ = ("dynamic", "hash", "tasks")
+
+    def __init__(self, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) -> None:
+        self.dynamic = dynamic
+        self.tasks = tasks
+        self.hash = hash((dynamic, tasks))
+
+    def __hash__(self) -> int:
+        return self.hash
+
+    def __eq__(self, other: object) -> bool:
+        return (
+            isinstance(other, _Key)
+            and self.hash == other.hash
+            and self.tasks == other.tasks
+            and self.dynamic == other.dynamic
+        )
+
+
 @dataclass(slots=True, eq=False)
 class _Node:
     g: float
@@ -92,18 +115,17 @@ class _Node:
     records: tuple[Decomposition | None, ...]
     step: Step | None
     parent: _Node | None
-    key: tuple[frozenset[Atom], tuple[Atom, ...]] = field(init=False)
-    key_hash: int = field(init=False)
+    key: _Key = field(init=False)
 
     def __post_init__(self) -> None:
-        self.key = (self.dynamic, self.tasks)
-        self.key_hash = hash(self.key)
+        self.key = _Key(self.dynamic, self.tasks)
 
     def revisits(self) -> bool:
         """Whether an ancestor had the same state and task list (a loop)."""
         node = self.parent
+        key = self.key
         while node is not None:
-            if node.key_hash == self.key_hash and node.key == self.key:
+            if node.key == key:
                 return True
             node = node.parent
         return False
@@ -193,7 +215,7 @@ def plan(
                 )
                 push(child, state.with_dynamic(child.dynamic))
 
-    popped: dict[tuple[frozenset[Atom], tuple[Atom, ...]], int] = {}
+    popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
     found: list[Plan] = []
@@ -274,12 +296,15 @@ def plan(
 def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float, frozenset[Atom]]]:
     """The ways to apply a primitive task: (action, cost, dynamic facts after)."""
     operators = domain.operators[task.name]
-    if len(operators) == 1 and task.is_ground:
-        compiled = domain.compiled_or_none(task)
-        if compiled is None:
-            return []  # e.g. rollback(A) for an A of another domain: a dead end, not an error
-        dynamic = domain.step(st, task)
-        return [] if dynamic is None else [(task, compiled.cost, dynamic)]
+    if len(operators) == 1:
+        compiled = domain.known_action(task)  # a ground action met before, if it is one
+        if compiled is None and task.is_ground:
+            compiled = domain.compiled_or_none(task)
+            if compiled is None:
+                return []  # e.g. rollback(A) for an A of another domain: a dead end, not an error
+        if compiled is not None:
+            dynamic = domain.step_compiled(st, compiled)
+            return [] if dynamic is None else [(task, compiled.cost, dynamic)]
     out = []
     for op in domain.operators[task.name]:
         hb = _unify_head(op.head, task)
