@@ -428,7 +428,8 @@ class Agent(ExecutorActor):
                 # ready for what comes after this action while it runs.
                 await anyio.lowlevel.checkpoint()
                 self._flush()
-                self._prepare_resumption(action)
+                if self._prepare_resumption(action):
+                    await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
             result = await self._await_result(running)
         finally:
             if running.timer is not None:
@@ -570,13 +571,14 @@ class Agent(ExecutorActor):
             and not current.stop_requested
         )
 
-    def _prepare_resumption(self, action: Atom) -> None:
+    def _prepare_resumption(self, action: Atom) -> bool:
         """Update the stacked goals for the action's predicted success, and make the goal
         that resumes then ready (its plans re-checked, repaired, shortened) — so that
         resuming costs nothing when the prediction comes true.  A child agent is told
-        the first order of the resumed plan (:class:`~htnagent.messages.Prepare`)."""
+        the first order of the resumed plan (:class:`~htnagent.messages.Prepare`);
+        returns whether it was."""
         if not self._will_resume_after(action):
-            return
+            return False
         before = self.belief
         after = self.domain.progress(before, action)
         memo = SearchMemo()
@@ -593,13 +595,15 @@ class Agent(ExecutorActor):
             forks[id(ps)] = fork
         self._prepared = _Prepared(action, before, after, forks)
         if id(top.plans) not in forks:
-            return
+            return False
         self._get_ready(top, forks[id(top.plans)].fork(), after, (action,))
         assert top.ready is not None
         best = top.ready.plans.best
         if isinstance(self.executor, Agent) and best is not None and best.steps:
             # The child agent gets ready for this order too (or for resuming its goal).
             self.order(self.executor, Prepare(action=best.steps[0].action))
+            return True
+        return False
 
     def _prepare_order(self, action: Atom) -> None:
         """Get ready for a likely next order of the parent's (Prepare), from the belief this

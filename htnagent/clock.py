@@ -193,7 +193,12 @@ class Mailbox(Generic[T]):
         Raises ``anyio.EndOfStream`` once the mailbox is closed.
         """
         self.settle()
-        await anyio.lowlevel.checkpoint()
+        if self._queue:
+            # A message is waiting: take it at once, yielding to the other ready tasks
+            # only if cancelled (they run when this receiver next waits).
+            await anyio.lowlevel.checkpoint_if_cancelled()
+        else:
+            await anyio.lowlevel.checkpoint()
         while not self._queue:
             if self.closed:
                 raise anyio.EndOfStream

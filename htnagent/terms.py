@@ -31,9 +31,13 @@ class Atom(NamedTuple):
     args: tuple[Term, ...] = ()
 
     def __str__(self) -> str:
-        if not self.args:
-            return self.name
-        return f"{self.name}({','.join(str(a) for a in self.args)})"
+        text = _TEXT.get(self)
+        if text is None:
+            if len(_TEXT) >= _TEXT_LIMIT:
+                _TEXT.clear()
+            text = self.name if not self.args else f"{self.name}({','.join(str(a) for a in self.args)})"
+            _TEXT[self] = text
+        return text
 
     def __repr__(self) -> str:
         return f"Atom({str(self)!r})"
@@ -143,6 +147,10 @@ def substitute(pattern: Atom, bindings: Mapping[str, Term]) -> Atom:
 
 
 _new_atom = tuple.__new__
+
+_TEXT: dict[Atom, str] = {}
+"""Text forms already made: traces print the same actions again and again."""
+_TEXT_LIMIT = 100_000
 
 
 def unify(pattern: Atom, ground: Atom, bindings: Bindings) -> Bindings | None:
