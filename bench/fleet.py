@@ -44,8 +44,12 @@ EMERGENCY_AT = 2.0616  # half way along arc59 (4.123 m at 1 m/s)
 
 
 def _rss_mb() -> float:
-    """The peak resident set size of this process so far, in MB (Linux reports KB)."""
-    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
+    """The resident set size of this process now, in MB (the peak where /proc is missing)."""
+    try:
+        with open("/proc/self/statm") as f:
+            return int(f.read().split()[1]) * resource.getpagesize() / 2**20
+    except OSError:
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
 async def fleet(robots: int, freeze: bool = True) -> dict[str, Any]:

@@ -105,7 +105,7 @@ async def crash_run(seed: int) -> tuple[int, int, bool, list[str]]:
     victim = rng.choice(scenario.agent_names)
     domain = scenario.domain_for(victim)
     calls = [0]
-    fuse = rng.randint(1, 400)
+    fuse = rng.randint(1, 30)
     for name, estimate in list(domain.estimates.items()):
 
         def exploding(task: Atom, state: State, estimate: Estimate = estimate) -> float:

@@ -51,6 +51,7 @@ from htnagent.messages import (
     Clear,
     Execute,
     Failure,
+    ParentLost,
     Prepare,
     Refused,
     Resume,
@@ -183,6 +184,7 @@ class Agent(ExecutorActor):
         self._arrivals = itertools.count(1)
         self._later: deque[Callable[[], None]] = deque()
         self._prepared: _Prepared | None = None
+        self._orphaned = False
         self._hint: Atom | None = None
         self._ready: dict[Atom, tuple[tuple[object, ...], PlanSet]] = {}
         self._shown: tuple[Atom, ...] | None = None
@@ -326,6 +328,10 @@ class Agent(ExecutorActor):
         """Algorithm 3 / 5: push the running goal with its plans and suspended action."""
         held = entry.stop_requested
         entry.stop_requested = False
+        if held and self._orphaned:
+            self.current = None
+            self._drop_held(entry)  # its parent is gone: nobody will resume it
+            return
         entry.held = held
         self._push(entry)
         self.current = None
@@ -683,6 +689,8 @@ class Agent(ExecutorActor):
             self._parent_suspends(message)
         elif isinstance(message, Prepare):
             self._hint = message.action  # planned when there is time (see _flush)
+        elif isinstance(message, ParentLost):
+            self._parent_lost()
         elif isinstance(message, BeliefUpdate):
             before = self.belief
             after = self.belief = before.updated(message.add, message.delete)
@@ -743,6 +751,24 @@ class Agent(ExecutorActor):
                 self.reply(Suspended(action=entry.goal, seq=message.seq))
                 return
         # The order has already ended: its result is on its way up.
+
+    def _parent_lost(self) -> None:
+        """Drop what the parent ordered: its held goals now, its running order after the
+        running action (nothing of it starts again), its orders not yet taken."""
+        self._orphaned = True
+        self.orders.clear()
+        for entry in [e for e in self.stack if e.held]:
+            self._drop_held(entry)
+        current = self.current
+        if current is not None and current.order_seq is not None:
+            current.stop_requested = True
+            self._request_suspension()
+
+    def _drop_held(self, entry: GoalEntry) -> None:
+        if entry in self.stack:
+            self.stack.remove(entry)
+        self._clear_suspended(entry)
+        self.trace.emit(self.name, "goal_cleared", goal=str(entry.goal))
 
     def _request_suspension(self) -> None:
         """Ask the executor to stop the running action half way, if the belief can follow."""

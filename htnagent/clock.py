@@ -65,6 +65,8 @@ class Clock:
         self._idle = anyio.Event()
         self._changed = anyio.Event()
         self._idle_callbacks: list[Callable[[], None]] = []
+        self._stopped = False
+        self._quiet = anyio.Event()
         self._wall: float | None = None  # paced: the wall-clock time at which ``now`` was reached
 
     # -- time ---------------------------------------------------------------------
@@ -83,6 +85,16 @@ class Clock:
     def call_later(self, delay: float, deliver: Callable[[], None]) -> TimerHandle:
         """Run ``deliver`` after ``delay`` simulated seconds."""
         return self.call_at(self._now + max(delay, 0.0), deliver)
+
+    async def stop(self) -> None:
+        """Let time stand still from now on, and wait until no work is in flight.
+
+        A run that has reached its end lets the messages already on their way be
+        handled (a clear to a child, say) without anything new happening.
+        """
+        self._stopped = True
+        self._poke()
+        await self._quiet.wait()
 
     def on_idle(self, callback: Callable[[], None]) -> None:
         """Call ``callback`` whenever the runtime is idle with no timer left.
@@ -122,6 +134,11 @@ class Clock:
             for _ in range(3):
                 await anyio.lowlevel.checkpoint()
             if self._busy > 0:
+                continue
+            if self._stopped:
+                self._quiet.set()  # nothing in flight, and time is to stand still
+                self._changed = anyio.Event()
+                await self._changed.wait()
                 continue
             while self._timers and self._timers[0].cancelled:
                 heapq.heappop(self._timers)

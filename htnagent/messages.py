@@ -65,6 +65,12 @@ class Prepare(_Message):
     action: Atom
 
 
+class ParentLost(_Message):
+    """The parent agent is gone (it crashed): nothing it ordered will be awaited or resumed."""
+
+    kind: Literal["parent_lost"] = "parent_lost"
+
+
 class Success(_Message):
     """The order ``seq`` (``action``) finished with success."""
 
@@ -125,7 +131,7 @@ class Timeout(_Message):
     seq: int
 
 
-Order = Annotated[Execute | Suspend | Resume | Clear | Prepare, Field(discriminator="kind")]
+Order = Annotated[Execute | Suspend | Resume | Clear | Prepare | ParentLost, Field(discriminator="kind")]
 Result = Annotated[Success | Failure | Suspended | Refused, Field(discriminator="kind")]
 AgentMessage = Annotated[
     Order | Result | Submit | BeliefUpdate | Timeout,

@@ -34,7 +34,7 @@ from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError
 from htnagent.executor import AdapterActor, Executor, ExecutorActor
-from htnagent.messages import Clear, Execute, Failure, Resume, Submit, Suspend
+from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
 from htnagent.terms import Atom
 from htnagent.trace import EventStream, Observer, Trace
 
@@ -214,6 +214,9 @@ class Runtime:
             finally:
                 for ticket in tickets:  # even if its own bookkeeping is what broke
                     self._resolve(ticket, GoalStatus.FAILURE, reason)
+                if isinstance(actor.executor, Agent):
+                    # Nobody will resume or await what the child does for the dead parent.
+                    actor.executor.inbox.send(ParentLost())
 
     async def _serve_dead(self, actor: ExecutorActor, reason: str) -> None:
         while True:

@@ -27,6 +27,8 @@ from htnagent.trace import Event, Observer, Trace
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
 INTERRUPTED = "interrupted before it ended"
+_QUIET_WITHIN = 5.0
+"""Real seconds the messages in flight at the end of a run may take to be handled."""
 _SAME_INSTANT = 1e-6
 """Simulated seconds within which a trigger's moment and a suspension count as one instant
 (the robot's trace gives durations to the microsecond)."""
@@ -165,6 +167,10 @@ async def run_scenario(
                 waiting.start_soon(interrupt, stop)
             await settled.wait()
             waiting.cancel_scope.cancel()
+        if not interrupted:
+            # What is already on its way is handled before the run is summed up.
+            with anyio.move_on_after(_QUIET_WITHIN):
+                await clock.stop()
         runtime.fail_unfinished(INTERRUPTED if interrupted else STALLED)
         summary = _summary(scenario, runtime, world, tickets)
         runtime.trace.emit("runtime", "summary", **summary)
