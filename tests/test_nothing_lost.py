@@ -287,7 +287,7 @@ def test_a_run_with_only_a_trigger_that_never_fires_ends() -> None:
 def test_a_child_drops_what_its_crashed_parent_ordered(seed: int) -> None:
     from bench.reliability import crash_run
 
-    goals, lost, crashed, violations = anyio.run(crash_run, seed)
+    _, lost, crashed, violations = anyio.run(crash_run, seed)
     # Expect: the guide crashes with orders held by the navigator; they are dropped, so
     # every stack ends empty and no goal is lost.
     assert crashed and lost == 0 and violations == []

@@ -28,6 +28,7 @@ from htnagent.runtime import Runtime
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.testing.invariants import RunChecker
+from htnagent.testing.storms import agent_chain
 from htnagent.trace import Event
 
 NO_DOORS_SLACK = 0.02
@@ -84,16 +85,7 @@ def scenario_data(seed: int, route: Route | None = None) -> dict[str, Any]:
     nodes = sorted(world.nodes)
     arcs = sorted(world.arcs)
     two_levels = rng.random() < 0.6
-    agents = (
-        [
-            {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
-            {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
-        ]
-        if two_levels
-        else [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
-    )
-    top = agents[0]["name"]
-    task = "goto" if two_levels else "goto_node"
+    agents, top, task = agent_chain(two_levels)
     start = rng.choice(nodes)
     goals: list[dict[str, Any]] = [
         {"agent": top, "task": f"{task}({rng.choice(nodes)})"} for _ in range(rng.randint(1, 2))

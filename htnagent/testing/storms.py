@@ -17,6 +17,16 @@ from typing import Any
 from htnagent.maps import generate_map, map_to_yaml_data
 
 
+def agent_chain(two_levels: bool) -> tuple[list[dict[str, str]], str, str]:
+    """The museum agents (guide over navigator, or the navigator alone), the agent that
+    takes the goals, and the name of its task to go somewhere."""
+    navigator = {"name": "navigator", "domain": "museum.nodes", "executor": "robot"}
+    if not two_levels:
+        return [navigator], "navigator", "goto_node"
+    guide = {"name": "guide", "domain": "museum.areas", "executor": "navigator"}
+    return [guide, navigator], "guide", "goto"
+
+
 def storm_data(seed: int) -> dict[str, Any]:
     """A random scenario (as parsed YAML) for ``seed``."""
     rng = random.Random(seed)
@@ -24,16 +34,7 @@ def storm_data(seed: int) -> dict[str, Any]:
     nodes = sorted(world.nodes)
     arcs = sorted(world.arcs)
     two_levels = rng.random() < 0.7
-    agents = (
-        [
-            {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
-            {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
-        ]
-        if two_levels
-        else [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
-    )
-    top = agents[0]["name"]
-    task = "goto" if two_levels else "goto_node"
+    agents, top, task = agent_chain(two_levels)
     goals: list[dict[str, Any]] = [
         {"agent": top, "task": f"{task}({rng.choice(nodes)})"} for _ in range(rng.randint(1, 3))
     ]
