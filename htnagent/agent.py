@@ -315,7 +315,7 @@ class Agent(ExecutorActor):
         why = result.reason if isinstance(result, Failure) else "the executor stopped it unasked"
         # In a row means from the same belief: a failure long ago, from elsewhere, says
         # nothing about trying now.
-        key = _belief_key(self.belief)
+        key = self.belief.key()
         last = entry.failures.get(action)
         failures = last[1] + 1 if last is not None and last[0] == key else 1
         entry.failures[action] = (key, failures)
@@ -394,7 +394,7 @@ class Agent(ExecutorActor):
         if unused:
             plans.ensure(final)
             plans.shorten_detours(final)
-        entry.ready = _Ready(_belief_key(belief), tuple(suspended), plans, unused)
+        entry.ready = _Ready(belief.key(), tuple(suspended), plans, unused)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
         """Tell the executor to forget the goal's suspended actions (all, by default)."""
@@ -406,8 +406,8 @@ class Agent(ExecutorActor):
     def _forget_half(self, action: Atom) -> None:
         """The half-done ``action`` will not be resumed: update the belief and all plans."""
         before = self.belief
-        after = self.belief = self.domain.clear(before, action)
-        self._maintain(lambda ps, memo: ps.suspension_cleared(action, before, after, memo))
+        self.belief = self.domain.clear(before, action)
+        self._maintain(functools.partial(_cleared, action, before, self.belief))
 
     # -- acting -----------------------------------------------------------------------------
 
@@ -617,7 +617,6 @@ class Agent(ExecutorActor):
         held goal ready to resume."""
         if self.mode is not Replanning.ONLINE:
             return
-        predicted: State | None = self.belief
         current = self.current
         steps = current.plans.best.actions if current is not None and current.plans.best is not None else ()
         predicted = replay(self.domain, self.belief, steps)
@@ -641,12 +640,12 @@ class Agent(ExecutorActor):
         ps.ensure(predicted)
         if len(self._ready) >= 4:
             self._ready.pop(next(iter(self._ready)))
-        self._ready[action] = (_belief_key(predicted), ps)
+        self._ready[action] = (predicted.key(), ps)
 
     def _ready_plans(self, action: Atom) -> PlanSet:
         """The plans prepared for this order, if the belief is the one they were made for."""
         ready = self._ready.pop(action, None)
-        if ready is not None and ready[0] == _belief_key(self.belief):
+        if ready is not None and ready[0] == self.belief.key():
             return ready[1]
         return self._planset(action)
 
@@ -837,15 +836,13 @@ class Agent(ExecutorActor):
 
 
 def _achieved(plans: PlanSet) -> bool:
+    # A function, not the property inline: a type checker would take the second look at
+    # ``plans.finished`` in one step as unreachable after the first.
     return plans.finished
 
 
 def _cleared(action: Atom, before: State, after: State, plans: PlanSet, memo: SearchMemo) -> None:
     plans.suspension_cleared(action, before, after, memo)
-
-
-def _belief_key(state: State) -> tuple[object, ...]:
-    return (state.dynamic, state.static)
 
 
 def _make_ready(plans: PlanSet, belief: State, suspended: list[Atom]) -> list[Atom]:
@@ -872,7 +869,7 @@ class _Ready:
 
     def holds_for(self, belief: State, entry: GoalEntry) -> bool:
         """Whether things went as predicted: the belief and the goal's suspended actions."""
-        return self.belief == _belief_key(belief) and self.suspended == tuple(entry.suspended)
+        return self.belief == belief.key() and self.suspended == tuple(entry.suspended)
 
 
 @dataclass

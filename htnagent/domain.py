@@ -105,6 +105,11 @@ class State:
             dyn,
         )
 
+    def key(self) -> tuple[object, ...]:
+        """What tells this belief from others, cheaply: its dynamic facts and its static
+        fact base by identity (a fact base compares by identity; the key keeps it alive)."""
+        return (self.dynamic, self.static)
+
     def holds(self, fact: Atom) -> bool:
         """Whether the ground fact is true in this state."""
         if fact.name in self.dynamic_predicates:

@@ -3,8 +3,9 @@
 Pure, synchronous code.  The first task of the task list is always the one
 decomposed or applied, so the state is known at every step.  Search is
 best-first A* over ``(state, remaining tasks)`` with ``f = g + h``: ``g`` the
-cost of the actions so far, ``h`` the sum of the domain's estimates of the
-compound tasks left.  The planner returns up to ``alternatives`` complete plans
+cost of the actions so far, ``h`` the domain's estimate for the first compound
+task left (see :meth:`~htnagent.domain.Domain.h`: later tasks start elsewhere, and
+adding their estimates could over-estimate).  The planner returns up to ``alternatives`` complete plans
 in cost order; each key may be expanded that many times, and a plan never
 returns to a ``(state, tasks)`` it already passed through, so alternatives are
 genuinely different routes rather than detours with loops.

@@ -165,7 +165,7 @@ class PlanSet:
         """
         if self.plans:
             return True
-        if self._unsolvable == _belief_key(state):
+        if self._unsolvable == state.key():
             # A repair already searched the whole space from this very belief.
             self.last_status = PlanStatus.UNSOLVABLE
             return False
@@ -208,12 +208,12 @@ class PlanSet:
 
     def cannot_do(self, action: Atom, state: State) -> None:
         """The executor cannot do ``action`` from ``state``: plan around it from there."""
-        key = _belief_key(state)
+        key = state.key()
         known = self.avoid[1] if self.avoid is not None and self.avoid[0] == key else frozenset()
         self.avoid = (key, known | {action})
 
     def _avoided(self, state: State) -> frozenset[Atom]:
-        if self.avoid is not None and self.avoid[0] == _belief_key(state):
+        if self.avoid is not None and self.avoid[0] == state.key():
             return self.avoid[1]
         return frozenset()
 
@@ -258,7 +258,7 @@ class PlanSet:
             self.plans = self.plans[:1]
         self._checked = state
         if result.status is PlanStatus.UNSOLVABLE:
-            self._unsolvable = _belief_key(state)
+            self._unsolvable = state.key()
         return result
 
     def _settings(self) -> PlannerSettings:
@@ -620,7 +620,7 @@ class PlanSet:
         # The goal itself, from the current belief: one search shared by all plans.
         found = self._plan_cached(states[0], [(self.goal, None)], settings, cache)
         if found is None:
-            self._unsolvable = _belief_key(states[0])
+            self._unsolvable = states[0].key()
         return found
 
     def _plan_cached(
@@ -715,11 +715,6 @@ class _Scratch:
         self.local_left = local_left
         self.results = memo.results
         self.impossible = memo.impossible
-
-
-def _belief_key(state: State) -> tuple[object, ...]:
-    # The static facts by identity (a FactBase compares by identity), kept alive by the key.
-    return (state.dynamic, state.static)
 
 
 def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool:
