@@ -31,11 +31,12 @@ from anyio.abc import TaskStatus
 from bench.machine import machine_line
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock
+from htnagent.events import MessageSent, TraceEvent
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.runtime import Runtime
 from htnagent.scenario import load_scenario
 from htnagent.terms import parse
-from htnagent.trace import Event, Trace
+from htnagent.trace import Trace
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -60,8 +61,8 @@ async def fleet(robots: int, freeze: bool = True) -> dict[str, Any]:
     clock = Clock()
     messages = [0]
 
-    def count(event: Event) -> None:
-        if event["event"] == "message":
+    def count(event: TraceEvent) -> None:
+        if isinstance(event, MessageSent):
             messages[0] += 1
 
     def robot_factory(c: Clock, trace: Trace) -> Robot:

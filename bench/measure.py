@@ -24,9 +24,9 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass, field
 
+from htnagent.events import GoalFinished, GoalResumed, MessageSent, TraceEvent
 from htnagent.scenario import Scenario
 from htnagent.simulation import run_scenario
-from htnagent.trace import Event
 
 _ORDERS = ("execute", "resume")
 
@@ -59,23 +59,23 @@ async def measure_run(scenario: Scenario, mode: str) -> RunFigures:
     emergency = next(str(g.task) for g in scenario.goals if g.emergency)
     marks: dict[str, float] = {}
 
-    def observe(event: Event) -> None:
+    def observe(event: TraceEvent) -> None:
         now = time.perf_counter()
-        kind, agent = event["event"], event["agent"]
-        if kind == "goal_resumed" and agent == top:
-            figures.resumes.append(float(event["replan_ms"]))
+        agent = event.agent
+        if isinstance(event, GoalResumed) and agent == top:
+            figures.resumes.append(event.replan_ms)
         if figures.total_ms is not None and "child" in marks:
             return
         if "ended" not in marks:
-            if kind == "goal_finished" and agent == top and event["goal"] == emergency:
+            if isinstance(event, GoalFinished) and agent == top and event.goal == emergency:
                 marks["ended"] = now
             return
-        if kind != "message" or event.get("kind") not in _ORDERS:
+        if not isinstance(event, MessageSent) or event.kind not in _ORDERS:
             return
         if agent == top and "parent" not in marks:
             marks["parent"] = now
             figures.parent_ms = (now - marks["ended"]) * 1000
-        if agent == bottom and event.get("to") == "robot" and "child" not in marks:
+        if agent == bottom and event.to == "robot" and "child" not in marks:
             marks["child"] = now
             if top == bottom:
                 figures.parent_ms, figures.child_ms = (now - marks["ended"]) * 1000, 0.0
@@ -83,7 +83,7 @@ async def measure_run(scenario: Scenario, mode: str) -> RunFigures:
                 figures.child_ms = (now - marks.get("parent", marks["ended"])) * 1000
 
     report = await run_scenario(scenario, replanning=mode, observers=[observe])
-    figures.distance = float(report.summary["distance"])
-    figures.planning_ms = float(sum(report.summary["planning_ms"].values()))
+    figures.distance = report.summary.distance
+    figures.planning_ms = sum(report.summary.planning_ms.values())
     figures.succeeded = report.succeeded
     return figures

@@ -26,11 +26,11 @@ from typing import Any
 import anyio
 
 from bench.machine import machine_line
+from htnagent.events import RobotActing, RobotMoving, TraceEvent
 from htnagent.runtime import Runtime
 from htnagent.scenario import Scenario, parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import parse
-from htnagent.trace import Event
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -68,8 +68,8 @@ async def trial(levels: int, mode: str, built: Scenario) -> float:
 
         runtime.clock.call_at(AT, submit)
 
-    def observe(event: Event) -> None:
-        started = event["event"] in ("robot_moving", "robot_acting")
+    def observe(event: TraceEvent) -> None:
+        started = isinstance(event, RobotMoving | RobotActing)
         if started and "submitted" in mark and "served" not in mark:
             mark["served"] = time.perf_counter()
             stop.set()

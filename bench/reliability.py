@@ -27,12 +27,12 @@ from typing import Any
 import anyio
 
 from htnagent.domain import Estimate, State
+from htnagent.events import ActionFinished, TraceEvent
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import build_runtime, run_scenario
 from htnagent.terms import Atom
 from htnagent.testing.invariants import RunChecker
 from htnagent.testing.storms import nested_storm_data, storm_data
-from htnagent.trace import Event
 
 RESULTS = Path(__file__).resolve().parent / "results"
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
@@ -66,8 +66,8 @@ async def storm(seed: int) -> StormResult:
     result.doors = len(data["events"])
     checker = RunChecker()
 
-    def observe(event: Event) -> None:
-        if event["event"] == "action_finished" and event.get("reason", "").startswith("the move failed"):
+    def observe(event: TraceEvent) -> None:
+        if isinstance(event, ActionFinished) and event.reason.startswith("the move failed"):
             result.failures_injected += 1
 
     before = _tasks()
@@ -76,8 +76,8 @@ async def storm(seed: int) -> StormResult:
     result.max_depth = checker.max_depth
     assert checker.runtime is not None
     result.lost = sum(1 for o in checker.runtime.outcomes.values() if o.status is None)
-    for row in report.summary["goals"]:
-        if row["status"] == "success":
+    for row in report.summary.goals:
+        if row.status == "success":
             result.succeeded += 1
         else:
             result.failed += 1
@@ -163,7 +163,7 @@ async def nested_run(count: int, mode: str) -> dict[str, Any]:
         report = await run_scenario(scenario, replanning=mode, observers=[checker], on_start=checker.attach)
     checker.finish()
     assert checker.runtime is not None
-    statuses = [g["status"] for g in report.summary["goals"]]
+    statuses = [g.status for g in report.summary.goals]
     return {
         "emergencies": count,
         "mode": mode,

@@ -25,15 +25,16 @@ import functools
 import random
 from collections.abc import Mapping
 from dataclasses import dataclass, field
-from typing import Any
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
+from htnagent.events import RobotActing, RobotMoving
 from htnagent.executor import ExecutorActor
 from htnagent.maps import WorldMap
-from htnagent.messages import Clear, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.messages import Clear, Elapsed, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.progress import Phase, Progress
 from htnagent.terms import Atom
 from htnagent.trace import Trace
 
@@ -75,17 +76,6 @@ class Activity:
             return 1.0
         done = min(max((now - self.started_at) / self.duration, 0.0), 1.0)
         return self.start + (1.0 - self.start) * done
-
-
-@dataclass
-class Arrived:
-    """The timer message that ends the motion (or activity) of order ``seq``.
-
-    It names the order, not the motion: a timer holding the motion that holds the
-    timer would be a reference cycle, garbage only the collector can free."""
-
-    seq: int
-    kind: str = "arrived"
 
 
 @dataclass
@@ -147,8 +137,8 @@ class Robot(ExecutorActor):
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         task_status.started()
         while True:
-            message: Any = await self.inbox.receive()
-            if isinstance(message, Arrived):
+            message = await self.inbox.receive()
+            if isinstance(message, Elapsed):
                 if self.activity is not None and self.activity.order.seq == message.seq:
                     self._done(self.activity)
                 elif self.motion is not None and self.motion.order.seq == message.seq:
@@ -251,6 +241,7 @@ class Robot(ExecutorActor):
         self.motion = None
         self.state.on_arc = (motion.arc, motion.frm, motion.to, fraction)
         self.state.at = None
+        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
         self.reply(Suspended(action=order.action, seq=motion.order.seq))
 
     def _clear(self, order: Clear) -> None:
@@ -271,13 +262,15 @@ class Robot(ExecutorActor):
         timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
         activity = Activity(order, action, done, now, duration, timer)
         self.activity = activity
+        self.progress.report(Progress(self.name, action, Phase.STARTED, duration, done))
         self.trace.emit(
-            self.name,
-            "robot_acting",
-            action=str(action),
-            duration=round(duration, 6),
-            done=round(done, 6),
-            resumed=isinstance(order, Resume),
+            RobotActing(
+                agent=self.name,
+                action=str(action),
+                duration=round(duration, 6),
+                done=round(done, 6),
+                resumed=isinstance(order, Resume),
+            )
         )
         return True
 
@@ -289,10 +282,13 @@ class Robot(ExecutorActor):
         activity.timer.cancel()
         self.activity = None
         self.kept[activity.action] = activity.fraction_at(self.clock.now())
+        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
         self.reply(Suspended(action=order.action, seq=activity.order.seq))
 
     def _timer_done(self, seq: int) -> None:
-        self.inbox.send(Arrived(seq))
+        # The timer names the order, not the motion: a timer holding the motion that
+        # holds the timer would be a reference cycle, garbage only the collector frees.
+        self.inbox.send(Elapsed(seq=seq))
 
     def _done(self, activity: Activity) -> None:
         if self.activity is not activity:
@@ -315,14 +311,17 @@ class Robot(ExecutorActor):
         self.state.at = None
         # A resumed move has already covered ``start``; a rollback is a motion of its own.
         resumed = isinstance(order, Resume)
+        done = start if resumed else 0.0
+        self.progress.report(Progress(self.name, order.action, Phase.STARTED, duration, done))
         self.trace.emit(
-            self.name,
-            "robot_moving",
-            action=str(order.action),
-            arc=arc,
-            duration=round(duration, 6),
-            done=round(start, 6) if resumed else 0.0,
-            resumed=resumed,
+            RobotMoving(
+                agent=self.name,
+                action=str(order.action),
+                arc=arc,
+                duration=round(duration, 6),
+                done=round(done, 6),
+                resumed=resumed,
+            )
         )
 
     def _arrive(self, motion: Motion) -> None:

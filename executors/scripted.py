@@ -9,23 +9,28 @@ Every order received is recorded in ``orders`` so tests can assert the exchange.
 from __future__ import annotations
 
 from collections.abc import Iterable
-from dataclasses import dataclass
-from typing import Any
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
+from htnagent.events import RobotMoving
 from htnagent.executor import ExecutorActor
-from htnagent.messages import Clear, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.messages import (
+    Clear,
+    Elapsed,
+    Execute,
+    Failure,
+    Message,
+    Refused,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.progress import Phase, Progress
 from htnagent.terms import Atom, atom
 from htnagent.trace import Trace
-
-
-@dataclass
-class _Done:
-    seq: int
-    kind: str = "done"
 
 
 class ScriptedExecutor(ExecutorActor):
@@ -51,15 +56,15 @@ class ScriptedExecutor(ExecutorActor):
         self.hang = {atom(a) for a in hang}
         self.suspendable = {atom(a) for a in suspendable}
         self.crash_on = {atom(a) for a in crash_on}
-        self.orders: list[Any] = []
+        self.orders: list[Message] = []
         self._running: tuple[Execute | Resume, TimerHandle, float] | None = None
         self._kept: dict[Atom, float] = {}
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         task_status.started()
         while True:
-            message: Any = await self.inbox.receive()
-            if isinstance(message, _Done):
+            message = await self.inbox.receive()
+            if isinstance(message, Elapsed):
                 self._finish(message.seq)
                 continue
             self.orders.append(message)
@@ -83,9 +88,10 @@ class ScriptedExecutor(ExecutorActor):
 
     def _start(self, order: Execute | Resume, duration: float) -> None:
         seq = order.seq
-        timer = self.clock.call_later(duration, lambda: self.inbox.send(_Done(seq)))
+        timer = self.clock.call_later(duration, lambda: self.inbox.send(Elapsed(seq=seq)))
         self._running = (order, timer, self.clock.now() + duration)
-        self.trace.emit(self.name, "robot_moving", action=str(order.action), duration=duration)
+        self.progress.report(Progress(self.name, order.action, Phase.STARTED, duration))
+        self.trace.emit(RobotMoving(agent=self.name, action=str(order.action), duration=duration))
 
     def _finish(self, seq: int) -> None:
         if self._running is None or self._running[0].seq != seq:
@@ -103,4 +109,5 @@ class ScriptedExecutor(ExecutorActor):
         timer.cancel()
         self._running = None
         self._kept[order.action] = max(ends - self.clock.now(), 0.0)
+        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
         self.reply(Suspended(action=order.action, seq=order.seq))

@@ -37,7 +37,6 @@ from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import Enum
-from typing import Any
 
 import anyio
 import anyio.lowlevel
@@ -45,12 +44,24 @@ from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, TimerHandle
 from htnagent.domain import Domain, State, half_done
+from htnagent.events import (
+    ActionFinished,
+    ActionStarted,
+    GoalCleared,
+    GoalFinished,
+    GoalReceived,
+    GoalResumed,
+    GoalSuspended,
+    PlanSelected,
+    SuspendRefused,
+)
 from htnagent.executor import ExecutorActor
 from htnagent.messages import (
     BeliefUpdate,
     Clear,
     Execute,
     Failure,
+    Message,
     ParentLost,
     Prepare,
     Refused,
@@ -64,6 +75,7 @@ from htnagent.messages import (
 from htnagent.plan import replay
 from htnagent.planner import PlannerSettings
 from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
+from htnagent.progress import Phase, Progress
 from htnagent.terms import Atom
 from htnagent.trace import Trace
 
@@ -236,7 +248,7 @@ class Agent(ExecutorActor):
     def _take_order(self, order: Execute | Resume | Clear) -> bool:
         """Algorithm 5: the parent's orders while this agent is its executor."""
         if isinstance(order, Execute):
-            self.trace.emit(self.name, "goal_received", goal=str(order.action), emergency=False)
+            self.trace.emit(GoalReceived(agent=self.name, goal=str(order.action), emergency=False))
             if not self.domain.knows(order.action):
                 reason = f"{self.name} cannot do {order.action}"
                 self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
@@ -261,7 +273,7 @@ class Agent(ExecutorActor):
         if held is not None:
             self.stack.remove(held)
             self._clear_suspended(held)
-            self.trace.emit(self.name, "goal_cleared", goal=str(held.goal))
+            self.trace.emit(GoalCleared(agent=self.name, goal=str(held.goal)))
         return False
 
     def _held(self, goal: Atom) -> GoalEntry | None:
@@ -296,7 +308,9 @@ class Agent(ExecutorActor):
         assert best is not None
         if self._shown is None or best.actions != self._shown:
             self.trace.emit(
-                self.name, "plan_selected", goal=str(entry.goal), plan=best.text(), cost=round(best.cost, 6)
+                PlanSelected(
+                    agent=self.name, goal=str(entry.goal), plan=tuple(best.text()), cost=round(best.cost, 6)
+                )
             )
         action = best.steps[0].action
         self._shown = best.actions[1:]
@@ -335,7 +349,7 @@ class Agent(ExecutorActor):
         entry.held = held
         self._push(entry)
         self.current = None
-        self.trace.emit(self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack))
+        self.trace.emit(GoalSuspended(agent=self.name, goal=str(entry.goal), stack_depth=len(self.stack)))
         if held:
             assert entry.order_seq is not None
             self.reply(Suspended(action=entry.goal, seq=entry.order_seq))
@@ -370,11 +384,12 @@ class Agent(ExecutorActor):
         # CONTRACTS.md: wall-clock time spent making the resumed goal's plan.
         replan_ms = (time.perf_counter() - started) * 1000
         self.trace.emit(
-            self.name,
-            "goal_resumed",
-            goal=str(entry.goal),
-            replanning=self.mode.value,
-            replan_ms=round(replan_ms, 4),
+            GoalResumed(
+                agent=self.name,
+                goal=str(entry.goal),
+                replanning="online" if self.mode is Replanning.ONLINE else "naive",
+                replan_ms=round(replan_ms, 4),
+            )
         )
 
     def _get_ready(self, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]) -> None:
@@ -426,7 +441,7 @@ class Agent(ExecutorActor):
                 self.config.action_timeout, lambda: self.inbox.send(Timeout(seq=seq))
             )
         self.running = running
-        self.trace.emit(self.name, "action_started", action=str(action))
+        self.trace.emit(ActionStarted(agent=self.name, action=str(action)))
         try:
             if self._later or self._hint is not None or self._will_resume_after(action):
                 # The order is on its way: let the executor take it, then do the plan
@@ -442,13 +457,12 @@ class Agent(ExecutorActor):
                 running.timer.cancel()
             self.running = None
         self._update(action, result, running.suspend_sent)
+        reason = result.reason if isinstance(result, Failure) else ""
         self.trace.emit(
-            self.name,
-            "action_finished",
-            action=str(action),
-            result=result.kind,
-            **({"reason": result.reason} if isinstance(result, Failure) else {}),
+            ActionFinished(agent=self.name, action=str(action), result=result.kind, reason=reason)
         )
+        if isinstance(result, Success):
+            self.progress.report(Progress(self.name, action, Phase.SUCCEEDED))
         return result, running.suspend_sent
 
     async def _await_result(self, running: _Running) -> Success | Failure | Suspended:
@@ -459,7 +473,7 @@ class Agent(ExecutorActor):
             if isinstance(message, Refused) and message.seq == running.seq:
                 # The executor cannot stop the action: it runs to its end, and then
                 # nothing further of the running goal starts (Algorithm 3).
-                self.trace.emit(self.name, "suspend_refused", action=str(running.action))
+                self.trace.emit(SuspendRefused(agent=self.name, action=str(running.action)))
                 continue
             if isinstance(message, Timeout) and message.seq == running.seq:
                 # A hung executor: the action counts as failed; a late answer is ignored.
@@ -679,7 +693,7 @@ class Agent(ExecutorActor):
 
     # -- messages -------------------------------------------------------------------------------
 
-    def _on_message(self, message: Any) -> None:
+    def _on_message(self, message: Message) -> None:
         if isinstance(message, Submit):
             self._submitted(message)
         elif isinstance(message, Execute | Resume | Clear):
@@ -700,11 +714,9 @@ class Agent(ExecutorActor):
         entry = GoalEntry(message.goal, self._planset(message.goal), message.emergency, message.ticket)
         entry.arrival = next(self._arrivals)
         self.trace.emit(
-            self.name,
-            "goal_received",
-            goal=str(message.goal),
-            emergency=message.emergency,
-            ticket=message.ticket,
+            GoalReceived(
+                agent=self.name, goal=str(message.goal), emergency=message.emergency, ticket=message.ticket
+            )
         )
         if not self.domain.knows(message.goal):
             self._end(entry, GoalStatus.FAILURE, f"{self.name} has no method or operator for {message.goal}")
@@ -739,13 +751,11 @@ class Agent(ExecutorActor):
             if isinstance(order, Execute) and order.seq == message.seq:
                 # Not started yet: it waits on the stack without having done anything.
                 self.orders.remove(order)
-                entry = GoalEntry(
-                    order.action, self._planset(order.action), order_seq=order.seq, held=True
-                )
-                self.trace.emit(self.name, "goal_received", goal=str(order.action), emergency=False)
+                entry = GoalEntry(order.action, self._planset(order.action), order_seq=order.seq, held=True)
+                self.trace.emit(GoalReceived(agent=self.name, goal=str(order.action), emergency=False))
                 self._push(entry)
                 self.trace.emit(
-                    self.name, "goal_suspended", goal=str(entry.goal), stack_depth=len(self.stack)
+                    GoalSuspended(agent=self.name, goal=str(entry.goal), stack_depth=len(self.stack))
                 )
                 self.reply(Suspended(action=entry.goal, seq=message.seq))
                 return
@@ -767,7 +777,7 @@ class Agent(ExecutorActor):
         if entry in self.stack:
             self.stack.remove(entry)
         self._clear_suspended(entry)
-        self.trace.emit(self.name, "goal_cleared", goal=str(entry.goal))
+        self.trace.emit(GoalCleared(agent=self.name, goal=str(entry.goal)))
 
     def _request_suspension(self) -> None:
         """Ask the executor to stop the running action half way, if the belief can follow."""
@@ -795,22 +805,32 @@ class Agent(ExecutorActor):
             self.current = None
         # What was kept below for resuming the goal's stopped actions is of no use now.
         self._clear_suspended(entry)
-        fields: dict[str, Any] = {"goal": str(entry.goal), "status": status.value}
-        if entry.ticket is not None:
-            fields["ticket"] = entry.ticket
         if status is GoalStatus.FAILURE:
             reason = reason or "failed"
-            fields["reason"] = reason
         # The outcome is settled before the event, so observers see it settled.
         if entry.ticket is not None and self.on_outcome is not None:
             self.on_outcome(entry.ticket, status, reason if status is GoalStatus.FAILURE else "")
-        self.trace.emit(self.name, "goal_finished", **fields)
+        self.trace.emit(
+            GoalFinished(
+                agent=self.name,
+                goal=str(entry.goal),
+                status="success" if status is GoalStatus.SUCCESS else "failure",
+                ticket=entry.ticket,
+                reason=reason if status is GoalStatus.FAILURE else "",
+            )
+        )
         if entry.order_seq is not None:
             if status is GoalStatus.SUCCESS:
                 self.reply(Success(action=entry.goal, seq=entry.order_seq))
             else:
                 failure = Failure(action=entry.goal, seq=entry.order_seq, reason=reason, permanent=permanent)
                 self.reply(failure)
+
+    def executor_crashed(self, reason: str) -> None:
+        """The executor below crashed: the action it was running has failed."""
+        running = self.running
+        if running is not None:
+            self.inbox.send(Failure(action=running.action, seq=running.seq, reason=reason))
 
     def unfinished(self) -> list[GoalEntry]:
         """Every goal that has not ended: running, stacked, emergencies, waiting."""

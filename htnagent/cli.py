@@ -25,7 +25,7 @@ import sys
 import threading
 from collections.abc import Awaitable, Callable, Sequence
 from types import FrameType, TracebackType
-from typing import Any, NoReturn, TextIO
+from typing import NoReturn, TextIO
 
 import anyio
 from rich.console import Console
@@ -232,7 +232,7 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
         )
         report = anyio.run(_until_interrupted, run, signals)
         if not args.json:
-            print_summary(console, _summary_of(report))
+            print_summary(console, report.summary)
         if args.plot:
             try:
                 draw_run(scenario, report.events, args.plot)
@@ -246,18 +246,6 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
-
-
-def _summary_of(report: RunReport) -> dict[str, Any]:
-    """The run's summary event.
-
-    ``report.summary`` is the last event traced; when a run is interrupted, a
-    reply still on its way (a robot's message) can come after the summary.
-    """
-    if report.summary.get("event") == "summary":
-        return report.summary
-    found = [e for e in reversed(report.events) if e.get("event") == "summary"]
-    return found[0] if found else report.summary
 
 
 class _RunSignals:

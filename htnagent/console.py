@@ -10,13 +10,29 @@ from __future__ import annotations
 
 import json
 from collections.abc import Sequence
-from typing import IO, Any
+from typing import IO
 
 from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from htnagent.trace import Event
+from htnagent.events import (
+    ActionFinished,
+    ActionStarted,
+    AgentCrashed,
+    ArcClosed,
+    ArcOpened,
+    GoalCleared,
+    GoalFinished,
+    GoalReceived,
+    GoalResumed,
+    GoalSuspended,
+    MessageSent,
+    PlanSelected,
+    Summary,
+    SuspendRefused,
+    TraceEvent,
+)
 
 _STYLES = ["bold cyan", "bold green", "bold magenta", "bold yellow", "bold blue"]
 
@@ -33,12 +49,12 @@ class JsonLines:
         self.out = out
         self.done = False
 
-    def __call__(self, event: Event) -> None:
+    def __call__(self, event: TraceEvent) -> None:
         if self.done:
             return
-        self.out.write(json.dumps(event, separators=(",", ":")) + "\n")
+        self.out.write(json.dumps(event.as_dict(), separators=(",", ":")) + "\n")
         self.out.flush()
-        self.done = event.get("event") == "summary"
+        self.done = isinstance(event, Summary)
 
 
 class LiveTrace:
@@ -49,13 +65,13 @@ class LiveTrace:
         self.level = {name: i for i, name in enumerate(agents)}
         self.level.setdefault("robot", len(agents))
 
-    def __call__(self, event: Event) -> None:
-        text = self._describe(event)
+    def __call__(self, event: TraceEvent) -> None:
+        text = _describe(event)
         if text is None:
             return
-        agent = event["agent"]
+        agent = event.agent
         level = self.level.get(agent, 0)
-        line = Text(f"{event['t']:>9.2f}s ", style="dim")
+        line = Text(f"{event.t:>9.2f}s ", style="dim")
         line.append("  " * level)
         line.append(
             f"{agent:<10} ", style=_STYLES[level % len(_STYLES)] if agent in self.level else "bold red"
@@ -63,62 +79,62 @@ class LiveTrace:
         line.append_text(text)
         self.console.print(line, soft_wrap=True, highlight=False)
 
-    def _describe(self, e: Event) -> Text | None:
-        kind = e["event"]
-        if kind == "goal_received":
-            flag = Text(" EMERGENCY", style="bold red") if e.get("emergency") else Text("")
-            return Text.assemble("◆ goal ", (e["goal"], "bold"), flag)
-        if kind == "plan_selected":
+
+def _describe(e: TraceEvent) -> Text | None:
+    """One readable line for the events a person wants to follow (None: not shown)."""
+    match e:
+        case GoalReceived():
+            flag = Text(" EMERGENCY", style="bold red") if e.emergency else Text("")
+            return Text.assemble("◆ goal ", (e.goal, "bold"), flag)
+        case PlanSelected():
             return Text.assemble(
-                "  plan ", (" → ".join(e["plan"]) or "(nothing to do)", "italic"), f"  cost {e['cost']:.2f}"
+                "  plan ", (" → ".join(e.plan) or "(nothing to do)", "italic"), f"  cost {e.cost:.2f}"
             )
-        if kind == "action_started":
-            return Text.assemble("  ▶ ", e["action"])
-        if kind == "action_finished":
-            style = {"success": "green", "failure": "red", "suspended": "yellow"}.get(e["result"], "")
-            reason = f" ({e['reason']})" if e.get("reason") else ""
-            return Text.assemble("  ", (f"{e['result']}", style), f" {e['action']}{reason}")
-        if kind == "goal_suspended":
-            return Text.assemble(("⏸ suspended ", "yellow"), e["goal"], f"  stack depth {e['stack_depth']}")
-        if kind == "goal_resumed":
+        case ActionStarted():
+            return Text.assemble("  ▶ ", e.action)
+        case ActionFinished():
+            style = {"success": "green", "failure": "red", "suspended": "yellow"}[e.result]
+            reason = f" ({e.reason})" if e.reason else ""
+            return Text.assemble("  ", (e.result, style), f" {e.action}{reason}")
+        case GoalSuspended():
+            return Text.assemble(("⏸ suspended ", "yellow"), e.goal, f"  stack depth {e.stack_depth}")
+        case GoalResumed():
             return Text.assemble(
-                ("⏵ resumed ", "yellow"), e["goal"], f"  {e['replanning']} replanning {e['replan_ms']:.3f} ms"
+                ("⏵ resumed ", "yellow"), e.goal, f"  {e.replanning} replanning {e.replan_ms:.3f} ms"
             )
-        if kind == "goal_cleared":
-            return Text.assemble(("✕ cleared ", "yellow"), e["goal"])
-        if kind == "goal_finished":
-            ok = e["status"] == "success"
-            reason = f" ({e['reason']})" if e.get("reason") else ""
+        case GoalCleared():
+            return Text.assemble(("✕ cleared ", "yellow"), e.goal)
+        case GoalFinished():
+            ok = e.status == "success"
+            reason = f" ({e.reason})" if e.reason else ""
             return Text.assemble(
-                ("✔ " if ok else "✘ ", "green" if ok else "red"), f"{e['goal']} {e['status']}{reason}"
+                ("✔ " if ok else "✘ ", "green" if ok else "red"), f"{e.goal} {e.status}{reason}"
             )
-        if kind in ("arc_closed", "arc_opened"):
-            return Text(f"{'closed' if kind == 'arc_closed' else 'opened'} {e['arc']}", style="bold red")
-        if kind == "suspend_refused":
-            return Text(f"  cannot suspend {e['action']}: it goes on", style="yellow")
-        if kind == "message" and e["kind"] in ("suspend", "resume", "clear", "suspended", "refused"):
-            return Text(f"  ✉ {e['kind']} {e['action']} → {e['to']}", style="dim")
-        if kind == "agent_crashed":
-            return Text(f"crashed: {e['error']}", style="bold red")
-        return None
+        case ArcClosed():
+            return Text(f"closed {e.arc}", style="bold red")
+        case ArcOpened():
+            return Text(f"opened {e.arc}", style="bold red")
+        case SuspendRefused():
+            return Text(f"  cannot suspend {e.action}: it goes on", style="yellow")
+        case MessageSent() if e.kind in ("suspend", "resume", "clear", "suspended", "refused"):
+            return Text(f"  ✉ {e.kind} {e.action} → {e.to}", style="dim")
+        case AgentCrashed():
+            return Text(f"crashed: {e.error}", style="bold red")
+    return None
 
 
-def print_summary(console: Console, summary: dict[str, Any]) -> None:
+def print_summary(console: Console, summary: Summary) -> None:
     """The summary as a small table and a few lines."""
     table = Table(title="goals", show_edge=False)
     table.add_column("agent")
     table.add_column("goal")
     table.add_column("status")
-    for g in summary["goals"]:
-        status = g["status"] + (f" ({g['reason']})" if g.get("reason") else "")
-        table.add_row(
-            g["agent"], g["goal"], Text(status, style="green" if g["status"] == "success" else "red")
-        )
+    for g in summary.goals:
+        status = g.status + (f" ({g.reason})" if g.reason else "")
+        table.add_row(g.agent, g.goal, Text(status, style="green" if g.status == "success" else "red"))
     console.print(table)
-    where = summary["robot"]
+    where = summary.robot
     place = f"at {where['at']}" if "at" in where else f"on {where.get('on')}"
-    console.print(
-        f"robot {place}; travelled {summary['distance']:.2f} m through {' '.join(summary['visited'])}"
-    )
-    planning = ", ".join(f"{k} {v:.1f} ms" for k, v in summary["planning_ms"].items())
+    console.print(f"robot {place}; travelled {summary.distance:.2f} m through {' '.join(summary.visited)}")
+    planning = ", ".join(f"{k} {v:.1f} ms" for k, v in summary.planning_ms.items())
     console.print(f"planning time: {planning}")

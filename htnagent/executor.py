@@ -15,13 +15,28 @@ from __future__ import annotations
 from abc import ABC, abstractmethod
 from enum import Enum
 from types import TracebackType
-from typing import Any
+from typing import Self
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, Mailbox
-from htnagent.messages import Clear, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.events import ExecutorError, MessageSent
+from htnagent.messages import (
+    Clear,
+    Execute,
+    Failure,
+    Message,
+    Order,
+    ParentLost,
+    Refused,
+    Result,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.progress import ProgressListeners
 from htnagent.terms import Atom
 from htnagent.trace import Trace
 
@@ -67,7 +82,7 @@ class Executor(ABC):
     async def aclose(self) -> None:  # noqa: B027 - an optional hook
         """Release what the executor holds."""
 
-    async def __aenter__(self) -> Executor:
+    async def __aenter__(self) -> Self:
         return self
 
     async def __aexit__(
@@ -77,30 +92,39 @@ class Executor(ABC):
 
 
 class ExecutorActor(ABC):
-    """An executor that speaks the message protocol directly."""
+    """An executor that speaks the message protocol directly.
+
+    Its mailbox holds :data:`~htnagent.messages.Message`: orders from the parent,
+    and whatever else the actor sends itself (timers); it reports how far a timed
+    action has got to :attr:`progress` (what scenario triggers follow).
+    """
 
     def __init__(self, name: str, clock: Clock, trace: Trace) -> None:
         self.name = name
         self.clock = clock
         self.trace = trace
-        self.inbox: Mailbox[Any] = Mailbox(clock, name)
-        self.reply_to: Mailbox[Any] | None = None
+        self.inbox: Mailbox[Message] = Mailbox(clock, name)
+        self.reply_to: Mailbox[Message] | None = None
+        self.progress = ProgressListeners()
 
-    def connect(self, reply_to: Mailbox[Any]) -> None:
+    def connect(self, reply_to: Mailbox[Message]) -> None:
         """Send results to this mailbox (the parent agent's)."""
         self.reply_to = reply_to
 
-    def reply(self, message: Any) -> None:
+    def reply(self, message: Result) -> None:
         """Send a result up."""
         if self.reply_to is not None:
             self.trace.emit(
-                self.name, "message", to=self.reply_to.name, kind=message.kind, action=str(message.action)
+                MessageSent(
+                    agent=self.name, to=self.reply_to.name, kind=message.kind, action=str(message.action)
+                )
             )
             self.reply_to.send(message)
 
-    def order(self, below: ExecutorActor, message: Any) -> None:
+    def order(self, below: ExecutorActor, message: Order) -> None:
         """Send an order down to ``below``."""
-        self.trace.emit(self.name, "message", to=below.name, kind=message.kind, action=str(message.action))
+        action = str(message.action) if not isinstance(message, ParentLost) else ""
+        self.trace.emit(MessageSent(agent=self.name, to=below.name, kind=message.kind, action=action))
         below.inbox.send(message)
 
     @abstractmethod
@@ -134,7 +158,7 @@ class AdapterActor(ExecutorActor):
                     try:
                         await self.executor.clear(order.action)
                     except Exception as exc:  # a faulty executor must not stop the runtime
-                        self.trace.emit(self.name, "executor_error", error=f"clear: {exc}")
+                        self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc}"))
 
     async def _suspend(self, order: Suspend) -> None:
         try:
@@ -144,7 +168,7 @@ class AdapterActor(ExecutorActor):
                 await self.executor.suspend(order.action)
                 return  # the running execute answers Suspended
         except Exception as exc:
-            self.trace.emit(self.name, "executor_error", error=f"suspend: {exc}")
+            self.trace.emit(ExecutorError(agent=self.name, error=f"suspend: {exc}"))
         self.reply(Refused(action=order.action, seq=order.seq))
 
     async def _carry_out(self, order: Execute | Resume) -> None:

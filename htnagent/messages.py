@@ -1,6 +1,7 @@
 """The typed messages agents and executors exchange (ALGORITHMS.md §4–§5).
 
-Frozen pydantic models, each with a literal ``kind`` as discriminator.  Going
+Frozen pydantic models, each with a literal ``kind`` as discriminator; the
+unions :data:`Order`, :data:`Result` and :data:`Message` type the mailboxes.  Going
 down to an executor: :class:`Execute`, :class:`Suspend`, :class:`Resume`,
 :class:`Clear` (and the hint :class:`Prepare`).  Coming back: :class:`Success`, :class:`Failure`,
 :class:`Suspended`, :class:`Refused` (the running action cannot be suspended:
@@ -11,9 +12,9 @@ it answers, so a late answer to an abandoned order is recognised and ignored.
 
 from __future__ import annotations
 
-from typing import Annotated, Literal
+from typing import Literal
 
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import BaseModel, ConfigDict
 
 from htnagent.terms import Atom
 
@@ -125,16 +126,28 @@ class BeliefUpdate(_Message):
 
 
 class Timeout(_Message):
-    """The order ``seq`` took longer than the action timeout (a timer to oneself)."""
+    """The order ``seq`` took longer than the action timeout (an agent's timer to itself)."""
 
     kind: Literal["timeout"] = "timeout"
     seq: int
 
 
-Order = Annotated[Execute | Suspend | Resume | Clear | Prepare | ParentLost, Field(discriminator="kind")]
-Result = Annotated[Success | Failure | Suspended | Refused, Field(discriminator="kind")]
-AgentMessage = Annotated[
-    Order | Result | Submit | BeliefUpdate | Timeout,
-    Field(discriminator="kind"),
-]
-"""Everything an agent's mailbox can hold."""
+class Elapsed(_Message):
+    """The timed motion or activity serving order ``seq`` is over (an executor's timer to itself)."""
+
+    kind: Literal["elapsed"] = "elapsed"
+    seq: int
+
+
+Order = Execute | Suspend | Resume | Clear | Prepare | ParentLost
+"""What a parent sends down to its executor."""
+
+Result = Success | Failure | Suspended | Refused
+"""What an executor answers an order with."""
+
+ActionResult = Success | Failure | Suspended
+"""How an ordered action ended (a Refused only says it goes on)."""
+
+Message = Order | Result | Submit | BeliefUpdate | Timeout | Elapsed
+"""Everything an actor's mailbox can hold: orders from above, results from below, goals and
+belief updates from outside, and timers an actor set for itself."""

@@ -14,8 +14,8 @@ import stat
 from pathlib import Path
 
 from htnagent.errors import PlotError
+from htnagent.events import GoalFinished, GoalReceived, RobotMoving, TraceEvent
 from htnagent.scenario import Scenario
-from htnagent.trace import Event
 
 
 def check_plot_target(file: str) -> None:
@@ -59,7 +59,7 @@ def check_plot_target(file: str) -> None:
 _NONBLOCK = getattr(os, "O_NONBLOCK", 0)
 
 
-def draw_run(scenario: Scenario, events: list[Event], file: str) -> None:
+def draw_run(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
     """Draw the map and the path the robot travelled, emergency legs in red; PlotError if it cannot."""
     try:
         _draw(scenario, events, file)
@@ -69,7 +69,7 @@ def draw_run(scenario: Scenario, events: list[Event], file: str) -> None:
         raise PlotError(f"{file}: drawing the picture failed: {type(e).__name__}: {e}") from None
 
 
-def _draw(scenario: Scenario, events: list[Event], file: str) -> None:
+def _draw(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -92,14 +92,12 @@ def _draw(scenario: Scenario, events: list[Event], file: str) -> None:
     depth = 0
     normal_drawn = emergency_drawn = False
     for e in events:
-        if e["agent"] == top and e["event"] == "goal_received" and e.get("emergency"):
+        if isinstance(e, GoalReceived) and e.agent == top and e.emergency:
             depth += 1
-        elif e["agent"] == top and e["event"] == "goal_suspended":
-            pass
-        elif e["agent"] == top and e["event"] == "goal_finished" and depth and _is_emergency(events, e):
+        elif isinstance(e, GoalFinished) and e.agent == top and depth and _is_emergency(events, e):
             depth -= 1
-        elif e["event"] == "robot_moving" and e.get("arc") in world.arcs:
-            arc = world.arcs[e["arc"]]
+        elif isinstance(e, RobotMoving) and e.arc is not None and e.arc in world.arcs:
+            arc = world.arcs[e.arc]
             a, b = world.nodes[arc.a], world.nodes[arc.b]
             red = depth > 0
             ax.plot(
@@ -129,12 +127,8 @@ def _draw(scenario: Scenario, events: list[Event], file: str) -> None:
         plt.close(fig)
 
 
-def _is_emergency(events: list[Event], finished: Event) -> bool:
-    goal = finished["goal"]
+def _is_emergency(events: list[TraceEvent], finished: GoalFinished) -> bool:
     return any(
-        e["event"] == "goal_received"
-        and e["agent"] == finished["agent"]
-        and e["goal"] == goal
-        and e.get("emergency")
+        isinstance(e, GoalReceived) and e.agent == finished.agent and e.goal == finished.goal and e.emergency
         for e in events
     )

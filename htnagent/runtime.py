@@ -25,7 +25,7 @@ from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
-from typing import Any
+from typing import Self
 
 import anyio
 from anyio.abc import TaskGroup, TaskStatus
@@ -33,8 +33,10 @@ from anyio.abc import TaskGroup, TaskStatus
 from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError
+from htnagent.events import AgentCrashed
 from htnagent.executor import AdapterActor, Executor, ExecutorActor
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
+from htnagent.progress import ProgressListener
 from htnagent.terms import Atom
 from htnagent.trace import EventStream, Observer, Trace
 
@@ -130,10 +132,11 @@ class Runtime:
         self._tg: TaskGroup | None = None
         self._state = "new"
         self._streams: list[EventStream] = []
+        self._end_callbacks: list[Callable[[GoalOutcome], None]] = []
 
     # -- lifetime -------------------------------------------------------------------
 
-    async def __aenter__(self) -> Runtime:
+    async def __aenter__(self) -> Self:
         if self._state != "new":
             raise RuntimeClosedError("a runtime can be entered once")
         tg = anyio.create_task_group()
@@ -198,14 +201,14 @@ class Runtime:
             if not started.done:
                 raise  # it never served: the runtime cannot start (tg.start raises it)
             reason = f"{actor.name} crashed: {exc!r}"
-            self.trace.emit(actor.name, "agent_crashed", error=repr(exc))
+            self.trace.emit(AgentCrashed(agent=actor.name, error=repr(exc)))
             self._after_crash(actor, reason)
             await self._serve_dead(actor, reason)
 
     def _after_crash(self, actor: ExecutorActor, reason: str) -> None:
         parent = self._parents.get(actor.name)
-        if parent is not None and parent.running is not None:
-            parent.inbox.send(Failure(action=parent.running.action, seq=parent.running.seq, reason=reason))
+        if parent is not None:
+            parent.executor_crashed(reason)
         if isinstance(actor, Agent):
             tickets = [e.ticket for e in actor.unfinished() if e.ticket is not None]
             try:
@@ -220,7 +223,7 @@ class Runtime:
 
     async def _serve_dead(self, actor: ExecutorActor, reason: str) -> None:
         while True:
-            message: Any = await actor.inbox.receive()
+            message = await actor.inbox.receive()
             if isinstance(message, Execute | Resume | Suspend):
                 actor.reply(Failure(action=message.action, seq=message.seq, reason=reason))
             elif isinstance(message, Clear):
@@ -270,6 +273,8 @@ class Runtime:
         if self.keep_outcomes is not None:
             while len(self._ended) > self.keep_outcomes:
                 self.outcomes.pop(self._ended.popleft(), None)
+        for callback in list(self._end_callbacks):
+            callback(outcome)
 
     def fail_unfinished(self, reason: str) -> None:
         """End every goal that has not ended, as a failure (the run is over)."""
@@ -278,6 +283,22 @@ class Runtime:
                 self._resolve(ticket, GoalStatus.FAILURE, reason)
 
     # -- observing --------------------------------------------------------------------------
+
+    def on_progress(self, listener: ProgressListener) -> Callable[[], None]:
+        """Call ``listener`` with every actor's progress reports (see :mod:`htnagent.progress`);
+        returns the function that removes it."""
+        removers = [actor.progress.add(listener) for actor in [*self.agents.values(), self.executor]]
+
+        def remove() -> None:
+            for remover in removers:
+                remover()
+
+        return remove
+
+    def on_goal_end(self, callback: Callable[[GoalOutcome], None]) -> Callable[[], None]:
+        """Call ``callback`` with each goal's outcome as the goal ends; returns the remover."""
+        self._end_callbacks.append(callback)
+        return lambda: self._end_callbacks.remove(callback) if callback in self._end_callbacks else None
 
     def subscribe(self, observer: Observer) -> Callable[[], None]:
         """Call ``observer`` with every trace event; returns the unsubscribe function."""

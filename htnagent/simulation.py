@@ -10,19 +10,20 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
 
 import anyio
 
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock, TimerHandle
+from htnagent.events import ArcClosed, ArcOpened, GoalRow, Summary, TraceEvent
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.messages import BeliefUpdate
 from htnagent.planset import Replanning
+from htnagent.progress import Phase, Progress
 from htnagent.runtime import Runtime
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.terms import Atom
-from htnagent.trace import Event, Observer, Trace
+from htnagent.trace import Observer, Trace
 
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
@@ -38,15 +39,15 @@ _SAME_INSTANT = 1e-6
 class RunReport:
     """The end of a run: the summary event and whether every goal succeeded."""
 
-    summary: Event
-    events: list[Event] = field(default_factory=list)
+    summary: Summary
+    events: list[TraceEvent] = field(default_factory=list)
     interrupted: bool = False
     """The run was stopped (``stop`` was set) before every goal ended."""
 
     @property
     def succeeded(self) -> bool:
         """Every goal of the scenario succeeded."""
-        return all(g["status"] == GoalStatus.SUCCESS.value for g in self.summary["goals"])
+        return self.summary.succeeded
 
 
 def build_runtime(
@@ -103,7 +104,7 @@ async def run_scenario(
     runtime, world = build_runtime(scenario, replanning=replanning, speed=speed)
     if on_start is not None:
         on_start(runtime)
-    events: list[Event] = []
+    events: list[TraceEvent] = []
     if keep_events:
         runtime.subscribe(events.append)
     for observer in observers:
@@ -123,7 +124,9 @@ async def run_scenario(
                 world.closed.add(arc)
             else:
                 world.closed.discard(arc)
-            runtime.trace.emit("world", "arc_closed" if close else "arc_opened", arc=arc)
+            runtime.trace.emit(
+                ArcClosed(agent="world", arc=arc) if close else ArcOpened(agent="world", arc=arc)
+            )
             for agent in runtime.agents.values():
                 agent.inbox.send(BeliefUpdate(add=(fact,)) if close else BeliefUpdate(delete=(fact,)))
 
@@ -138,7 +141,7 @@ async def run_scenario(
                 assert trigger.action is not None  # guaranteed by Trigger's validator
                 watchers.append(_Watcher(trigger, fire, timed=scenario.robot_does(trigger.action)))
 
-        runtime.subscribe(lambda event: _watch(event, watchers, clock))
+        runtime.on_progress(lambda progress: _watch(progress, watchers, clock))
         for i, goal in enumerate(scenario.goals):
             schedule(goal.when, lambda i=i, goal=goal: give(i, goal))  # type: ignore[misc]
         for ev in scenario.events:
@@ -153,7 +156,7 @@ async def run_scenario(
             settled.set()
 
         clock.on_idle(on_idle)
-        runtime.subscribe(lambda e: check_done() if e["event"] == "goal_finished" else None)
+        runtime.on_goal_end(lambda _: check_done())
         check_done()
 
         async def interrupt(stop: anyio.Event) -> None:
@@ -173,10 +176,9 @@ async def run_scenario(
                 await clock.stop()
         runtime.fail_unfinished(INTERRUPTED if interrupted else STALLED)
         summary = _summary(scenario, runtime, world, tickets)
-        runtime.trace.emit("runtime", "summary", **summary)
+        runtime.trace.emit(summary)
         runtime.trace.close()  # the summary is the run's last event, whatever stopping it does
-    final = events[-1] if keep_events else {"event": "summary", **summary}
-    return RunReport(summary=final, events=events, interrupted=interrupted)
+    return RunReport(summary=summary, events=events, interrupted=interrupted)
 
 
 @dataclass
@@ -204,38 +206,34 @@ class _Watcher:
         return self.trigger.progress if self.trigger.progress is not None else 1.0
 
 
-def _watch(event: Event, watchers: list[_Watcher], clock: Clock) -> None:
-    """Fire, arm or disarm the action triggers an event concerns."""
-    kind = event["event"]
-    if kind not in ("robot_moving", "robot_acting", "message", "action_finished"):
-        return
+def _watch(progress: Progress, watchers: list[_Watcher], clock: Clock) -> None:
+    """Fire, arm or disarm the action triggers a progress report concerns."""
+    action = str(progress.action)
     for w in watchers:
         if w.fired:
             continue
-        if kind == "action_finished":
+        if progress.phase is Phase.SUCCEEDED:
             # Any agent's action: fire when it (or the resume finishing it) succeeds.
-            finished = event["action"] in (w.action, f"resume({w.action})")
-            if not w.timed and finished and event.get("result") == "success":
+            if not w.timed and action in (w.action, f"resume({w.action})"):
                 _fire_in(w, 0.0, clock)
         elif not w.timed:
             continue
-        elif kind == "message":
+        elif progress.phase is Phase.STOPPED:
             # The robot stopped the action half way: disarm, unless the fraction was
             # reached at this very moment (then it fires now all the same).
-            stopped = event["agent"] == ROBOT and event.get("kind") == "suspended"
             pending = w.pending if w.due > clock.now() + _SAME_INSTANT else None
-            if stopped and event.get("action") == w.action and pending is not None:
+            if action == w.action and pending is not None:
                 pending.cancel()
                 w.pending = None
-        elif event["action"] == w.action:
+        elif action == w.action:
             # A motion (or activity) of the action starts, fresh or resumed after
             # ``done`` of it: the fraction left to cover takes its share of ``duration``.
             if w.pending is not None:
                 w.pending.cancel()
-            done = float(event.get("done", 0.0))
+            done = progress.done
             left = 0.0 if w.progress <= done else (w.progress - done) / (1.0 - done)
-            _fire_in(w, left * float(event["duration"]), clock)
-        elif event["action"] == f"rollback({w.action})" and w.pending is not None:
+            _fire_in(w, left * progress.duration, clock)
+        elif action == f"rollback({w.action})" and w.pending is not None:
             # Undoing the action never covers any more of it.
             w.pending.cancel()
             w.pending = None
@@ -258,25 +256,29 @@ def _travelled(runtime: Runtime, world: RobotWorld) -> float:
     return robot.travelled() if isinstance(robot, Robot) else world.distance
 
 
-def _summary(
-    scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]
-) -> dict[str, Any]:
+def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]) -> Summary:
     goals = []
     for goal, ticket in zip(scenario.goals, tickets, strict=True):
-        if ticket is None:
-            status, reason = GoalStatus.FAILURE.value, NEVER_TRIGGERED
-        else:
+        status: GoalStatus = GoalStatus.FAILURE
+        reason = NEVER_TRIGGERED
+        if ticket is not None:
             outcome = runtime.outcomes[ticket]
-            status = outcome.status.value if outcome.status is not None else GoalStatus.FAILURE.value
+            status = outcome.status or GoalStatus.FAILURE
             reason = outcome.reason
-        row: dict[str, Any] = {"agent": goal.agent, "goal": str(goal.task), "status": status}
-        if status != GoalStatus.SUCCESS.value and reason:
-            row["reason"] = reason
-        goals.append(row)
-    return {
-        "goals": goals,
-        "robot": world.where(),
-        "visited": list(world.visited),
-        "distance": round(_travelled(runtime, world), 6),
-        "planning_ms": {name: round(a.stats.seconds * 1000, 3) for name, a in runtime.agents.items()},
-    }
+        success = status is GoalStatus.SUCCESS
+        goals.append(
+            GoalRow(
+                agent=goal.agent,
+                goal=str(goal.task),
+                status="success" if success else "failure",
+                reason="" if success else reason,
+            )
+        )
+    return Summary(
+        agent="runtime",
+        goals=tuple(goals),
+        robot=world.where(),
+        visited=tuple(world.visited),
+        distance=round(_travelled(runtime, world), 6),
+        planning_ms={name: round(a.stats.seconds * 1000, 3) for name, a in runtime.agents.items()},
+    )

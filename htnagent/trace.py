@@ -1,9 +1,9 @@
-"""Trace events (CONTRACTS.md "Trace events") and the observers that receive them.
+"""The trace: publishing events (:mod:`htnagent.events`) to the observers that receive them.
 
-An event is a plain dict with ``t`` (simulated seconds), ``agent`` and
-``event``, plus the fields of its kind.  The runtime publishes events to every
-observer in order; observers must not block (the CLI's printers, a collector
-for the summary, the embedding API's event stream).
+The runtime publishes events to every observer in order, each stamped with the
+simulated time; observers must not block (the CLI's printers, a collector for
+the summary, the embedding API's event stream).  Observers watch: nothing the
+agents do depends on them.
 """
 
 from __future__ import annotations
@@ -11,14 +11,13 @@ from __future__ import annotations
 import logging
 from collections import deque
 from collections.abc import Callable
-from typing import Any
 
 import anyio
 
 from htnagent.clock import Clock
+from htnagent.events import EventsDropped, TraceEvent
 
-Event = dict[str, Any]
-Observer = Callable[[Event], None]
+Observer = Callable[[TraceEvent], None]
 
 log = logging.getLogger("htnagent")
 
@@ -44,20 +43,19 @@ class Trace:
         self.observers.append(observer)
         return lambda: self.observers.remove(observer) if observer in self.observers else None
 
-    def emit(self, agent: str, event: str, **fields: Any) -> Event:
-        """Publish an event now."""
-        record: Event = {"t": round(self.clock.now(), 6), "agent": agent, "event": event, **fields}
+    def emit(self, event: TraceEvent) -> None:
+        """Publish an event now (stamped with the time)."""
         if self.closed:
-            return record
-        log.debug("%s", record)
+            return
+        event.t = round(self.clock.now(), 6)
+        log.debug("%s", event)
         for observer in list(self.observers):
             try:
-                observer(record)
+                observer(event)
             except (Exception, SystemExit) as exc:  # a broken observer must not stop the agents
                 log.warning("dropping trace observer %r: %r", observer, exc)
                 if observer in self.observers:
                     self.observers.remove(observer)
-        return record
 
 
 class EventStream:
@@ -78,13 +76,13 @@ class EventStream:
         self.dropped = 0
         """Events dropped so far (the reader was told of them with ``events_dropped``)."""
         self._trace = trace
-        self._buffer: deque[Event] = deque()
+        self._buffer: deque[TraceEvent] = deque()
         self._untold = 0
         self._closed = False
         self._wakeup = anyio.Event()
         self._unsubscribe = trace.subscribe(self._push)
 
-    def _push(self, event: Event) -> None:
+    def _push(self, event: TraceEvent) -> None:
         if self._closed:
             return
         if len(self._buffer) >= self.limit:
@@ -106,20 +104,20 @@ class EventStream:
         self.close()
         self._buffer.clear()
 
-    def receive_nowait(self) -> Event:
+    def receive_nowait(self) -> TraceEvent:
         """The next event; ``WouldBlock`` if none is buffered, ``EndOfStream`` at the end."""
         if self._untold:
-            told = {"t": self._buffer[0]["t"] if self._buffer else 0.0, "agent": "runtime"}
-            event: Event = {**told, "event": "events_dropped", "count": self._untold}
+            t = self._buffer[0].t if self._buffer else 0.0
+            dropped = EventsDropped(agent="runtime", t=t, count=self._untold)
             self._untold = 0
-            return event
+            return dropped
         if self._buffer:
             return self._buffer.popleft()
         if self._closed:
             raise anyio.EndOfStream
         raise anyio.WouldBlock
 
-    async def receive(self) -> Event:
+    async def receive(self) -> TraceEvent:
         """The next event, waiting for one."""
         while True:
             try:
@@ -131,7 +129,7 @@ class EventStream:
     def __aiter__(self) -> EventStream:
         return self
 
-    async def __anext__(self) -> Event:
+    async def __anext__(self) -> TraceEvent:
         try:
             return await self.receive()
         except anyio.EndOfStream:

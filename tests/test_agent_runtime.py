@@ -28,13 +28,15 @@ import pytest
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.domain import Domain, Effect, Suspension
+from htnagent.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
 from htnagent.executor import Executor, Outcome
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.messages import Clear
 from htnagent.planset import Replanning
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.terms import Atom, atom
-from htnagent.trace import Event, Trace
+from htnagent.trace import Trace
+from tests.support import Event, record
 
 ROADS = {("a", "b"): 4.0, ("b", "d"): 4.0, ("a", "c"): 5.0, ("c", "d"): 5.0}
 LENGTH = {**ROADS, **{(y, x): n for (x, y), n in ROADS.items()}}
@@ -181,7 +183,7 @@ async def run(
     """One story: the courier over ``executor`` is given ``goals``; the runtime is closed after."""
     events: list[Event] = []
     rt = Runtime([config], executor)
-    rt.subscribe(events.append)
+    rt.subscribe(record(events))
     async with rt:
         outcomes = await play(rt, *goals)
     return rt, events, outcomes
@@ -338,11 +340,14 @@ async def test_resumed_goal_reuses_kept_plans_online_and_plans_again_naive(
     events: list[Event] = []
     made: dict[str, int] = {}
 
-    def count(e: Event) -> None:
+    def count(e: TraceEvent) -> None:
         # Plans made from scratch so far, when the emergency ends and once goto(d) is resumed.
-        events.append(e)
-        if (e["event"], e.get("goal")) in (("goal_finished", "scan(a)"), ("goal_resumed", "goto(d)")):
-            made[e["event"]] = rt.agents[COURIER].stats.from_scratch
+        events.append(e.as_dict())
+        if isinstance(e, GoalFinished | GoalResumed) and (e.event, e.goal) in (
+            ("goal_finished", "scan(a)"),
+            ("goal_resumed", "goto(d)"),
+        ):
+            made[e.event] = rt.agents[COURIER].stats.from_scratch
 
     rt.subscribe(count)
     async with rt:
@@ -609,7 +614,7 @@ async def test_cancelling_the_body_mid_action_stops_everything_and_is_not_swallo
     # Paced at 100 simulated seconds per real second, go(a,b) would take 10 real seconds.
     with anyio.fail_after(GUARD), anyio.move_on_after(0.2) as scope:
         async with Runtime([courier()], robot(durations={"go(a,b)": 1000}), speed=100.0) as rt:
-            rt.subscribe(events.append)
+            rt.subscribe(record(events))
             await rt.achieve(COURIER, atom("goto(d)"))
             reached_the_end = True
     assert scope.cancelled_caught
@@ -626,7 +631,7 @@ async def test_cancelling_the_task_that_holds_the_runtime_raises_cancelled_there
 
     async def hold() -> None:
         async with Runtime([courier()], robot(durations={"go(a,b)": 1000}), speed=1.0) as rt:
-            rt.subscribe(lambda e: moving.set() if e["event"] == "action_started" else None)
+            rt.subscribe(lambda e: moving.set() if isinstance(e, ActionStarted) else None)
             await rt.achieve(COURIER, atom("goto(d)"))
 
     task = asyncio.get_running_loop().create_task(hold())
@@ -770,7 +775,7 @@ def dispatcher(at: str = "a") -> AgentConfig:
 async def test_child_agent_stacks_its_goal_while_the_parent_handles_an_emergency() -> None:
     events: list[Event] = []
     rt = Runtime([dispatcher(), courier()], robot(durations={"go(a,b)": 10}, suspendable=["go(a,b)"]))
-    rt.subscribe(events.append)
+    rt.subscribe(record(events))
     async with rt:
         with anyio.fail_after(GUARD):
             first = rt.submit("boss", atom("check(d)"))

@@ -11,7 +11,7 @@ from htnagent import AgentConfig, GoalStatus, Runtime, State, parse
 from htnagent.domains import areas_domain, nodes_domain
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.maps import parse_map
-from htnagent.trace import Event
+from tests.support import Event, record
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -34,7 +34,7 @@ async def test_a_child_agent_that_crashes_becomes_a_failed_action_for_its_parent
     )
     with anyio.fail_after(5):  # real seconds: a hang fails the test
         async with runtime:
-            runtime.subscribe(events.append)
+            runtime.subscribe(record(events))
             first = await runtime.achieve("guide", parse("goto(n38)"))
             second = await runtime.achieve("guide", parse("goto(n1)"))
     # Expect: the navigator crashes planning goto_node(n38); the guide's action fails with

@@ -26,7 +26,7 @@ from htnagent.maps import WorldMap
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.simulation import RunReport, run_scenario
 from htnagent.terms import atom
-from htnagent.trace import Event
+from tests.support import Event, events_of, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -72,7 +72,7 @@ TWO_LEVELS = [
 
 
 def statuses(report: RunReport) -> list[str]:
-    return [g["status"] for g in report.summary["goals"]]
+    return [g["status"] for g in summary_of(report)["goals"]]
 
 
 def of(events: Iterable[Event], kind: str, agent: str | None = None) -> list[Event]:
@@ -85,7 +85,7 @@ def messages(
     wanted = set(kinds)
     return [
         (e["agent"], e["to"], e["kind"], e["action"])
-        for e in of(report.events, "message")
+        for e in of(events_of(report), "message")
         if e["kind"] in wanted
     ]
 
@@ -109,7 +109,7 @@ def test_published_experiment_reaches_both_goals_and_resumes_the_first(
 ) -> None:
     start, goal, interrupted_on, emergency = case
     report = report_of(f"paper_{start}_{goal}_{emergency}.yaml", mode)
-    summary = report.summary
+    summary = summary_of(report)
     assert summary["goals"] == [
         {"agent": "guide", "goal": f"goto({goal})", "status": "success"},
         {"agent": "guide", "goal": f"goto({emergency})", "status": "success"},
@@ -118,14 +118,14 @@ def test_published_experiment_reaches_both_goals_and_resumes_the_first(
     assert summary["visited"][0] == start
     assert summary["robot"] == {"at": goal}
     # The emergency came while the robot was on the published arc ...
-    suspended = of(report.events, "goal_suspended", "guide")
+    suspended = of(events_of(report), "goal_suspended", "guide")
     assert [e["goal"] for e in suspended] == [f"goto({goal})"]
-    moving = [e for e in of(report.events, "robot_moving") if e["t"] <= suspended[0]["t"]]
+    moving = [e for e in of(events_of(report), "robot_moving") if e["t"] <= suspended[0]["t"]]
     assert moving[-1]["arc"] == interrupted_on
     # ... and afterwards the first goal was resumed, in the run's mode.
-    resumed = of(report.events, "goal_resumed", "guide")
+    resumed = of(events_of(report), "goal_resumed", "guide")
     assert [(e["goal"], e["replanning"]) for e in resumed] == [(f"goto({goal})", mode)]
-    finished = [e["goal"] for e in of(report.events, "goal_finished", "guide")]
+    finished = [e["goal"] for e in of(events_of(report), "goal_finished", "guide")]
     assert finished == [f"goto({emergency})", f"goto({goal})"]
 
 
@@ -133,8 +133,8 @@ def test_published_experiment_reaches_both_goals_and_resumes_the_first(
 def test_online_replanning_travels_no_farther_than_naive(case: tuple[str, str, str, str]) -> None:
     start, goal, _, emergency = case
     name = f"paper_{start}_{goal}_{emergency}.yaml"
-    online = report_of(name, "online").summary["distance"]
-    naive = report_of(name, "naive").summary["distance"]
+    online = report_of(name, "online").summary.distance
+    naive = report_of(name, "naive").summary.distance
     assert online <= naive + 1e-9
 
 
@@ -159,7 +159,7 @@ def test_suspend_goes_down_and_suspended_comes_back_up_then_resume_goes_down() -
         ("guide", "navigator", "resume", "move_area(area8,area7)"),
         ("navigator", "robot", "resume", "move(n40,n35,arc59)"),
     ]
-    events = report.events
+    events = events_of(report)
     # Each level stacks its goal before it answers "suspended" to the level above,
     # and the guide stacks goto(n1) only once the navigator has answered.
     nav_stacked = position(events, "goal_suspended", agent="navigator")
@@ -181,7 +181,7 @@ def test_resume_after_the_emergency_goes_down_when_the_first_goal_is_resumed() -
         *SUSPEND_CASCADE_N40,
         ("guide", "navigator", "resume", "move_area(area8,area7)"),
     ]
-    events = report.events
+    events = events_of(report)
     resumed = position(events, "goal_resumed", agent="guide")
     resume_sent = position(events, "message", kind="resume")
     assert resumed < resume_sent
@@ -204,12 +204,14 @@ def test_clear_goes_down_when_the_resumed_plan_does_not_start_with_resume() -> N
         # stops at the navigator: the robot keeps nothing.
         ("guide", "navigator", "clear", "move_area(area1,area3)"),
     ]
-    settled = [e["action"] for e in of(report.events, "action_started", "navigator")][1]
+    settled = [e["action"] for e in of(events_of(report), "action_started", "navigator")][1]
     assert settled == "rollback(move(n1,n6,arc5))"
-    resumed = of(report.events, "goal_resumed", "guide")
-    plan_after = [e for e in of(report.events, "plan_selected", "guide") if e["t"] >= resumed[0]["t"]]
+    resumed = of(events_of(report), "goal_resumed", "guide")
+    plan_after = [e for e in of(events_of(report), "plan_selected", "guide") if e["t"] >= resumed[0]["t"]]
     assert not plan_after[0]["plan"][0].startswith("resume(")
-    assert [e["goal"] for e in of(report.events, "goal_cleared", "navigator")] == ["move_area(area1,area3)"]
+    assert [e["goal"] for e in of(events_of(report), "goal_cleared", "navigator")] == [
+        "move_area(area1,area3)"
+    ]
 
 
 # An emergency that cannot be planned at all (area8 is shut) makes no move, so when
@@ -243,7 +245,9 @@ def test_clear_cascades_down_to_the_robot_when_the_half_move_is_still_kept() -> 
         ("navigator", "robot", "clear", "move(n1,n6,arc5)"),
     ]
     assert statuses(report)[:2] == ["failure", "failure"]
-    assert [e["goal"] for e in of(report.events, "goal_cleared", "navigator")] == ["move_area(area1,area3)"]
+    assert [e["goal"] for e in of(events_of(report), "goal_cleared", "navigator")] == [
+        "move_area(area1,area3)"
+    ]
 
 
 def test_a_goal_after_a_cleared_suspension_starts_from_where_the_robot_stopped() -> None:
@@ -251,8 +255,8 @@ def test_a_goal_after_a_cleared_suspension_starts_from_where_the_robot_stopped()
     # goto(n12) (area3) is still reached.
     report = run(inline(CLEAR_TO_THE_ROBOT))
     assert statuses(report) == ["failure", "failure", "success"]
-    assert report.summary["robot"] == {"at": "n12"}
-    assert_never_travels_a_closed_arc(report.events)
+    assert summary_of(report)["robot"] == {"at": "n12"}
+    assert_never_travels_a_closed_arc(events_of(report))
 
 
 def test_a_resumed_goal_whose_plan_starts_with_rollback_is_reached() -> None:
@@ -277,12 +281,12 @@ def test_a_resumed_goal_whose_plan_starts_with_rollback_is_reached() -> None:
     )
     report = run(scenario)
     assert statuses(report) == ["success", "failure"]
-    started = [e["action"] for e in of(report.events, "action_started", "navigator")]
+    started = [e["action"] for e in of(events_of(report), "action_started", "navigator")]
     assert started[:2] == ["move(n40,n35,arc59)", "rollback(move(n40,n35,arc59))"]
     # The rollback needs what the robot kept: nothing is cleared before it.
     assert "clear" not in [m[2] for m in messages(report)]
-    assert report.summary["robot"] == {"at": "n35"}
-    assert report.summary["visited"] == ["n40", "n40", "n38", "n35"]
+    assert summary_of(report)["robot"] == {"at": "n35"}
+    assert summary_of(report)["visited"] == ["n40", "n40", "n38", "n35"]
 
 
 # -- nested emergencies at the parent -----------------------------------------------------------
@@ -291,7 +295,7 @@ def test_a_resumed_goal_whose_plan_starts_with_rollback_is_reached() -> None:
 @pytest.mark.parametrize("mode", MODES)
 def test_an_emergency_during_an_emergency_stacks_two_goals_and_all_succeed(mode: str) -> None:
     report = report_of("nested_emergencies.yaml", mode)
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success", "success", "success"]
     # Expect 1. goto(n1) under goto(n28)   2. goto(n28) under goto(n38)
     suspended = of(events, "goal_suspended", "guide")
@@ -300,9 +304,9 @@ def test_an_emergency_during_an_emergency_stacks_two_goals_and_all_succeed(mode:
     # The innermost emergency ends first; each goal below is resumed in turn.
     assert [e["goal"] for e in of(events, "goal_finished", "guide")] == ["goto(n38)", "goto(n28)", "goto(n1)"]
     assert [e["goal"] for e in of(events, "goal_resumed", "guide")] == ["goto(n28)", "goto(n1)"]
-    visited = report.summary["visited"]
+    visited = summary_of(report)["visited"]
     assert visited.index("n38") < visited.index("n28") < len(visited) - 1
-    assert report.summary["robot"] == {"at": "n1"}
+    assert summary_of(report)["robot"] == {"at": "n1"}
 
 
 # -- the world changes while the robot works ------------------------------------------------------
@@ -332,9 +336,9 @@ def assert_never_travels_a_closed_arc(events: list[Event]) -> None:
 @pytest.mark.parametrize("mode", MODES)
 def test_a_door_shut_on_the_route_is_planned_around(mode: str) -> None:
     report = report_of("door_shut.yaml", mode)
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success"]
-    assert report.summary["robot"] == {"at": "n1"}
+    assert summary_of(report)["robot"] == {"at": "n1"}
     shut = of(events, "arc_closed")
     assert [e["arc"] for e in shut] == ["arc22"]
     t = shut[0]["t"]
@@ -361,26 +365,26 @@ def test_an_arc_shut_ahead_of_the_navigator_is_repaired_around() -> None:
         }
     )
     report = run(scenario)
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success"]
     assert "move(n22,n18,arc38)" in of(events, "plan_selected", "navigator")[0]["plan"]
     assert "arc38" not in [e["arc"] for e in of(events, "robot_moving")]
     assert_never_travels_a_closed_arc(events)
-    assert report.summary["robot"] == {"at": "n1"}
+    assert summary_of(report)["robot"] == {"at": "n1"}
 
 
 @pytest.mark.parametrize("mode", MODES)
 def test_a_goal_that_becomes_unreachable_fails_and_the_next_goal_runs(mode: str) -> None:
     report = report_of("unreachable_goal.yaml", mode)
-    first, second = report.summary["goals"]
+    first, second = summary_of(report)["goals"]
     assert first["goal"] == "goto(n40)" and first["status"] == "failure"
     assert "goto(n40)" in first["reason"]
     assert second == {"agent": "guide", "goal": "goto(n12)", "status": "success"}
-    assert report.summary["robot"] == {"at": "n12"}
-    failed = [e for e in of(report.events, "goal_finished", "guide") if e["status"] == "failure"]
+    assert summary_of(report)["robot"] == {"at": "n12"}
+    failed = [e for e in of(events_of(report), "goal_finished", "guide") if e["status"] == "failure"]
     assert [e["goal"] for e in failed] == ["goto(n40)"]
     assert failed[0]["reason"]
-    assert_never_travels_a_closed_arc(report.events)
+    assert_never_travels_a_closed_arc(events_of(report))
 
 
 def test_run_exits_1_when_a_goal_fails() -> None:
@@ -405,7 +409,7 @@ def test_run_exits_1_when_a_goal_fails() -> None:
 @pytest.mark.parametrize("mode", MODES)
 def test_a_question_suspends_the_explanation_which_then_resumes_where_it_stopped(mode: str) -> None:
     report = report_of("explain_question.yaml", mode)
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success", "success"]
     # Expect: explain(statue) 40% said → suspended → answer(ann) → resume says the last 60%.
     said = [(e["t"], e["action"], e["done"], e["duration"]) for e in of(events, "robot_acting")]
@@ -443,7 +447,7 @@ def test_a_resumed_explanation_is_suspended_again_by_a_second_question() -> None
     data = scenario_file("explain_question.yaml").model_dump(mode="json")
     data["goals"].append({"agent": "guide", "task": "answer(bob)", "emergency": True, "when": {"time": 50.0}})
     report = run(parse_scenario(data, "two_questions.yaml", SCENARIOS))
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success", "success", "success"]
     # ALGORITHMS.md §4: resume(explain(statue)) can be suspended wherever explain can: bob
     # is answered at once, then the rest of the rest is said.
@@ -465,7 +469,7 @@ def test_a_resumed_explanation_is_suspended_again_by_a_second_question() -> None
 @pytest.mark.parametrize("mode", MODES)
 def test_a_visitor_is_greeted_at_once_and_the_walk_goes_on(mode: str) -> None:
     report = report_of("greeting.yaml", mode)
-    events = report.events
+    events = events_of(report)
     assert statuses(report) == ["success", "success"]
     received = of(events, "goal_received", "guide")[1]
     assert (received["goal"], received["emergency"]) == ("greet(bob)", True)
@@ -480,8 +484,8 @@ def test_a_visitor_is_greeted_at_once_and_the_walk_goes_on(mode: str) -> None:
     started = [e["action"] for e in of(events, "action_started", "guide")]
     assert started == ["move(n40,n38,arc58)", "greet(bob)", "resume(move(n40,n38,arc58))", "explain(vase)"]
     # Only the rest of the arc is walked after the greeting.
-    assert report.summary["distance"] == pytest.approx(4.0)
-    assert report.summary["robot"] == {"at": "n38"}
+    assert summary_of(report)["distance"] == pytest.approx(4.0)
+    assert summary_of(report)["robot"] == {"at": "n38"}
 
 
 def test_a_half_explanation_is_resumed_not_restarted_until_it_is_cleared(museum_map: WorldMap) -> None:
@@ -500,7 +504,7 @@ def test_a_talk_action_the_robot_has_no_duration_for_fails() -> None:
     data = scenario_file("greeting.yaml").model_dump(mode="json")
     data["robot"]["durations"] = {"explain": 30}
     report = run(parse_scenario(data, "no_greet.yaml", SCENARIOS))
-    first, second = report.summary["goals"]
+    first, second = summary_of(report)["goals"]
     assert first["status"] == "success"
     assert second["status"] == "failure"
     assert "the robot cannot do greet(bob)" in second["reason"]

@@ -17,12 +17,13 @@ import pytest
 from htnagent import AgentConfig, Domain, Executor, GoalStatus, Outcome, Runtime, State, parse
 from htnagent.domain import Effect, Suspension
 from htnagent.errors import RuntimeClosedError
+from htnagent.events import EventsDropped, GoalFinished, GoalSuspended, TraceEvent
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import Atom
 from htnagent.testing.storms import nested_storm_data
-from htnagent.trace import Event
+from tests.support import Event, record, summary_of
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 GUARD = 10.0  # real seconds: a test that waits longer has hung
@@ -66,7 +67,7 @@ async def test_an_agent_that_crashes_fails_its_running_stacked_and_waiting_goals
     rt = Runtime([worker(jobs())], scripted(durations={"work(a)": 10.0}, suspendable=["work(a)"]))
     with anyio.fail_after(GUARD):
         async with rt:
-            rt.subscribe(events.append)
+            rt.subscribe(record(events))
             running = rt.submit("worker", parse("job(a)"))
             waiting = rt.submit("worker", parse("job(c)"))
             rt.clock.call_at(1.0, functools.partial(rt.submit, "worker", parse("job(bad)"), emergency=True))
@@ -180,8 +181,9 @@ async def test_an_event_stream_nobody_reads_keeps_only_the_latest_events() -> No
             first = await stream.receive()
             rest = [await stream.receive() for _ in range(5)]
     # Expect: the reader is told how many it missed, then gets the newest five.
-    assert first["event"] == "events_dropped" and first["count"] == stream.dropped > 0
-    assert [e["event"] for e in rest][-1] == "goal_finished" and rest[-1]["goal"] == "job(h)"
+    assert isinstance(first, EventsDropped) and first.count == stream.dropped > 0
+    last = rest[-1]
+    assert isinstance(last, GoalFinished) and last.goal == "job(h)"
     with pytest.raises(anyio.EndOfStream):
         await stream.receive()
 
@@ -215,12 +217,12 @@ def test_hundreds_of_nested_emergencies_all_end() -> None:
     scenario = parse_scenario(nested_storm_data(300), "storm.yaml", SCENARIOS)
     depth = [0]
 
-    def watch(event: Event) -> None:
-        if event["event"] == "goal_suspended":
-            depth[0] = max(depth[0], event["stack_depth"])
+    def watch(event: TraceEvent) -> None:
+        if isinstance(event, GoalSuspended):
+            depth[0] = max(depth[0], event.stack_depth)
 
     report = anyio.run(functools.partial(run_scenario, scenario, observers=[watch]))
-    statuses = [g["status"] for g in report.summary["goals"]]
+    statuses = [g["status"] for g in summary_of(report)["goals"]]
     # Expect: they nest hundreds deep (no RecursionError), and every one of them ends.
     assert depth[0] > 200
     assert statuses.count("success") == len(statuses)
@@ -238,7 +240,7 @@ def test_an_emergency_beyond_the_maximum_depth_fails_at_once() -> None:
             agent.config.max_depth = 5
             configs.append(agent.config)
         events: list[Event] = []
-        runtime.subscribe(events.append)
+        runtime.subscribe(record(events))
         async with runtime:
             tickets = [runtime.submit("navigator", parse("goto_node(n1)"))]
             for _ in range(8):
@@ -277,7 +279,7 @@ def test_a_run_with_only_a_trigger_that_never_fires_ends() -> None:
             return await run_scenario(scenario)
 
     report = anyio.run(go)
-    assert report.summary["goals"][0]["reason"] == "never given: its trigger did not happen"
+    assert summary_of(report)["goals"][0]["reason"] == "never given: its trigger did not happen"
 
 
 # -- a parent that crashes leaves nothing held in its child ------------------------------------------

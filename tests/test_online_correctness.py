@@ -30,7 +30,8 @@ from htnagent.scenario import parse_scenario
 from htnagent.simulation import RunReport, run_scenario
 from htnagent.terms import Atom, parse
 from htnagent.testing.differential import DOORS_SLACK, NO_DOORS_SLACK, compare
-from htnagent.trace import Event, Trace
+from htnagent.trace import Trace
+from tests.support import Event, events_of, record, summary_of
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 MODES = ["online", "naive"]
@@ -48,7 +49,7 @@ def run(mode: str, **data: Any) -> RunReport:
 
 
 def statuses(report: RunReport) -> list[str]:
-    return [g["status"] for g in report.summary["goals"]]
+    return [g["status"] for g in summary_of(report)["goals"]]
 
 
 def of(events: list[Event], kind: str, agent: str | None = None) -> list[Event]:
@@ -74,8 +75,8 @@ def test_a_stacked_goal_an_emergency_carried_out_is_reached_again(mode: str) -> 
     )
     assert statuses(report) == ["success", "success", "success"]
     # The outer goto(n29) ends last, with the robot walked back to n29.
-    assert report.summary["robot"] == {"at": "n29"}
-    assert report.summary["visited"][-3:] == ["n29", "n30", "n29"]
+    assert summary_of(report)["robot"] == {"at": "n29"}
+    assert summary_of(report)["visited"][-3:] == ["n29", "n30", "n29"]
 
 
 def test_an_empty_kept_plan_counts_only_if_the_goal_decomposes_to_nothing(museum_map: WorldMap) -> None:
@@ -114,12 +115,12 @@ def test_a_second_emergency_stops_a_resumed_move_at_once() -> None:
         ],
     )
     assert statuses(report) == ["success", "success", "success"]
-    suspended = of(report.events, "goal_suspended", "guide")
+    suspended = of(events_of(report), "goal_suspended", "guide")
     assert [(e["goal"], e["t"]) for e in suspended][1] == ("goto(n28)", 3.0)
     # The robot stopped on arc59 at t=3: it never walked on to n31 and back.
-    visited = report.summary["visited"]
+    visited = summary_of(report)["visited"]
     assert "n31" not in visited[: visited.index("n38")]
-    robot_stops = [e for e in of(report.events, "message", "robot") if e["kind"] == "suspended"]
+    robot_stops = [e for e in of(events_of(report), "message", "robot") if e["kind"] == "suspended"]
     assert [e["t"] for e in robot_stops] == [pytest.approx(2.0616, abs=1e-3), 3.0]
 
 
@@ -135,7 +136,7 @@ def test_two_emergencies_of_one_instant_are_both_seen_the_later_first() -> None:
         ],
     )
     assert statuses(report) == ["success", "success", "success"]
-    events = report.events
+    events = events_of(report)
     selected = [e["goal"] for e in of(events, "plan_selected", "navigator") if e["t"] == 2]
     # Both arrived before anything moved: the later one was planned (and run) first.
     assert selected[0] == "goto_node(n31)"
@@ -200,7 +201,7 @@ async def _relay_story(parent: Domain, child: Domain, *, emergency_at: float) ->
         return ScriptedExecutor("robot", clock, trace, suspendable=["go(a,b)", "go(b,c)", "go(c,d)"])
 
     rt = Runtime(configs, executor)
-    rt.subscribe(events.append)
+    rt.subscribe(record(events))
     async with rt:
         with anyio.fail_after(5):
             first = rt.submit("dispatch", parse("bring(d)"))
@@ -272,8 +273,8 @@ def test_a_parent_does_not_resume_into_a_shut_door(mode: str) -> None:
     )
     # n40 stays reachable the long way round (area1 → area2 → ...): both goals succeed.
     assert statuses(report) == ["success", "success"]
-    assert report.summary["robot"] == {"at": "n40"}
-    assert "arc12" not in {e.get("arc") for e in of(report.events, "robot_moving") if e["t"] > 6}
+    assert summary_of(report)["robot"] == {"at": "n40"}
+    assert "arc12" not in {e.get("arc") for e in of(events_of(report), "robot_moving") if e["t"] > 6}
 
 
 # -- 4, 5. §2.4, §2.5: repairs as good as planning afresh; repaired plans revived --------------------
@@ -293,8 +294,8 @@ def test_a_door_opened_again_gives_back_the_first_route() -> None:
     naive = run("naive", events=doors, **common)
     assert statuses(online) == statuses(naive) == ["success"]
     # On-line revives the plan it repaired at t=5; naive keeps walking the detour.
-    assert online.summary["distance"] == pytest.approx(FIRST_ROUTE)
-    assert naive.summary["distance"] == pytest.approx(AROUND)
+    assert summary_of(online)["distance"] == pytest.approx(FIRST_ROUTE)
+    assert summary_of(naive)["distance"] == pytest.approx(AROUND)
 
 
 @pytest.mark.parametrize("mode", MODES)
@@ -307,7 +308,7 @@ def test_a_repair_is_never_longer_than_planning_afresh(mode: str) -> None:
         events=[{"when": {"time": 5}, "close": "arc22"}],
     )
     assert statuses(report) == ["success"]
-    assert report.summary["distance"] == pytest.approx(AROUND)
+    assert summary_of(report)["distance"] == pytest.approx(AROUND)
 
 
 # -- 6. the talk domain: an explanation is finished at its exhibit ----------------------------------
@@ -331,9 +332,9 @@ def test_an_explanation_taken_away_from_is_finished_at_its_exhibit(mode: str) ->
     )
     assert statuses(report) == ["success", "success"]
     # The robot walks back to the statue (n4) before it says the rest.
-    assert report.summary["visited"] == ["n1", "n4", "n7", "n4"]
-    resumed = [e for e in of(report.events, "robot_acting") if e["resumed"]]
-    back = [e for e in of(report.events, "robot_moving") if e["action"] == "move(n7,n4,arc7)"]
+    assert summary_of(report)["visited"] == ["n1", "n4", "n7", "n4"]
+    resumed = [e for e in of(events_of(report), "robot_acting") if e["resumed"]]
+    back = [e for e in of(events_of(report), "robot_moving") if e["action"] == "move(n7,n4,arc7)"]
     assert len(resumed) == 1 and resumed[0]["t"] == pytest.approx(back[0]["t"] + back[0]["duration"])
 
 

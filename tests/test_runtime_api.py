@@ -17,14 +17,14 @@ from typing import Any
 
 import anyio
 import pytest
-from anyio.streams.memory import MemoryObjectReceiveStream
 
 from htnagent.agent import GoalStatus
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.scenario import load_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import atom
-from htnagent.trace import WALL_CLOCK_FIELDS, Event
+from htnagent.trace import WALL_CLOCK_FIELDS, EventStream
+from tests.support import Event, events_of
 from tests.test_agent_runtime import COURIER, GUARD, courier, robot
 
 REPO = Path(__file__).resolve().parents[1]
@@ -39,10 +39,10 @@ async def achieve_with_a_stream() -> tuple[GoalOutcome, list[str]]:
     """``achieve`` goto(d) while another task reads ``events()`` to its end."""
     seen: list[str] = []
 
-    async def read(stream: MemoryObjectReceiveStream[Event]) -> None:
+    async def read(stream: EventStream) -> None:
         async with stream:
             async for event in stream:
-                seen.append(f"{event['agent']} {event['event']}")
+                seen.append(f"{event.agent} {event.event}")
 
     with anyio.fail_after(GUARD):
         # Leaving the runtime ends the stream, so the reader finishes by itself.
@@ -111,7 +111,7 @@ async def museum_events(speed: float | None = None) -> list[Event]:
     with anyio.fail_after(GUARD):
         report = await run_scenario(load_scenario(MUSEUM), speed=speed, keep_events=True)
     assert report.succeeded
-    events: list[Event] = without_wall_clock(report.events)
+    events: list[Event] = without_wall_clock(events_of(report))
     return events
 
 

@@ -16,6 +16,7 @@ from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.terms import Atom
+from tests.support import summary_of
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -91,7 +92,7 @@ async def test_a_run_ends_when_its_goals_are_done_not_at_its_last_event() -> Non
     data["events"] = [{"when": {"time": 5000}, "close": "arc1"}]
     report = await run_scenario(parse_scenario(data, "late_event.yaml"), keep_events=True)
     assert report.succeeded
-    assert report.summary["t"] < 100
+    assert summary_of(report)["t"] < 100
 
 
 async def test_the_action_timeout_applies_where_actions_meet_the_executor_not_between_agents() -> None:

@@ -26,7 +26,8 @@ from htnagent.messages import Execute, Resume, Suspend, Suspended
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.simulation import NEVER_TRIGGERED, RunReport, run_scenario
 from htnagent.terms import Atom, parse
-from htnagent.trace import Event, Trace
+from htnagent.trace import Trace
+from tests.support import Event, events_of, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -51,7 +52,7 @@ def of(events: list[Event], kind: str, agent: str | None = None) -> list[Event]:
 
 
 def received(report: RunReport, goal: str) -> list[float]:
-    return [e["t"] for e in of(report.events, "goal_received") if e["goal"] == goal]
+    return [e["t"] for e in of(events_of(report), "goal_received") if e["goal"] == goal]
 
 
 # -- a robot action stopped before the fraction: the trigger waits for the resumed rest ----------
@@ -73,7 +74,7 @@ INTERRUPTED_WALK: dict[str, Any] = {
 
 def test_a_goal_waits_until_the_resumed_move_has_covered_its_fraction() -> None:
     report = run(inline(INTERRUPTED_WALK))
-    assert [g["status"] for g in report.summary["goals"]] == ["success", "success", "success"]
+    assert [g["status"] for g in summary_of(report)["goals"]] == ["success", "success", "success"]
     # Not at 2 s: the walk stood still from 1 s to 4 s.
     assert received(report, "answer(ann)") == [pytest.approx(5.0)]
 
@@ -82,13 +83,13 @@ def test_a_world_event_waits_until_the_resumed_move_has_covered_its_fraction() -
     data = {**INTERRUPTED_WALK, "goals": INTERRUPTED_WALK["goals"][:2]}
     data["events"] = [{"when": {"action": WALK, "progress": 0.75}, "close": "arc1"}]
     report = run(inline(data))
-    closed = of(report.events, "arc_closed", "world")
+    closed = of(events_of(report), "arc_closed", "world")
     assert [(e["arc"], e["t"]) for e in closed] == [("arc1", pytest.approx(6.0))]
 
 
 def test_the_robot_reports_how_much_of_a_resumed_move_was_already_done() -> None:
     report = run(inline(INTERRUPTED_WALK))
-    walks = [e for e in of(report.events, "robot_moving") if e["action"] == WALK]
+    walks = [e for e in of(events_of(report), "robot_moving") if e["action"] == WALK]
     assert [(e["t"], e["done"], e["resumed"], e["duration"]) for e in walks] == [
         (0.0, 0.0, False, 4.0),
         (pytest.approx(4.0), pytest.approx(0.25), True, pytest.approx(3.0)),
@@ -101,13 +102,13 @@ def test_a_timed_action_stopped_before_the_fraction_triggers_on_its_resumed_rest
     base = load_scenario(SCENARIOS / "explain_question.yaml").model_dump(mode="json")
     data = {**base, "goals": [base["goals"][0]]}
     report = run(parse_scenario(data, "walk.yaml", SCENARIOS))
-    walk = of(report.events, "robot_acting")[0]["t"]  # when the explanation starts
+    walk = of(events_of(report), "robot_acting")[0]["t"]  # when the explanation starts
     data["goals"] += [
         {"agent": "guide", "task": "answer(ann)", "emergency": True, "when": {"time": walk + 10}},
         {"agent": "guide", "task": "answer(bob)", "when": {"action": "explain(statue)", "progress": 0.5}},
     ]
     report = run(parse_scenario(data, "question.yaml", SCENARIOS))
-    assert [g["status"] for g in report.summary["goals"]] == ["success"] * 3
+    assert [g["status"] for g in summary_of(report)["goals"]] == ["success"] * 3
     assert received(report, "answer(bob)") == [pytest.approx(walk + 10 + 8 + 20)]
 
 
@@ -157,11 +158,11 @@ ROLLED_BACK: dict[str, Any] = {
 
 def test_a_move_rolled_back_before_the_fraction_never_fires_its_trigger() -> None:
     report = run(inline(ROLLED_BACK))
-    started = [e["action"] for e in of(report.events, "action_started", "navigator")]
+    started = [e["action"] for e in of(events_of(report), "action_started", "navigator")]
     assert started[:2] == ["move(n40,n35,arc59)", "rollback(move(n40,n35,arc59))"]
-    rollback = [e for e in of(report.events, "robot_moving") if e["action"].startswith("rollback(")]
+    rollback = [e for e in of(events_of(report), "robot_moving") if e["action"].startswith("rollback(")]
     assert [(e["done"], e["resumed"]) for e in rollback] == [(0.0, False)]
-    assert report.summary["goals"][2] == {
+    assert summary_of(report)["goals"][2] == {
         "agent": "navigator",
         "goal": "goto_node(n38)",
         "status": "failure",
@@ -182,7 +183,7 @@ def museum_with(goal: dict[str, Any]) -> Scenario:
 def finished_at(report: RunReport, agent: str, action: str) -> list[float]:
     return [
         e["t"]
-        for e in of(report.events, "action_finished", agent)
+        for e in of(events_of(report), "action_finished", agent)
         if e["action"] == action and e["result"] == "success"
     ]
 

@@ -23,13 +23,13 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
+from htnagent.events import RobotMoving, TraceEvent
 from htnagent.maps import generate_map, map_to_yaml_data
 from htnagent.runtime import Runtime
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
 from htnagent.testing.invariants import RunChecker
 from htnagent.testing.storms import agent_chain
-from htnagent.trace import Event
 
 NO_DOORS_SLACK = 0.02
 """Without door events, on-line may travel at most 2% farther than naive."""
@@ -128,9 +128,9 @@ async def _route(seed: int) -> Route:
     data["events"] = []
     moves: Route = []
 
-    def observe(event: Event) -> None:
-        if event["event"] == "robot_moving" and not event.get("resumed"):
-            moves.append((event["action"], float(event["t"]), float(event["duration"])))
+    def observe(event: TraceEvent) -> None:
+        if isinstance(event, RobotMoving) and not event.resumed:
+            moves.append((event.action, event.t, event.duration))
 
     scenario = parse_scenario(data, f"<differential {seed}>")
     await run_scenario(scenario, replanning="naive", observers=[observe])
@@ -147,8 +147,8 @@ async def run_mode(data: dict[str, Any], mode: str) -> ModeRun:
 
     report = await run_scenario(scenario, replanning=mode, observers=[checker], on_start=start)
     violations = [f"{mode}: {v}" for v in checker.finish()]
-    statuses = [g["status"] for g in report.summary["goals"]]
-    return ModeRun(mode, statuses, float(report.summary["distance"]), violations, checker.max_depth)
+    statuses: list[str] = [g.status for g in report.summary.goals]
+    return ModeRun(mode, statuses, report.summary.distance, violations, checker.max_depth)
 
 
 async def compare(seed: int) -> Comparison:

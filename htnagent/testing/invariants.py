@@ -22,10 +22,23 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from htnagent.events import (
+    ActionFinished,
+    ActionStarted,
+    AgentCrashed,
+    GoalFinished,
+    GoalReceived,
+    GoalResumed,
+    GoalSuspended,
+    MessageSent,
+    PlanSelected,
+    RobotActing,
+    RobotMoving,
+    TraceEvent,
+)
 from htnagent.executors.robot import Robot
 from htnagent.runtime import Runtime
 from htnagent.terms import Atom, parse
-from htnagent.trace import Event
 
 _INSTANT = 1e-9
 
@@ -67,28 +80,27 @@ class RunChecker:
         assert self.runtime is not None
         return list(self.runtime.agents)[-1]
 
-    def _violation(self, event: Event, text: str) -> None:
-        self.violations.append(f"t={event['t']}: {text}")
+    def _violation(self, event: TraceEvent, text: str) -> None:
+        self.violations.append(f"t={event.t}: {text}")
 
-    def __call__(self, event: Event) -> None:
-        kind = event["event"]
-        agent = event["agent"]
-        if kind == "goal_finished" and "ticket" in event:
-            self.finished[event["ticket"]] = self.finished.get(event["ticket"], 0) + 1
-        if kind == "goal_suspended":
-            self.max_depth = max(self.max_depth, int(event["stack_depth"]))
-        if kind == "agent_crashed":
-            self._violation(event, f"{agent} crashed: {event.get('error')}")
+    def __call__(self, event: TraceEvent) -> None:
+        agent = event.agent
+        if isinstance(event, GoalFinished) and event.ticket is not None:
+            self.finished[event.ticket] = self.finished.get(event.ticket, 0) + 1
+        if isinstance(event, GoalSuspended):
+            self.max_depth = max(self.max_depth, event.stack_depth)
+        if isinstance(event, AgentCrashed):
+            self._violation(event, f"{agent} crashed: {event.error}")
         self._watch_reaction(event)
-        if kind == "goal_finished" and event.get("status") == "success":
+        if isinstance(event, GoalFinished) and event.status == "success":
             self._check_achieved(event)
         if agent != self.bottom:
             return
-        if kind == "action_started":
-            problem = world_refuses(self.robot, parse(event["action"]))
+        if isinstance(event, ActionStarted):
+            problem = world_refuses(self.robot, parse(event.action))
             if problem:
-                self._violation(event, f"{event['action']} started but {problem}")
-        elif kind == "action_finished":
+                self._violation(event, f"{event.action} started but {problem}")
+        elif isinstance(event, ActionFinished):
             assert self.runtime is not None
             believed = sorted(
                 str(f) for f in self.runtime.agents[agent].belief.dynamic if f.name in ("at", "on_arc")
@@ -99,54 +111,54 @@ class RunChecker:
 
     # -- §2.8: a goal succeeds only when achieved --------------------------------------
 
-    def _check_achieved(self, event: Event) -> None:
-        goal = parse(event["goal"])
+    def _check_achieved(self, event: GoalFinished) -> None:
+        goal = parse(event.goal)
         state = self.robot.state
         if goal.name in ("goto", "goto_node") and len(goal.args) == 1:
             if state.on_arc is not None or state.at != str(goal.args[0]):
                 where = f"on {state.on_arc[0]}" if state.on_arc else f"at {state.at}"
-                self._violation(event, f"{event['agent']}: {goal} succeeded with the robot {where}")
+                self._violation(event, f"{event.agent}: {goal} succeeded with the robot {where}")
         elif goal.name == "move_area" and len(goal.args) == 2:
             world = state.world
             node = world.nodes.get(state.at or "")
             area = node.area if node is not None and state.on_arc is None else None
             if area != str(goal.args[1]):
-                self._violation(event, f"{event['agent']}: {goal} succeeded with the robot in {area}")
+                self._violation(event, f"{event.agent}: {goal} succeeded with the robot in {area}")
 
     # -- Algorithm 3 / 5: the reaction is immediate ------------------------------------------
 
-    def _watch_reaction(self, event: Event) -> None:
-        kind, agent, t = event["event"], event["agent"], float(event["t"])
-        if kind in ("plan_selected", "goal_resumed"):
-            self._busy[agent] = event["goal"]
-        elif kind in ("goal_suspended", "goal_finished"):
-            pending = self._pending.get(agent)
-            if pending is not None and event["goal"] == pending.goal:
-                if not pending.refused and t - pending.t > _INSTANT:
-                    self._violation(
-                        event,
-                        f"{agent} {kind.removeprefix('goal_')} {pending.goal} at t={t}, "
-                        f"{t - pending.t:.3f} s after {pending.why}",
-                    )
-                del self._pending[agent]
-            if self._busy.get(agent) == event["goal"]:
-                self._busy[agent] = None
-        elif kind == "goal_received" and event.get("emergency"):
-            busy = self._busy.get(agent)
-            if busy is not None and agent not in self._pending:
-                self._pending[agent] = _Pending(t, busy, f"the emergency {event['goal']} arrived")
-        elif kind == "message" and event.get("kind") == "suspend":
-            target = event.get("to")
-            busy = self._busy.get(target) if isinstance(target, str) else None
-            if isinstance(target, str) and busy is not None and target not in self._pending:
-                self._pending[target] = _Pending(t, busy, f"{agent} asked to suspend {event['action']}")
-        elif kind == "message" and event.get("kind") == "refused":
-            # The robot cannot stop its action: the agents above wait for it to end.
-            for pending in self._pending.values():
-                pending.refused = True
-        elif kind in ("robot_moving", "robot_acting") and self._pending:
-            waiting = ", ".join(f"{a} ({p.goal})" for a, p in self._pending.items())
-            self._violation(event, f"the robot started {event['action']} while {waiting} should stop")
+    def _watch_reaction(self, event: TraceEvent) -> None:
+        agent, t = event.agent, event.t
+        match event:
+            case PlanSelected() | GoalResumed():
+                self._busy[agent] = event.goal
+            case GoalSuspended() | GoalFinished():
+                pending = self._pending.get(agent)
+                if pending is not None and event.goal == pending.goal:
+                    if not pending.refused and t - pending.t > _INSTANT:
+                        self._violation(
+                            event,
+                            f"{agent} {event.event.removeprefix('goal_')} {pending.goal} at t={t}, "
+                            f"{t - pending.t:.3f} s after {pending.why}",
+                        )
+                    del self._pending[agent]
+                if self._busy.get(agent) == event.goal:
+                    self._busy[agent] = None
+            case GoalReceived(emergency=True):
+                busy = self._busy.get(agent)
+                if busy is not None and agent not in self._pending:
+                    self._pending[agent] = _Pending(t, busy, f"the emergency {event.goal} arrived")
+            case MessageSent(kind="suspend"):
+                busy = self._busy.get(event.to)
+                if busy is not None and event.to not in self._pending:
+                    self._pending[event.to] = _Pending(t, busy, f"{agent} asked to suspend {event.action}")
+            case MessageSent(kind="refused"):
+                # The robot cannot stop its action: the agents above wait for it to end.
+                for pending in self._pending.values():
+                    pending.refused = True
+            case RobotMoving() | RobotActing() if self._pending:
+                waiting = ", ".join(f"{a} ({p.goal})" for a, p in self._pending.items())
+                self._violation(event, f"the robot started {event.action} while {waiting} should stop")
 
     # -- the end of the run -------------------------------------------------------------------
 

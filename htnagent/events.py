@@ -1,0 +1,618 @@
+"""Every trace event, as a typed record (CONTRACTS.md "Trace events").
+
+The trace tells people and tools what the agents did; nothing in the runtime
+decides anything by reading it (triggers follow the robot's typed
+:class:`~htnagent.progress.Progress` signal instead).  Each event kind is one
+class below with a literal ``event`` name; :data:`EVENT_KINDS` lists them all,
+and ``docs/contracts.md`` documents the same table (a test keeps the two equal).
+
+An event is stamped with the simulated time ``t`` by
+:meth:`htnagent.trace.Trace.emit`; :meth:`TraceEvent.as_dict` gives the JSON
+object of ``run --json`` — ``t``, ``agent``, ``event``, then the kind's fields,
+optional ones only when set.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+JSONValue = str | int | float | bool | None | list["JSONValue"] | dict[str, "JSONValue"]
+"""What an event's JSON form is made of."""
+
+
+@dataclass(slots=True, kw_only=True)
+class TraceEvent:
+    """What every event has: who (``agent``), when (``t``, simulated seconds) and what (``event``)."""
+
+    event: ClassVar[str]
+    optional: ClassVar[frozenset[str]] = frozenset()
+    """Fields left out of the JSON form when they are None or empty."""
+
+    agent: str
+    t: float = 0.0
+
+    def as_dict(self) -> dict[str, JSONValue]:
+        """The event's JSON object, as ``run --json`` prints it."""
+        out: dict[str, JSONValue] = {"t": self.t, "agent": self.agent, "event": self.event}
+        for name in _field_names(type(self)):
+            value = getattr(self, name)
+            if name in self.optional and (value is None or value == ""):
+                continue
+            out[name] = _json(value)
+        return out
+
+
+_FIELD_NAMES: dict[type[TraceEvent], tuple[str, ...]] = {}
+
+
+def _field_names(cls: type[TraceEvent]) -> tuple[str, ...]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = tuple(f.name for f in dataclasses.fields(cls) if f.name not in ("agent", "t"))
+        _FIELD_NAMES[cls] = names
+    return names
+
+
+def _json(value: object) -> JSONValue:
+    if isinstance(value, str | int | float | bool) or value is None:
+        return value
+    if isinstance(value, tuple | list):
+        return [_json(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _json(v) for k, v in value.items()}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return _json(_row(value))
+    raise TypeError(f"no JSON form for {type(value).__name__}")
+
+
+def _row(value: object) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for f in dataclasses.fields(value):  # type: ignore[arg-type]
+        v = getattr(value, f.name)
+        if f.metadata.get("optional") and (v is None or v == ""):
+            continue
+        out[f.name] = v
+    return out
+
+
+# -- goals -----------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalReceived(TraceEvent):
+    """An agent was given a goal: submitted (with its ``ticket``) or ordered by its parent."""
+
+    event: ClassVar[Literal["goal_received"]] = "goal_received"
+    optional: ClassVar[frozenset[str]] = frozenset({"ticket"})
+    goal: str
+    emergency: bool
+    ticket: int | None = None
+
+
+@dataclass(slots=True, kw_only=True)
+class PlanSelected(TraceEvent):
+    """The plan the agent follows for ``goal`` (text forms of its actions) and its cost."""
+
+    event: ClassVar[Literal["plan_selected"]] = "plan_selected"
+    goal: str
+    plan: tuple[str, ...]
+    cost: float
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalSuspended(TraceEvent):
+    """``goal`` was pushed on the stack; ``stack_depth`` goals are stacked now."""
+
+    event: ClassVar[Literal["goal_suspended"]] = "goal_suspended"
+    goal: str
+    stack_depth: int
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalResumed(TraceEvent):
+    """``goal`` came off the stack; ``replan_ms`` is the wall-clock time its plan took."""
+
+    event: ClassVar[Literal["goal_resumed"]] = "goal_resumed"
+    goal: str
+    replanning: Literal["online", "naive"]
+    replan_ms: float
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalCleared(TraceEvent):
+    """A goal held for the parent's resume was dropped (the parent cleared it)."""
+
+    event: ClassVar[Literal["goal_cleared"]] = "goal_cleared"
+    goal: str
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalFinished(TraceEvent):
+    """``goal`` ended: ``status`` success or failure (then with a ``reason``)."""
+
+    event: ClassVar[Literal["goal_finished"]] = "goal_finished"
+    optional: ClassVar[frozenset[str]] = frozenset({"ticket", "reason"})
+    goal: str
+    status: Literal["success", "failure"]
+    ticket: int | None = None
+    reason: str = ""
+
+
+# -- actions ---------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class ActionStarted(TraceEvent):
+    """The agent ordered ``action`` from its executor."""
+
+    event: ClassVar[Literal["action_started"]] = "action_started"
+    action: str
+
+
+@dataclass(slots=True, kw_only=True)
+class ActionFinished(TraceEvent):
+    """The executor answered ``action``: ``result`` success, failure (with ``reason``) or suspended."""
+
+    event: ClassVar[Literal["action_finished"]] = "action_finished"
+    optional: ClassVar[frozenset[str]] = frozenset({"reason"})
+    action: str
+    result: Literal["success", "failure", "suspended"]
+    reason: str = ""
+
+
+@dataclass(slots=True, kw_only=True)
+class SuspendRefused(TraceEvent):
+    """The executor cannot stop ``action`` half way: it goes on."""
+
+    event: ClassVar[Literal["suspend_refused"]] = "suspend_refused"
+    action: str
+
+
+@dataclass(slots=True, kw_only=True)
+class MessageSent(TraceEvent):
+    """A protocol message (``kind``: execute, suspend, …, success, failure, …) sent ``to`` an actor."""
+
+    event: ClassVar[Literal["message"]] = "message"
+    to: str
+    kind: str
+    action: str
+
+
+# -- the robot and the world ------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class RobotMoving(TraceEvent):
+    """The robot starts a motion of ``action`` on ``arc`` lasting ``duration`` seconds.
+
+    ``resumed``: it finishes a suspended move, of which ``done`` (a fraction) was covered.
+    """
+
+    event: ClassVar[Literal["robot_moving"]] = "robot_moving"
+    optional: ClassVar[frozenset[str]] = frozenset({"arc"})
+    action: str
+    arc: str | None = None
+    duration: float
+    done: float = 0.0
+    resumed: bool = False
+
+
+@dataclass(slots=True, kw_only=True)
+class RobotActing(TraceEvent):
+    """The robot starts a timed activity (``explain``, say), fresh or ``resumed`` after ``done`` of it."""
+
+    event: ClassVar[Literal["robot_acting"]] = "robot_acting"
+    action: str
+    duration: float
+    done: float = 0.0
+    resumed: bool = False
+
+
+@dataclass(slots=True, kw_only=True)
+class ArcClosed(TraceEvent):
+    """A door shut: ``arc`` cannot be travelled (a scenario event)."""
+
+    event: ClassVar[Literal["arc_closed"]] = "arc_closed"
+    arc: str
+
+
+@dataclass(slots=True, kw_only=True)
+class ArcOpened(TraceEvent):
+    """A door opened again: ``arc`` can be travelled."""
+
+    event: ClassVar[Literal["arc_opened"]] = "arc_opened"
+    arc: str
+
+
+# -- faults ------------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class ExecutorError(TraceEvent):
+    """A user's executor raised while suspending or clearing (the runtime goes on)."""
+
+    event: ClassVar[Literal["executor_error"]] = "executor_error"
+    error: str
+
+
+@dataclass(slots=True, kw_only=True)
+class AgentCrashed(TraceEvent):
+    """An agent or executor crashed; what it served fails from now on."""
+
+    event: ClassVar[Literal["agent_crashed"]] = "agent_crashed"
+    error: str
+
+
+@dataclass(slots=True, kw_only=True)
+class EventsDropped(TraceEvent):
+    """A reader of :meth:`Runtime.events` fell behind: ``count`` older events were dropped."""
+
+    event: ClassVar[Literal["events_dropped"]] = "events_dropped"
+    count: int
+
+
+# -- the end of a run ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class GoalRow:
+    """A scenario goal's line in the summary: ``reason`` only when it did not succeed."""
+
+    agent: str
+    goal: str
+    status: Literal["success", "failure"]
+    reason: str = dataclasses.field(default="", metadata={"optional": True})
+
+
+@dataclass(slots=True, kw_only=True)
+class Summary(TraceEvent):
+    """A run's last event: every goal's status, where the robot is, where it went."""
+
+    event: ClassVar[Literal["summary"]] = "summary"
+    goals: tuple[GoalRow, ...]
+    robot: dict[str, str]
+    """``{"at": node}`` or ``{"on": arc}``."""
+    visited: tuple[str, ...]
+    distance: float
+    planning_ms: dict[str, float]
+
+    @property
+    def succeeded(self) -> bool:
+        """Every goal succeeded."""
+        return all(g.status == "success" for g in self.goals)
+
+
+EVENT_KINDS` lists them all,
+and ``docs/contracts.md`` documents the same table (a test keeps the two equal).
+
+An event is stamped with the simulated time ``t`` by
+:meth:`htnagent.trace.Trace.emit`; :meth:`TraceEvent.as_dict` gives the JSON
+object of ``run --json`` — ``t``, ``agent``, ``event``, then the kind's fields,
+optional ones only when set.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import ClassVar, Literal
+
+JSONValue = str | int | float | bool | None | list["JSONValue"] | dict[str, "JSONValue"]
+"""What an event's JSON form is made of."""
+
+
+@dataclass(slots=True, kw_only=True)
+class TraceEvent:
+    """What every event has: who (``agent``), when (``t``, simulated seconds) and what (``event``)."""
+
+    event: ClassVar[str]
+    optional: ClassVar[frozenset[str]] = frozenset()
+    """Fields left out of the JSON form when they are None or empty."""
+
+    agent: str
+    t: float = 0.0
+
+    def as_dict(self) -> dict[str, JSONValue]:
+        """The event's JSON object, as ``run --json`` prints it."""
+        out: dict[str, JSONValue] = {"t": self.t, "agent": self.agent, "event": self.event}
+        for name in _field_names(type(self)):
+            value = getattr(self, name)
+            if name in self.optional and (value is None or value == ""):
+                continue
+            out[name] = _json(value)
+        return out
+
+
+_FIELD_NAMES: dict[type[TraceEvent], tuple[str, ...]] = {}
+
+
+def _field_names(cls: type[TraceEvent]) -> tuple[str, ...]:
+    names = _FIELD_NAMES.get(cls)
+    if names is None:
+        names = tuple(f.name for f in dataclasses.fields(cls) if f.name not in ("agent", "t"))
+        _FIELD_NAMES[cls] = names
+    return names
+
+
+def _json(value: object) -> JSONValue:
+    if isinstance(value, str | int | float | bool) or value is None:
+        return value
+    if isinstance(value, tuple | list):
+        return [_json(v) for v in value]
+    if isinstance(value, dict):
+        return {str(k): _json(v) for k, v in value.items()}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return _json(_row(value))
+    raise TypeError(f"no JSON form for {type(value).__name__}")
+
+
+def _row(value: object) -> dict[str, object]:
+    out: dict[str, object] = {}
+    for f in dataclasses.fields(value):  # type: ignore[arg-type]
+        v = getattr(value, f.name)
+        if f.metadata.get("optional") and (v is None or v == ""):
+            continue
+        out[f.name] = v
+    return out
+
+
+# -- goals -----------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalReceived(TraceEvent):
+    """An agent was given a goal: submitted (with its ``ticket``) or ordered by its parent."""
+
+    event: ClassVar[Literal["goal_received"]] = "goal_received"
+    optional: ClassVar[frozenset[str]] = frozenset({"ticket"})
+    goal: str
+    emergency: bool
+    ticket: int | None = None
+
+
+@dataclass(slots=True, kw_only=True)
+class PlanSelected(TraceEvent):
+    """The plan the agent follows for ``goal`` (text forms of its actions) and its cost."""
+
+    event: ClassVar[Literal["plan_selected"]] = "plan_selected"
+    goal: str
+    plan: tuple[str, ...]
+    cost: float
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalSuspended(TraceEvent):
+    """``goal`` was pushed on the stack; ``stack_depth`` goals are stacked now."""
+
+    event: ClassVar[Literal["goal_suspended"]] = "goal_suspended"
+    goal: str
+    stack_depth: int
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalResumed(TraceEvent):
+    """``goal`` came off the stack; ``replan_ms`` is the wall-clock time its plan took."""
+
+    event: ClassVar[Literal["goal_resumed"]] = "goal_resumed"
+    goal: str
+    replanning: Literal["online", "naive"]
+    replan_ms: float
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalCleared(TraceEvent):
+    """A goal held for the parent's resume was dropped (the parent cleared it)."""
+
+    event: ClassVar[Literal["goal_cleared"]] = "goal_cleared"
+    goal: str
+
+
+@dataclass(slots=True, kw_only=True)
+class GoalFinished(TraceEvent):
+    """``goal`` ended: ``status`` success or failure (then with a ``reason``)."""
+
+    event: ClassVar[Literal["goal_finished"]] = "goal_finished"
+    optional: ClassVar[frozenset[str]] = frozenset({"ticket", "reason"})
+    goal: str
+    status: Literal["success", "failure"]
+    ticket: int | None = None
+    reason: str = ""
+
+
+# -- actions ---------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class ActionStarted(TraceEvent):
+    """The agent ordered ``action`` from its executor."""
+
+    event: ClassVar[Literal["action_started"]] = "action_started"
+    action: str
+
+
+@dataclass(slots=True, kw_only=True)
+class ActionFinished(TraceEvent):
+    """The executor answered ``action``: ``result`` success, failure (with ``reason``) or suspended."""
+
+    event: ClassVar[Literal["action_finished"]] = "action_finished"
+    optional: ClassVar[frozenset[str]] = frozenset({"reason"})
+    action: str
+    result: Literal["success", "failure", "suspended"]
+    reason: str = ""
+
+
+@dataclass(slots=True, kw_only=True)
+class SuspendRefused(TraceEvent):
+    """The executor cannot stop ``action`` half way: it goes on."""
+
+    event: ClassVar[Literal["suspend_refused"]] = "suspend_refused"
+    action: str
+
+
+@dataclass(slots=True, kw_only=True)
+class MessageSent(TraceEvent):
+    """A protocol message (``kind``: execute, suspend, …, success, failure, …) sent ``to`` an actor."""
+
+    event: ClassVar[Literal["message"]] = "message"
+    to: str
+    kind: str
+    action: str
+
+
+# -- the robot and the world ------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class RobotMoving(TraceEvent):
+    """The robot starts a motion of ``action`` on ``arc`` lasting ``duration`` seconds.
+
+    ``resumed``: it finishes a suspended move, of which ``done`` (a fraction) was covered.
+    """
+
+    event: ClassVar[Literal["robot_moving"]] = "robot_moving"
+    optional: ClassVar[frozenset[str]] = frozenset({"arc"})
+    action: str
+    arc: str | None = None
+    duration: float
+    done: float = 0.0
+    resumed: bool = False
+
+
+@dataclass(slots=True, kw_only=True)
+class RobotActing(TraceEvent):
+    """The robot starts a timed activity (``explain``, say), fresh or ``resumed`` after ``done`` of it."""
+
+    event: ClassVar[Literal["robot_acting"]] = "robot_acting"
+    action: str
+    duration: float
+    done: float = 0.0
+    resumed: bool = False
+
+
+@dataclass(slots=True, kw_only=True)
+class ArcClosed(TraceEvent):
+    """A door shut: ``arc`` cannot be travelled (a scenario event)."""
+
+    event: ClassVar[Literal["arc_closed"]] = "arc_closed"
+    arc: str
+
+
+@dataclass(slots=True, kw_only=True)
+class ArcOpened(TraceEvent):
+    """A door opened again: ``arc`` can be travelled."""
+
+    event: ClassVar[Literal["arc_opened"]] = "arc_opened"
+    arc: str
+
+
+# -- faults ------------------------------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class ExecutorError(TraceEvent):
+    """A user's executor raised while suspending or clearing (the runtime goes on)."""
+
+    event: ClassVar[Literal["executor_error"]] = "executor_error"
+    error: str
+
+
+@dataclass(slots=True, kw_only=True)
+class AgentCrashed(TraceEvent):
+    """An agent or executor crashed; what it served fails from now on."""
+
+    event: ClassVar[Literal["agent_crashed"]] = "agent_crashed"
+    error: str
+
+
+@dataclass(slots=True, kw_only=True)
+class EventsDropped(TraceEvent):
+    """A reader of :meth:`Runtime.events` fell behind: ``count`` older events were dropped."""
+
+    event: ClassVar[Literal["events_dropped"]] = "events_dropped"
+    count: int
+
+
+# -- the end of a run ----------------------------------------------------------------------------
+
+
+@dataclass(frozen=True, slots=True)
+class GoalRow:
+    """A scenario goal's line in the summary: ``reason`` only when it did not succeed."""
+
+    agent: str
+    goal: str
+    status: Literal["success", "failure"]
+    reason: str = dataclasses.field(default="", metadata={"optional": True})
+
+
+@dataclass(slots=True, kw_only=True)
+class Summary(TraceEvent):
+    """A run's last event: every goal's status, where the robot is, where it went."""
+
+    event: ClassVar[Literal["summary"]] = "summary"
+    goals: tuple[GoalRow, ...]
+    robot: dict[str, str]
+    """``{"at": node}`` or ``{"on": arc}``."""
+    visited: tuple[str, ...]
+    distance: float
+    planning_ms: dict[str, float]
+
+    @property
+    def succeeded(self) -> bool:
+        """Every goal succeeded."""
+        return all(g.status == "success" for g in self.goals)
+
+
+AnyEvent = (
+    GoalReceived
+    | PlanSelected
+    | GoalSuspended
+    | GoalResumed
+    | GoalCleared
+    | GoalFinished
+    | ActionStarted
+    | ActionFinished
+    | SuspendRefused
+    | MessageSent
+    | RobotMoving
+    | RobotActing
+    | ArcClosed
+    | ArcOpened
+    | ExecutorError
+    | AgentCrashed
+    | EventsDropped
+    | Summary
+)
+"""Every event kind (a union to match on)."""
+
+EVENT_KINDS: dict[str, type[TraceEvent]] = {
+    cls.event: cls
+    for cls in (
+        GoalReceived,
+        PlanSelected,
+        GoalSuspended,
+        GoalResumed,
+        GoalCleared,
+        GoalFinished,
+        ActionStarted,
+        ActionFinished,
+        SuspendRefused,
+        MessageSent,
+        RobotMoving,
+        RobotActing,
+        ArcClosed,
+        ArcOpened,
+        ExecutorError,
+        AgentCrashed,
+        EventsDropped,
+        Summary,
+    )
+}
+"""Every event kind by its ``event`` name."""
+
+
+def fields_of(kind: str) -> tuple[str, ...]:
+    """The fields an event kind adds to ``t``, ``agent`` and ``event`` (for documentation checks)."""
+    return _field_names(EVENT_KINDS[kind])
