@@ -27,6 +27,8 @@ from typing import Generic, TypeVar
 import anyio
 import anyio.lowlevel
 
+from htnagent.errors import SettingError
+
 T = TypeVar("T")
 
 
@@ -56,7 +58,7 @@ class Clock:
 
     def __init__(self, speed: float | None = None) -> None:
         if speed is not None and not (speed > 0 and math.isfinite(speed)):
-            raise ValueError(f"speed must be a positive number, not {speed}")
+            raise SettingError(f"speed must be a positive number, not {speed}")
         self.speed = speed
         self._now = 0.0
         self._timers: list[_Timer] = []

@@ -8,7 +8,9 @@
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
     ├── PlanningError        a task names something the domain cannot do
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
-    └── RuntimeClosedError   a goal is given to a runtime that is not running
+    ├── RuntimeClosedError   a goal is given to a runtime that is not running
+    ├── SettingError         a runtime, clock, stream or limit is given an invalid setting (also a ValueError)
+    └── UnknownNameError     an agent name or goal ticket the runtime does not have (also a KeyError)
 
 Messages quote what they refuse with :func:`shown`, never with a bare ``repr``:
 a hostile file can hold values whose ``repr`` is huge, slow or refused outright
@@ -109,3 +111,14 @@ def _clipped(text: str, limit: int) -> str:
 
 class RuntimeClosedError(HtnAgentError):
     """Raised when a goal is submitted to a runtime that is not running (not entered, or closed)."""
+
+
+class SettingError(HtnAgentError, ValueError):
+    """Raised when a runtime, clock, event stream or size limit is given an invalid setting."""
+
+
+class UnknownNameError(HtnAgentError, KeyError):
+    """Raised when an agent name or goal ticket is not the runtime's."""
+
+    def __str__(self) -> str:
+        return str(self.args[0]) if self.args else ""

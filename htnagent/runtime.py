@@ -32,7 +32,7 @@ from anyio.abc import TaskGroup, TaskStatus
 
 from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
-from htnagent.errors import RuntimeClosedError
+from htnagent.errors import RuntimeClosedError, SettingError, UnknownNameError
 from htnagent.events import AgentCrashed
 from htnagent.executor import AdapterActor, Executor, ExecutorActor
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
@@ -95,9 +95,9 @@ class Runtime:
         run ``clock.keep_time()`` yourself, once, beside the runtimes.
         """
         if not agents:
-            raise ValueError("a runtime needs at least one agent")
+            raise SettingError("a runtime needs at least one agent")
         if clock is not None and speed is not None:
-            raise ValueError("a shared clock has its own speed: give speed to the Clock")
+            raise SettingError("a shared clock has its own speed: give speed to the Clock")
         if isinstance(executor, Executor) and speed is None and clock is None:
             # A user's executor acts in the real world: its time is the wall clock's.
             speed = 1.0
@@ -239,7 +239,7 @@ class Runtime:
         Raises :class:`~htnagent.errors.RuntimeClosedError` outside ``async with``.
         """
         if agent not in self.agents:
-            raise KeyError(f"no agent named {agent!r}; agents: {', '.join(self.agents)}")
+            raise UnknownNameError(f"no agent named {agent!r}; agents: {', '.join(self.agents)}")
         if self._state != "running":
             when = "has not been entered" if self._state == "new" else "is closed"
             raise RuntimeClosedError(f"cannot give {goal} to {agent}: the runtime {when} (use async with)")
@@ -253,7 +253,7 @@ class Runtime:
         """Wait until the goal has ended (at once if it has)."""
         outcome = self.outcomes.get(ticket)
         if outcome is None:
-            raise KeyError(f"no goal with ticket {ticket} (never given, or ended long ago)")
+            raise UnknownNameError(f"no goal with ticket {ticket} (never given, or ended long ago)")
         if not outcome.done:
             await self._resolved[ticket].wait()
         return outcome

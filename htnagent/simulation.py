@@ -220,7 +220,8 @@ def _watch(progress: Progress, watchers: list[_Watcher], clock: Clock) -> None:
             continue
         elif progress.phase is Phase.STOPPED:
             # The robot stopped the action half way: disarm, unless the fraction was
-            # reached at this very moment (then it fires now all the same).
+            # reached at this very moment (then it fires now all the same).  A rollback
+            # of the action always comes after this report, so it finds nothing armed.
             pending = w.pending if w.due > clock.now() + _SAME_INSTANT else None
             if action == w.action and pending is not None:
                 pending.cancel()
@@ -233,10 +234,6 @@ def _watch(progress: Progress, watchers: list[_Watcher], clock: Clock) -> None:
             done = progress.done
             left = 0.0 if w.progress <= done else (w.progress - done) / (1.0 - done)
             _fire_in(w, left * progress.duration, clock)
-        elif action == f"rollback({w.action})" and w.pending is not None:
-            # Undoing the action never covers any more of it.
-            w.pending.cancel()
-            w.pending = None
 
 
 def _fire_in(w: _Watcher, delay: float, clock: Clock) -> None:

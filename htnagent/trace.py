@@ -15,6 +15,7 @@ from collections.abc import Callable
 import anyio
 
 from htnagent.clock import Clock
+from htnagent.errors import SettingError
 from htnagent.events import EventsDropped, TraceEvent
 
 Observer = Callable[[TraceEvent], None]
@@ -71,7 +72,7 @@ class EventStream:
 
     def __init__(self, trace: Trace, limit: int = 10_000) -> None:
         if limit < 1:
-            raise ValueError("an event stream needs room for at least one event")
+            raise SettingError("an event stream needs room for at least one event")
         self.limit = limit
         self.dropped = 0
         """Events dropped so far (the reader was told of them with ``events_dropped``)."""

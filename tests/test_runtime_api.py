@@ -19,6 +19,7 @@ import anyio
 import pytest
 
 from htnagent.agent import GoalStatus
+from htnagent.errors import HtnAgentError, SettingError, UnknownNameError
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.scenario import load_scenario
 from htnagent.simulation import run_scenario
@@ -171,3 +172,19 @@ def test_run_prints_a_readable_trace_with_the_suspension_and_the_resumption() ->
     assert done.returncode == 0, done.stderr
     assert "suspended" in done.stdout and "resumed" in done.stdout
     assert "Traceback" not in done.stderr
+
+
+async def test_what_the_runtime_refuses_is_an_htnagent_error() -> None:
+    # Expect: misuse of the embedding API raises our own errors (also the builtin ones
+    # callers may catch), never a bare KeyError or ValueError.
+    with pytest.raises(SettingError) as setting:
+        Runtime([], robot())
+    async with Runtime([courier()], robot()) as rt:
+        with pytest.raises(UnknownNameError) as name:
+            rt.submit("boss", atom("goto(d)"))
+        with pytest.raises(UnknownNameError) as ticket:
+            await rt.outcome(99)
+    for error in (setting.value, name.value, ticket.value):
+        assert isinstance(error, HtnAgentError)
+    assert isinstance(setting.value, ValueError) and isinstance(name.value, KeyError)
+    assert str(name.value) == "no agent named 'boss'; agents: courier"
