@@ -1,0 +1,393 @@
+"""The pages in ``docs/`` and the code stay in step.
+
+- Every section number the code cites (``§2.4``, ranges like ``§4–§6`` by both
+  ends) has a heading carrying it in ``docs/design.md``.
+- Every reference ``docs/NAME.md "Heading"`` or ``docs/NAME.md §N`` names a page
+  that exists and a heading on it.
+- Nothing cites the old design notes that lived outside the repository any more
+  (``tools/rewrite_doc_refs.py`` rewrites such references).
+- The trace event table of ``docs/contracts.md`` lists exactly the event kinds
+  the code emits, each with the fields the code gives it.
+
+Pure file reading (and, if it exists, importing the event registry): fast.
+"""
+
+from __future__ import annotations
+
+import ast
+import dataclasses
+import functools
+import importlib
+import re
+from collections.abc import Iterator, Mapping
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parent.parent
+DOCS = ROOT / "docs"
+THIS = Path(__file__).resolve()
+
+SECTION = re.compile("\u00a7" + r"(\d+(?:\.\d+)?)")
+"""A section number as cited: ``§2`` or ``§2.4``."""
+
+_SECTIONS = r"\u00a7\d+(?:\.\d+)?(?:\s*[\u2013-]\s*\u00a7\d+(?:\.\d+)?)?"
+DOC_REF = re.compile(r'docs/([\w-]+\.md)(?:\s+(?:"([^"\n]+)"|(' + _SECTIONS + r")))?")
+"""``docs/NAME.md``, optionally followed by a quoted heading or a section (range)."""
+
+OLD_NOTES = re.compile(r"(?<![\w/.-])(" + "|".join(("ALGORITHMS", "CONTRACTS", "STYLE")) + r")\.md\b")
+"""The design notes that lived outside the repository (built in pieces so that the
+rewrite script, which skips this file anyway, would find nothing here to rewrite)."""
+
+ENVELOPE = frozenset({"t", "agent", "event"})
+"""What every trace event has; the table lists the fields beyond these."""
+
+
+# -- what is scanned ----------------------------------------------------------------------------
+
+
+def cited_files() -> list[Path]:
+    """Code, tests, scenarios and the README: the files whose references must resolve."""
+    found: list[Path] = []
+    for folder in ("htnagent", "executors", "bench", "tests"):
+        found += sorted((ROOT / folder).rglob("*.py"))
+    found += sorted((ROOT / "bench" / "results").glob("*.md"))
+    found += sorted((ROOT / "scenarios").glob("*.yaml"))
+    found.append(ROOT / "README.md")
+    return [p for p in found if p.is_file() and p.resolve() != THIS and ".venv" not in p.parts]
+
+
+def doc_pages() -> list[Path]:
+    return sorted(DOCS.glob("*.md"))
+
+
+def lines_of(path: Path) -> Iterator[tuple[int, str]]:
+    yield from enumerate(path.read_text(encoding="utf-8").splitlines(), start=1)
+
+
+def where(path: Path, line: int) -> str:
+    return f"{path.relative_to(ROOT)}:{line}"
+
+
+# -- headings ------------------------------------------------------------------------------------
+
+
+def headings(page: Path) -> list[str]:
+    """The page's Markdown headings (``#`` lines outside code blocks), without the hashes."""
+    out: list[str] = []
+    fenced = False
+    for _, line in lines_of(page):
+        if line.startswith("```"):
+            fenced = not fenced
+        elif not fenced and re.match(r"#{1,6} ", line):
+            out.append(line.lstrip("#").strip())
+    return out
+
+
+def sections(page: Path) -> set[str]:
+    """The section numbers the page's headings carry (``2.4`` for ``### §2.4 ...``)."""
+    return {n for h in headings(page) for n in SECTION.findall(h)}
+
+
+def heading_names(page: Path) -> set[str]:
+    """Each heading as it may be cited: as written, and without its section number."""
+    names: set[str] = set()
+    for h in headings(page):
+        plain = h.replace("`", "").strip()
+        names.add(plain.casefold())
+        names.add(SECTION.sub("", plain).strip().casefold())
+    return names
+
+
+def test_design_numbers_its_sections() -> None:
+    found = sections(DOCS / "design.md")
+    expected = {str(n) for n in range(1, 7)} | {f"2.{n}" for n in range(1, 9)}
+    assert expected <= found, f"design.md lacks headings for §{', §'.join(sorted(expected - found))}"
+
+
+# -- 1. section numbers ------------------------------------------------------------------------------
+
+
+def test_every_cited_section_has_a_heading_in_design() -> None:
+    known = sections(DOCS / "design.md")
+    missing = [
+        f"{where(path, n)}: \u00a7{number}"
+        for path in [*cited_files(), *doc_pages()]
+        for n, line in lines_of(path)
+        for number in SECTION.findall(line)
+        if number not in known
+    ]
+    assert not missing, "sections cited but not in docs/design.md:\n" + "\n".join(missing)
+
+
+# -- 2. references to pages and headings --------------------------------------------------------
+
+
+def test_every_docs_reference_resolves() -> None:
+    broken: list[str] = []
+    for path in [*cited_files(), *doc_pages()]:
+        for n, line in lines_of(path):
+            for m in DOC_REF.finditer(line):
+                name, heading, numbers = m.groups()
+                page = DOCS / name
+                if not page.is_file():
+                    broken.append(f"{where(path, n)}: docs/{name} does not exist")
+                elif heading is not None and heading.strip().casefold() not in heading_names(page):
+                    broken.append(f'{where(path, n)}: docs/{name} has no heading "{heading}"')
+                elif numbers is not None:
+                    absent = [s for s in SECTION.findall(numbers) if s not in sections(page)]
+                    if absent:
+                        broken.append(f"{where(path, n)}: docs/{name} has no \u00a7{', '.join(absent)}")
+    assert not broken, "references that do not resolve:\n" + "\n".join(broken)
+
+
+def test_nothing_cites_the_old_design_notes() -> None:
+    # Run ``python tools/rewrite_doc_refs.py`` to point such references at docs/.
+    old = [
+        f"{where(path, n)}: {m.group(0)}"
+        for path in cited_files()
+        for n, line in lines_of(path)
+        for m in OLD_NOTES.finditer(line)
+    ]
+    assert not old, "references to notes outside the repository:\n" + "\n".join(old)
+
+
+def test_each_page_points_to_the_readme_as_quick_start() -> None:
+    lacking = [p.name for p in doc_pages() if "quick start" not in p.read_text(encoding="utf-8")]
+    assert not lacking, f"pages that do not say the README stays the quick start: {lacking}"
+
+
+# -- 3. trace events ---------------------------------------------------------------------------------
+
+
+@functools.cache
+def documented_events() -> dict[str, frozenset[str]]:
+    """The trace event table of docs/contracts.md: event kind → fields.
+
+    The table sits under the heading "Trace events"; its first column names the
+    kind, its second the fields, each in backticks.
+    """
+    out: dict[str, frozenset[str]] = {}
+    in_section = False
+    for _, line in lines_of(DOCS / "contracts.md"):
+        if line.startswith("#"):
+            in_section = line.lstrip("#").strip() == "Trace events"
+            continue
+        if not in_section or not line.startswith("|"):
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        kinds = re.findall(r"`([a-z_]+)`", cells[0])
+        if not kinds:
+            continue  # the header and the rule
+        fields = frozenset(re.findall(r"`([a-z_]+)`", cells[1])) if len(cells) > 1 else frozenset()
+        for kind in kinds:
+            assert kind not in out, f"trace event {kind} is listed twice in docs/contracts.md"
+            out[kind] = fields
+    return out
+
+
+@functools.cache
+def code_events() -> dict[str, frozenset[str] | None]:
+    """Every event kind the code emits → its fields (None where the code does not tell).
+
+    From the typed event registry when there is one, else from the ``emit(...)``
+    calls in the source.
+    """
+    registry = event_registry()
+    return registry if registry is not None else scanned_events()
+
+
+def event_registry() -> dict[str, frozenset[str] | None] | None:
+    """Kinds and fields from ``htnagent.events.EVENT_KINDS``; None if there is no registry.
+
+    The one place to adapt if the registry changes shape: ``EVENT_KINDS`` may map
+    names to classes or list the classes (each with an ``event`` name); fields come
+    from ``fields_of(kind)`` if the module has it, else from the class (dataclass or
+    pydantic model), less ``t``, ``agent`` and ``event``.
+    """
+    try:
+        module = importlib.import_module("htnagent.events")
+    except ModuleNotFoundError as e:
+        if e.name == "htnagent.events":
+            return None
+        raise
+    kinds = getattr(module, "EVENT_KINDS", None)
+    if kinds is None:
+        return None
+    items = kinds.items() if isinstance(kinds, Mapping) else ((cls.event, cls) for cls in kinds)
+    fields_of = getattr(module, "fields_of", None)
+    out: dict[str, frozenset[str] | None] = {}
+    for name, cls in items:
+        names: list[str] | None
+        if callable(fields_of):
+            names = list(fields_of(name))
+        elif dataclasses.is_dataclass(cls):
+            names = [f.name for f in dataclasses.fields(cls)]
+        elif hasattr(cls, "model_fields"):
+            names = list(cls.model_fields)
+        else:
+            names = None
+        out[str(name)] = None if names is None else frozenset(names) - ENVELOPE
+    return out
+
+
+def scanned_events() -> dict[str, frozenset[str] | None]:
+    """Kinds and fields from the source: ``emit(agent, "kind", field=..., **dict)`` calls,
+    and dict literals with a constant ``"event"`` (events made without ``emit``)."""
+    fields: dict[str, set[str]] = {}
+    unknown: set[str] = set()
+    for path in [*sorted((ROOT / "htnagent").rglob("*.py")), *sorted((ROOT / "executors").rglob("*.py"))]:
+        for kinds, names in _Scanner(ast.parse(path.read_text(encoding="utf-8"))).events():
+            for kind in kinds:
+                fields.setdefault(kind, set())
+                if names is None:
+                    unknown.add(kind)
+                else:
+                    fields[kind] |= names - ENVELOPE
+    return {k: None if k in unknown else frozenset(v) for k, v in fields.items()}
+
+
+class _Scanner:
+    """Finds the trace events of one module and works out their keyword fields,
+    following ``**name`` to the dict it was built as where that is in sight."""
+
+    def __init__(self, tree: ast.Module) -> None:
+        self.tree = tree
+        self.parents = {child: node for node in ast.walk(tree) for child in ast.iter_child_nodes(node)}
+        self.functions = {
+            f.name: f for f in ast.walk(tree) if isinstance(f, ast.FunctionDef | ast.AsyncFunctionDef)
+        }
+
+    def events(self) -> Iterator[tuple[set[str], set[str] | None]]:
+        for node in ast.walk(self.tree):
+            if (
+                isinstance(node, ast.Call)
+                and isinstance(node.func, ast.Attribute)
+                and node.func.attr == "emit"
+                and len(node.args) >= 2
+            ):
+                kinds = _strings(node.args[1])
+                if kinds:
+                    yield kinds, self._keywords(node)
+            elif isinstance(node, ast.Dict):
+                kinds = {
+                    v.value
+                    for k, v in zip(node.keys, node.values, strict=True)
+                    if isinstance(k, ast.Constant)
+                    and k.value == "event"
+                    and isinstance(v, ast.Constant)
+                    and isinstance(v.value, str)
+                }
+                if kinds:
+                    yield kinds, self._dict_keys(node, self._scope(node))
+
+    def _scope(self, node: ast.AST) -> ast.AST:
+        while node in self.parents:
+            node = self.parents[node]
+            if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                return node
+        return self.tree
+
+    def _keywords(self, call: ast.Call) -> set[str] | None:
+        names: set[str] = set()
+        for kw in call.keywords:
+            if kw.arg is not None:
+                names.add(kw.arg)
+                continue
+            spread = self._dict_keys(kw.value, self._scope(call))
+            if spread is None:
+                return None
+            names |= spread
+        return names
+
+    def _dict_keys(self, node: ast.AST, scope: ast.AST, depth: int = 0) -> set[str] | None:
+        """The keys of the dict ``node`` evaluates to, if the source shows them."""
+        if depth > 5:
+            return None
+        if isinstance(node, ast.Dict):
+            keys: set[str] = set()
+            for k, v in zip(node.keys, node.values, strict=True):
+                if k is None:
+                    inner = self._dict_keys(v, scope, depth + 1)
+                    if inner is None:
+                        return None
+                    keys |= inner
+                elif isinstance(k, ast.Constant) and isinstance(k.value, str):
+                    keys.add(k.value)
+                else:
+                    return None
+            return keys
+        if isinstance(node, ast.IfExp):
+            a = self._dict_keys(node.body, scope, depth + 1)
+            b = self._dict_keys(node.orelse, scope, depth + 1)
+            return None if a is None or b is None else a | b
+        if isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id in self.functions:
+            function = self.functions[node.func.id]
+            returns = [r.value for r in ast.walk(function) if isinstance(r, ast.Return) and r.value]
+            found: set[str] = set()
+            for value in returns:
+                keys_of = self._dict_keys(value, function, depth + 1)
+                if keys_of is None:
+                    return None
+                found |= keys_of
+            return found if returns else None
+        if isinstance(node, ast.Name):
+            return self._name_keys(node.id, scope, depth)
+        return None
+
+    def _name_keys(self, name: str, scope: ast.AST, depth: int) -> set[str] | None:
+        """The keys a local dict variable gets: where it is built, and ``name["key"] = ...``."""
+        keys: set[str] = set()
+        built = False
+        for node in ast.walk(scope):
+            if isinstance(node, ast.Assign | ast.AnnAssign) and node.value is not None:
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                for target in targets:
+                    if isinstance(target, ast.Name) and target.id == name:
+                        inner = self._dict_keys(node.value, scope, depth + 1)
+                        if inner is None:
+                            return None
+                        keys |= inner
+                        built = True
+                    elif (
+                        isinstance(target, ast.Subscript)
+                        and isinstance(target.value, ast.Name)
+                        and target.value.id == name
+                        and isinstance(target.slice, ast.Constant)
+                        and isinstance(target.slice.value, str)
+                    ):
+                        keys.add(target.slice.value)
+        return keys if built else None
+
+
+def _strings(node: ast.AST) -> set[str]:
+    """The string constants an expression can be (``"a" if x else "b"``)."""
+    if isinstance(node, ast.Constant) and isinstance(node.value, str):
+        return {node.value}
+    if isinstance(node, ast.IfExp):
+        return _strings(node.body) | _strings(node.orelse)
+    return set()
+
+
+def test_the_trace_event_table_lists_exactly_the_emitted_kinds() -> None:
+    documented = set(documented_events())
+    emitted = set(code_events())
+    assert emitted, "no trace events found in the code: the scanner or the registry lookup is broken"
+    assert documented == emitted, (
+        f"in the code but not in docs/contracts.md: {sorted(emitted - documented)}; "
+        f"documented but not emitted: {sorted(documented - emitted)}"
+    )
+
+
+@pytest.mark.parametrize("kind", sorted(documented_events()))
+def test_each_documented_event_has_the_fields_of_the_code(kind: str) -> None:
+    emitted = code_events()
+    if kind not in emitted:
+        pytest.skip(f"{kind} is not emitted (the kinds test says so)")
+    fields = emitted[kind]
+    if fields is None:
+        pytest.skip(f"the code does not show {kind}'s fields in one place: names only")
+    documented = documented_events()[kind]
+    assert documented == fields, (
+        f"{kind}: docs/contracts.md lists {sorted(documented)}, the code gives {sorted(fields)}"
+    )
