@@ -2,10 +2,10 @@
 
 Run from the repository root: ``python -m bench.astar_estimate``.  For several
 far-apart pairs of nodes the navigator plans ``goto_node`` twice: with the
-domain's estimates (straight-line distance, A*) and with a copy of the domain
+domain's estimates (the larger of the straight line and a landmark bound, A*) and with a copy of the domain
 whose ``estimates`` are emptied (``h = 0``, uniform-cost search).  It prints
 expansions and milliseconds both ways, with their ratio, for K = 1 (the first,
-optimal plan) and K = 4 (the agent's default alternatives), and writes
+optimal plan) and K = 4 (alternatives, as an agent searches after a failure), and writes
 ``bench/results/astar_estimate.json``.
 
 How much A* saves depends on the pair.  Across the whole map (corner to corner,

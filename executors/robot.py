@@ -12,11 +12,12 @@ robot stands.  Such an action can be suspended half way too; ``resume`` then
 takes only the time left, and ``clear`` forgets it.  Any other action fails.
 Moves are traced as ``robot_moving``, the other actions as ``robot_acting``,
 each with ``action`` (a resumed move or action is named by the action itself,
-a rollback as ``rollback(...)``), ``duration`` (seconds of this part), ``done``
+a rollback as ``rollback(...)``), for a move the ``arc`` it travels, ``duration`` (seconds of this part), ``done``
 (the fraction of the action already done before this part started) and
 ``resumed`` (this part finishes a suspended action).  Any of them can be
 suspended half way — a fresh move or action, a resumed rest, a rollback — and
-the robot stops where it is.
+the robot stops where it is.  It reports the same motions to its
+:attr:`~htnagent.executor.ExecutorActor.progress` listeners (what triggers follow).
 """
 
 from __future__ import annotations

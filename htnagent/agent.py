@@ -86,7 +86,8 @@ class GoalStatus(Enum):
     """How a goal ended."""
 
     SUCCESS = "success"
-    """The goal was achieved: a plan for it ran to its end while it was the running goal."""
+    """The goal was achieved: a plan for it ran to its end while it was the running goal, or
+    a plan made for it from the belief has nothing left to do (it holds now, §2.8)."""
     FAILURE = "failure"
     """No plan was left for the goal, an action kept failing, or the agent could not go on."""
 

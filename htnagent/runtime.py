@@ -219,7 +219,7 @@ class Runtime:
                     self._resolve(ticket, GoalStatus.FAILURE, reason)
                 if isinstance(actor.executor, Agent):
                     # Nobody will resume or await what the child does for the dead parent.
-                    actor.executor.inbox.send(ParentLost())
+                    actor.order(actor.executor, ParentLost())
 
     async def _serve_dead(self, actor: ExecutorActor, reason: str) -> None:
         while True:
