@@ -1,23 +1,24 @@
 """The simulated museum robot: travels arcs at its speed, in simulated time.
 
 It serves ``move(From,To,Arc)`` and, for a suspended move, ``resume(...)`` and
-``rollback(...)``.  A move can be suspended half way: the robot stops on the
-arc, keeps what it needs to resume (or roll back) until told to clear it.  A
+``rollback(...)``. A move can be suspended half way: the robot stops on the
+arc, keeps what it needs to resume (or roll back) until told to clear it. A
 move over a closed arc fails, and so does a move when the robot is not where
 the move starts; with a ``failure_rate`` a move also fails at random (seeded).
 
 A guide robot also talks: ``durations`` names its other actions (``explain``,
 ``answer``, ``greet``, ...) with the simulated seconds each takes, wherever the
-robot stands.  Such an action can be suspended half way too; ``resume`` then
-takes only the time left, and ``clear`` forgets it.  Any other action fails.
+robot stands. Such an action can be suspended half way too; ``resume`` then
+takes only the time left, and ``clear`` forgets it. Any other action fails.
 Moves are traced as ``robot_moving``, the other actions as ``robot_acting``,
-each with ``action`` (a resumed move or action is named by the action itself,
-a rollback as ``rollback(...)``), for a move the ``arc`` it travels, ``duration`` (seconds of this part), ``done``
-(the fraction of the action already done before this part started) and
-``resumed`` (this part finishes a suspended action).  Any of them can be
-suspended half way — a fresh move or action, a resumed rest, a rollback — and
-the robot stops where it is.  It reports the same motions to its
-:attr:`~htnagent.executor.ExecutorActor.progress` listeners (what triggers follow).
+each with ``action`` (a resumed move or action is named by the action itself, a
+rollback as ``rollback(...)``), for a move the ``arc`` it travels, ``duration``
+(seconds of this part), ``done`` (the fraction of the action already done
+before this part started) and ``resumed`` (this part finishes a suspended
+action). Any of them can be suspended half way — a fresh move or action, a
+resumed rest, a rollback — and the robot stops where it is. It reports the same
+motions to its :attr:`~htnagent.executor.ExecutorActor.progress` listeners
+(what triggers follow).
 """
 
 from __future__ import annotations

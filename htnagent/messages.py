@@ -1,12 +1,13 @@
 """The typed messages agents and executors exchange (ALGORITHMS.md §4–§5).
 
 Frozen pydantic models, each with a literal ``kind`` as discriminator; the
-unions :data:`Order`, :data:`Result` and :data:`Message` type the mailboxes.  Going
-down to an executor: :class:`Execute`, :class:`Suspend`, :class:`Resume`,
-:class:`Clear` (and the hint :class:`Prepare`; :class:`ParentLost` when the parent crashed).  Coming back: :class:`Success`, :class:`Failure`,
+unions :data:`Order`, :data:`Result` and :data:`Message` type the mailboxes.
+Going down to an executor: :class:`Execute`, :class:`Suspend`, :class:`Resume`,
+:class:`Clear` (and the hint :class:`Prepare`; :class:`ParentLost` when the
+parent crashed). Coming back: :class:`Success`, :class:`Failure`,
 :class:`Suspended`, :class:`Refused` (the running action cannot be suspended:
-it goes on).  Into an agent from outside: :class:`Submit` (a goal) and
-:class:`BeliefUpdate` (the world changed).  ``seq`` ties a result to the order
+it goes on). Into an agent from outside: :class:`Submit` (a goal) and
+:class:`BeliefUpdate` (the world changed). ``seq`` ties a result to the order
 it answers, so a late answer to an abandoned order is recognised and ignored.
 """
 
