@@ -35,10 +35,15 @@ _WHERE = {
     "PlotError": "errors",
     "RuntimeClosedError": "errors",
     "ScenarioError": "errors",
+    "SettingError": "errors",
     "TextFormError": "errors",
+    "UnknownNameError": "errors",
+    "EVENT_KINDS": "events",
+    "Summary": "events",
+    "TraceEvent": "events",
     "Executor": "executor",
     "ExecutorActor": "executor",
-    "Outcome": "executor",
+    "ActionOutcome": "executor",
     "Plan": "plan",
     "Step": "plan",
     "PlannerSettings": "planner",
@@ -54,21 +59,24 @@ _WHERE = {
     "run_scenario": "simulation",
     "Atom": "terms",
     "parse": "terms",
+    "EventStream": "trace",
 }
 
 __all__ = [
+    "EVENT_KINDS",
+    "ActionOutcome",
     "Agent",
     "AgentConfig",
     "Atom",
     "Domain",
     "DomainError",
     "Effect",
+    "EventStream",
     "Executor",
     "ExecutorActor",
     "GoalOutcome",
     "GoalStatus",
     "HtnAgentError",
-    "Outcome",
     "Plan",
     "PlanResult",
     "PlanSet",
@@ -82,10 +90,14 @@ __all__ = [
     "RuntimeClosedError",
     "Scenario",
     "ScenarioError",
+    "SettingError",
     "State",
     "Step",
+    "Summary",
     "Suspension",
     "TextFormError",
+    "TraceEvent",
+    "UnknownNameError",
     "load_scenario",
     "parse",
     "plan",
@@ -116,9 +128,12 @@ if TYPE_CHECKING:
         PlotError,
         RuntimeClosedError,
         ScenarioError,
+        SettingError,
         TextFormError,
+        UnknownNameError,
     )
-    from htnagent.executor import Executor, ExecutorActor, Outcome
+    from htnagent.events import EVENT_KINDS, Summary, TraceEvent
+    from htnagent.executor import ActionOutcome, Executor, ExecutorActor
     from htnagent.plan import Plan, Step
     from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
     from htnagent.planset import PlanSet, Replanning
@@ -126,3 +141,4 @@ if TYPE_CHECKING:
     from htnagent.scenario import Scenario, load_scenario
     from htnagent.simulation import RunReport, run_scenario
     from htnagent.terms import Atom, parse
+    from htnagent.trace import EventStream

@@ -41,7 +41,7 @@ from htnagent.terms import Atom
 from htnagent.trace import Trace
 
 
-class Outcome(Enum):
+class ActionOutcome(Enum):
     """How an executor's action ended."""
 
     SUCCESS = "success"
@@ -56,7 +56,7 @@ class Executor(ABC):
     """What carries out actions; subclass it to connect a real robot or service.
 
     ``execute`` returns when the action is over.  If ``can_suspend`` says yes,
-    ``suspend`` must make the running ``execute`` return ``Outcome.SUSPENDED``;
+    ``suspend`` must make the running ``execute`` return ``ActionOutcome.SUSPENDED``;
     later ``resume`` finishes the action, or ``clear`` forgets it.
     """
 
@@ -65,16 +65,16 @@ class Executor(ABC):
         return False
 
     @abstractmethod
-    async def execute(self, action: Atom) -> Outcome:
+    async def execute(self, action: Atom) -> ActionOutcome:
         """Carry out the action."""
 
     async def suspend(self, action: Atom) -> None:  # pragma: no cover - default refuses
         """Stop the running action half way (only called if ``can_suspend``)."""
         raise RuntimeError(f"{type(self).__name__} cannot suspend {action}")
 
-    async def resume(self, action: Atom) -> Outcome:
+    async def resume(self, action: Atom) -> ActionOutcome:
         """Finish a suspended action."""
-        return Outcome.FAILURE
+        return ActionOutcome.FAILURE
 
     async def clear(self, action: Atom) -> None:  # noqa: B027 - an optional hook
         """Forget a suspended action."""
@@ -183,9 +183,9 @@ class AdapterActor(ExecutorActor):
             return
         finally:
             self._running.pop(order.seq, None)
-        if outcome is Outcome.SUCCESS:
+        if outcome is ActionOutcome.SUCCESS:
             self.reply(Success(action=order.action, seq=order.seq))
-        elif outcome is Outcome.SUSPENDED:
+        elif outcome is ActionOutcome.SUSPENDED:
             self.reply(Suspended(action=order.action, seq=order.seq))
         else:
             self.reply(Failure(action=order.action, seq=order.seq, reason="the executor reported failure"))

@@ -29,7 +29,7 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.domain import Domain, Effect, Suspension
 from htnagent.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
-from htnagent.executor import Executor, Outcome
+from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.messages import Clear
 from htnagent.planset import Replanning
@@ -662,12 +662,12 @@ class JammedWheels(Executor):
         self.done: list[str] = []
         self.closed = False
 
-    async def execute(self, action: Atom) -> Outcome:
+    async def execute(self, action: Atom) -> ActionOutcome:
         await anyio.lowlevel.checkpoint()
         if action.name == "go":
             raise RuntimeError(f"wheels jammed on {action}")
         self.done.append(str(action))
-        return Outcome.SUCCESS
+        return ActionOutcome.SUCCESS
 
     async def aclose(self) -> None:
         self.closed = True

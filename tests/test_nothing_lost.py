@@ -14,7 +14,7 @@ import anyio
 import anyio.lowlevel
 import pytest
 
-from htnagent import AgentConfig, Domain, Executor, GoalStatus, Outcome, Runtime, State, parse
+from htnagent import ActionOutcome, AgentConfig, Domain, Executor, GoalStatus, Runtime, State, parse
 from htnagent.domain import Effect, Suspension
 from htnagent.errors import RuntimeClosedError
 from htnagent.events import EventsDropped, GoalFinished, GoalSuspended, TraceEvent
@@ -102,17 +102,17 @@ class StubbornResume(Executor):
     def can_suspend(self, action: Atom) -> bool:
         return True
 
-    async def execute(self, action: Atom) -> Outcome:
+    async def execute(self, action: Atom) -> ActionOutcome:
         if action.name == "work":
             await self.stop.wait()
-            return Outcome.SUSPENDED
-        return Outcome.SUCCESS
+            return ActionOutcome.SUSPENDED
+        return ActionOutcome.SUCCESS
 
     async def suspend(self, action: Atom) -> None:
         self.stop.set()
 
-    async def resume(self, action: Atom) -> Outcome:
-        return Outcome.SUSPENDED
+    async def resume(self, action: Atom) -> ActionOutcome:
+        return ActionOutcome.SUSPENDED
 
 
 async def test_an_executor_whose_resume_keeps_returning_suspended_fails_the_goal() -> None:
@@ -192,7 +192,7 @@ async def test_an_event_stream_nobody_reads_keeps_only_the_latest_events() -> No
 
 
 class Interrupting(Executor):
-    async def execute(self, action: Atom) -> Outcome:
+    async def execute(self, action: Atom) -> ActionOutcome:
         raise KeyboardInterrupt
 
 

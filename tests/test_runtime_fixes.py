@@ -11,7 +11,7 @@ import pytest
 import yaml
 
 from htnagent import AgentConfig, Domain, GoalStatus, Runtime, parse
-from htnagent.executor import Executor, Outcome
+from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.scenario import parse_scenario
 from htnagent.simulation import run_scenario
@@ -31,9 +31,9 @@ def _one_action_domain() -> Domain:
 
 
 class _Slow(Executor):
-    async def execute(self, action: Atom) -> Outcome:
+    async def execute(self, action: Atom) -> ActionOutcome:
         await anyio.sleep(0.05)  # real hardware takes a little real time
-        return Outcome.SUCCESS
+        return ActionOutcome.SUCCESS
 
 
 async def test_a_users_executor_runs_in_wall_clock_time_and_does_not_time_out() -> None:
@@ -47,8 +47,8 @@ async def test_a_users_executor_runs_in_wall_clock_time_and_does_not_time_out() 
 
 
 class _Broken(Executor):
-    async def execute(self, action: Atom) -> Outcome:  # pragma: no cover - never reached
-        return Outcome.SUCCESS
+    async def execute(self, action: Atom) -> ActionOutcome:  # pragma: no cover - never reached
+        return ActionOutcome.SUCCESS
 
     async def __aenter__(self) -> Executor:
         raise ConnectionError("robot unreachable")

@@ -57,14 +57,14 @@ class Trial:
 
 
 @dataclass
-class Outcome:
+class ActionOutcome:
     trial: Trial
     code: int
     out: str
     err: str
 
 
-def attempt(trial: Trial) -> Outcome:
+def attempt(trial: Trial) -> ActionOutcome:
     proc = subprocess.Popen(
         [sys.executable, "-m", "htnagent", *trial.argv],
         stdout=subprocess.PIPE,
@@ -87,11 +87,11 @@ def attempt(trial: Trial) -> Outcome:
     except subprocess.TimeoutExpired:
         proc.kill()
         out, err = proc.communicate()
-        return Outcome(trial, -999, out, err)
-    return Outcome(trial, proc.returncode, out, err)
+        return ActionOutcome(trial, -999, out, err)
+    return ActionOutcome(trial, proc.returncode, out, err)
 
 
-def check(outcome: Outcome, tmp_path: Path) -> None:
+def check(outcome: ActionOutcome, tmp_path: Path) -> None:
     trial, code, out, err = outcome.trial, outcome.code, outcome.out, outcome.err
     why = f"{trial}: exit {code}\nstdout: {out[-500:]}\nstderr: {err[-1500:]}"
     assert code in (0, 1, 130), why  # never killed by a signal, never hung (-999)
