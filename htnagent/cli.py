@@ -25,7 +25,7 @@ import sys
 import threading
 from collections.abc import Awaitable, Callable, Sequence
 from types import FrameType, TracebackType
-from typing import NoReturn, TextIO
+from typing import NoReturn, Self, TextIO
 
 import anyio
 from rich.console import Console
@@ -269,7 +269,7 @@ class _RunSignals:
     def _note(self, signum: int, frame: FrameType | None) -> None:
         self.received += 1
 
-    def __enter__(self) -> _RunSignals:
+    def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
             for sig in self.SIGNALS:
                 self._saved.append((sig, signal.signal(sig, self._note)))
