@@ -30,6 +30,7 @@ from typing import Any
 import anyio
 from anyio.abc import TaskStatus
 
+from htnagent.actions import rolled_back
 from htnagent.clock import Clock, TimerHandle
 from htnagent.executor import ExecutorActor
 from htnagent.maps import WorldMap
@@ -167,8 +168,9 @@ class Robot(ExecutorActor):
 
     def _execute(self, order: Execute) -> None:
         action = order.action
-        if action.name == "rollback" and action.args and isinstance(action.args[0], Atom):
-            self._rollback(order, action.args[0])
+        inner = rolled_back(action)
+        if inner is not None:
+            self._rollback(order, inner)
             return
         if action.name != "move" and action.name in self.durations:
             self._act(order, action)

@@ -7,6 +7,7 @@
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
     ├── PlanningError        a task names something the domain cannot do
+    ├── SettingsError        planner or plan-set settings out of range or contradictory (also a ValueError)
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     └── RuntimeClosedError   a goal is given to a runtime that is not running
 
@@ -56,6 +57,11 @@ class ScenarioError(HtnAgentError):
 
 class PlanningError(HtnAgentError):
     """Raised when a task names something the domain does not know."""
+
+
+class SettingsError(HtnAgentError, ValueError):
+    """Raised when planner settings are out of range (``alternatives`` below 1, say), or a
+    plan set is asked for a replanning mode its class does not implement."""
 
 
 class PlotError(HtnAgentError):
