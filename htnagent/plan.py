@@ -83,6 +83,21 @@ class Plan:
         return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
 
 
+def span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
+    """The first and last index of the steps that ``record``'s task produced (-1, -1 if none)."""
+    start = end = -1
+    for i, s in enumerate(steps):
+        node = s.record
+        while node is not None:
+            if node is record:
+                if start < 0:
+                    start = i
+                end = i
+                break
+            node = node.parent
+    return start, end
+
+
 def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | None:
     """The state after all the actions, or None if one of them is not applicable."""
     current: State | None = state

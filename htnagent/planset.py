@@ -13,12 +13,14 @@ are two kinds, one per :class:`Replanning` mode, both :class:`PlanSet`:
     :meth:`~PlanSet.belief_changed` (§2.3), :meth:`~PlanSet.suspension_cleared`
     (a suspended action will not be resumed);
   - each of them re-checks every plan by progressing the belief through it, and
-    a :class:`Repairer` repairs a broken plan by re-decomposing only the lowest
-    compound task above the failing action that can be decomposed again (§2.4);
+    a :class:`~htnagent.repair.Repairer` repairs a broken plan by re-decomposing
+    only the lowest compound task above the failing action that can be
+    decomposed again (§2.4, :mod:`htnagent.repair`);
     plans known to be valid (they ran the action that just succeeded, or sit
     behind an undo that provably restores the belief) are not walked again;
-  - plans removed because a fact was false wait in a :class:`Revival` store,
-    indexed by that fact, and come back when it becomes true again (§2.5);
+  - plans removed because a fact was false wait in a
+    :class:`~htnagent.revival.Revival` store, indexed by that fact, and come
+    back when it becomes true again (§2.5, :mod:`htnagent.revival`);
   - the tidy-up rules run after every update (§2.6);
   - :meth:`~PlanSet.shorten_detours`, at resumption, offers a shorter way than a
     plan's leading undo steps.
@@ -37,16 +39,16 @@ Pure and synchronous: the agent runtime calls it; no event loop inside.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
 from htnagent.actions import resume_action, resumed
 from htnagent.domain import Domain
 from htnagent.errors import SettingsError
-from htnagent.plan import Decomposition, Plan, Step, replay, tidy
+from htnagent.plan import Plan, Step, replay, span, tidy
 from htnagent.planner import (
     PlannerSettings,
     PlanResult,
@@ -56,9 +58,10 @@ from htnagent.planner import (
     heuristic,
     plan,
 )
-from htnagent.preconditions import satisfiers
+from htnagent.repair import LOCAL_BUDGET, Repairer, SearchMemo, one_plan
+from htnagent.revival import Revival
 from htnagent.state import State
-from htnagent.terms import Atom, substitute
+from htnagent.terms import Atom
 
 
 class Replanning(Enum):
@@ -99,19 +102,6 @@ class PlanningStats:
             "expansions": self.expansions,
             "ms": round(self.seconds * 1000, 3),
         }
-
-
-@dataclass
-class SearchMemo:
-    """Searches made during one update of an agent's plan sets, shared between them.
-
-    The goals on a stack often repeat, and all of them are updated from the same
-    belief: a search one plan set made (a goal from a state, or a task list found
-    impossible) answers for the others.  Make one per update; never keep it.
-    """
-
-    results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
-    impossible: set[tuple[object, ...]] = field(default_factory=set)
 
 
 # -- the plan set: what both modes share -------------------------------------------------------
@@ -220,7 +210,7 @@ class PlanSet:
         with self._timed():
             # One plan: the alternatives are worth their search only for a goal that
             # gets suspended (see widen).
-            self._from_scratch(state, _one_plan(self.settings))
+            self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
@@ -377,7 +367,7 @@ class NaivePlanSet(PlanSet):
         """Nothing is kept in naive mode, so nothing is added."""
 
     def _search_settings(self) -> PlannerSettings:
-        return _one_plan(self.settings)
+        return one_plan(self.settings)
 
     def _best_replaced(self, state: State) -> None:
         """Nothing to compare: a naive plan was made from scratch."""
@@ -643,7 +633,7 @@ class OnlinePlanSet(PlanSet):
             else:
                 record = best.steps[first].record
                 assert record is not None
-                _, end = _span(best.steps, record)
+                _, end = span(best.steps, record)
                 tasks = [(record.task, record.parent)]
                 tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
                 head, fixed = record.task, sum(s.cost for s in best.steps[end + 1 :])
@@ -651,7 +641,7 @@ class OnlinePlanSet(PlanSet):
             # the estimate of the rival's tasks: then the search is not worth making.
             if best.cost <= heuristic(self.domain, [head], state) + fixed + 1e-9:
                 return False
-            rival = self._repairer().search(state, tasks, _one_plan(self.settings))
+            rival = self._repairer().search(state, tasks, one_plan(self.settings))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
             shorter = rival  # the planner returns tidy plans
@@ -688,7 +678,7 @@ class OnlinePlanSet(PlanSet):
         candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
-        repairer = self._repairer(memo, min(self.settings.budget, _LOCAL_BUDGET))
+        repairer = self._repairer(memo, min(self.settings.budget, LOCAL_BUDGET))
         for n, (p, valid) in enumerate(candidates):
             revived = n >= revived_from
             if valid:
@@ -727,7 +717,7 @@ class OnlinePlanSet(PlanSet):
         """
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return
-        fresh = repairer.search(state, [(self.goal, None)], _one_plan(self.settings))
+        fresh = repairer.search(state, [(self.goal, None)], one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1
@@ -764,227 +754,11 @@ class OnlinePlanSet(PlanSet):
         return None
 
 
-# -- repair (§2.4) ---------------------------------------------------------------------------------
-
-
-_REPAIR_LEVELS = 3
-"""How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
-
-_LOCAL_BUDGET = 2_000
-"""Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
-
-
-class Repairer:
-    """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
-
-    A repair re-decomposes the lowest ancestor task of a failing step that can
-    be decomposed again.  Searches are shared — through ``memo``, with the other
-    plan sets updated from the same belief — so a goal re-planned for one broken
-    plan answers for all.  Repairs below the goal share ``local_budget``
-    expansions; the goal itself gets the planner's full budget.  Make one per
-    update; ``unsolvable`` is then the belief the goal was found impossible
-    from, if it was.
-    """
-
-    __slots__ = (
-        "_avoided",
-        "_domain",
-        "_goal",
-        "_impossible",
-        "_results",
-        "_settings",
-        "_stats",
-        "local_left",
-        "unsolvable",
-    )
-
-    def __init__(
-        self,
-        domain: Domain,
-        goal: Atom,
-        settings: PlannerSettings,
-        stats: PlanningStats,
-        avoided: Callable[[State], frozenset[Atom]],
-        memo: SearchMemo | None = None,
-        local_budget: int = 0,
-    ) -> None:
-        memo = memo if memo is not None else SearchMemo()
-        self._domain = domain
-        self._goal = goal
-        self._settings = settings
-        self._stats = stats
-        self._avoided = avoided
-        self._results = memo.results
-        self._impossible = memo.impossible
-        self.local_left = local_budget
-        """Expansions left for repairs below the goal in this update."""
-        self.unsolvable: tuple[object, ...] | None = None
-        """The key of a belief from which the goal itself has no plan, once a repair found so."""
-
-    def repair(self, p: Plan, index: int, states: list[State]) -> Plan | None:
-        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
-
-        ``states`` are the beliefs before each of the plan's first ``index + 1``
-        steps.  The last ancestor is the goal itself; steps inserted by maintenance
-        (undo, rollback) belong to no task, so for them the goal is the only
-        ancestor.  The goal is re-decomposed from the current belief, once per
-        update, and the result is shared by every plan that needs it.
-        """
-        step = p.steps[index]
-        chain = step.record.chain() if step.record is not None else []
-        # A recursive method makes the record as long as the plan; past a few levels a
-        # re-decomposition costs as much as planning the goal, so go straight to it.
-        for record in chain[:_REPAIR_LEVELS]:
-            if record.parent is None:
-                break  # the goal's own decomposition: below, shared
-            start, end = _span(p.steps, record)
-            if start > index:
-                continue
-            # Repairs below the goal are local fixes: together, in one update, they get
-            # a small budget; what they cannot fix the goal's re-decomposition will.
-            if self.local_left <= 0:
-                break
-            tasks: list[TaskEntry] = [(record.task, record.parent)]
-            tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-            spent = self._stats.expansions
-            local = PlannerSettings(
-                alternatives=1, budget=self.local_left, rollbacks=self._settings.rollbacks
-            )
-            result = self.search(states[start], tasks, local)
-            self.local_left -= self._stats.expansions - spent
-            if result is not None:
-                return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
-        # The goal itself, from the current belief: one search shared by all plans.
-        found = self.search(states[0], [(self._goal, None)], _one_plan(self._settings))
-        if found is None:
-            self.unsolvable = states[0].key()
-        return found
-
-    def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
-        """The best plan for the task list from the state, searched once per update."""
-        avoided = self._avoided(state)
-        # Records do not change whether tasks can be done: a search that found the
-        # task list impossible from a state answers for every plan that asks again.
-        impossible: tuple[object, ...] = (state.dynamic, avoided, *(t for t, _ in tasks))
-        if impossible in self._impossible:
-            return None
-        # Records compare by identity; the key holds them, so none can be mistaken for another.
-        key: tuple[object, ...] = (*impossible, *(r for _, r in tasks))
-        if key in self._results:
-            return self._results[key]
-        result = plan(self._domain, state, tasks, settings, avoid=avoided)
-        self._stats.expansions += result.expansions
-        found = result.best
-        self._results[key] = found
-        if result.status is PlanStatus.UNSOLVABLE:
-            self._impossible.add(impossible)
-        return found
-
-
-# -- revival (§2.5) --------------------------------------------------------------------------------
-
-
-@dataclass(slots=True)
-class _Removed:
-    plan: Plan
-    key: tuple[Atom, bool]
-    update: int
-
-
-class Revival:
-    """Plans removed because a fact was false, kept to come back when it is true again (§2.5).
-
-    Each plan is indexed by the precondition literal that broke it — ``(fact,
-    must be true)`` — and revived when that fact changes the right way.  The
-    store is bounded twice: a plan waits at most ``window`` updates, and at most
-    ``capacity`` plans are kept at once (the oldest goes first).  Kept plans
-    follow the agent's actions (:meth:`rewrite`), so that a revived plan starts
-    from where the robot is by then.
-    """
-
-    __slots__ = ("_domain", "_kept", "_updates", "capacity", "window")
-
-    def __init__(self, domain: Domain, window: int = 64, capacity: int = 32) -> None:
-        self._domain = domain
-        self.window = window
-        self.capacity = capacity
-        self._kept: list[_Removed] = []
-        self._updates = 0
-
-    def __len__(self) -> int:
-        return len(self._kept)
-
-    @property
-    def plans(self) -> list[Plan]:
-        """The plans kept, oldest first."""
-        return [r.plan for r in self._kept]
-
-    def copy(self) -> Revival:
-        """An independent copy (for a plan set's fork)."""
-        other = Revival(self._domain, self.window, self.capacity)
-        other._kept = [_Removed(r.plan, r.key, r.update) for r in self._kept]
-        other._updates = self._updates
-        return other
-
-    def clear(self) -> None:
-        """Forget every kept plan."""
-        self._kept.clear()
-
-    def keep(self, p: Plan, action: Atom, state: State) -> None:
-        """Keep the removed plan ``p``, whose ``action`` could not run in ``state``."""
-        key = _broken_by(self._domain, action, state)
-        if key is None:
-            return
-        self._kept.append(_Removed(p, key, self._updates))
-        if len(self._kept) > self.capacity:
-            del self._kept[0]
-
-    def rewrite(self, change: Callable[[Plan], Plan | None]) -> None:
-        """Replace each kept plan by ``change(plan)`` (unless that is None)."""
-        for r in self._kept:
-            q = change(r.plan)
-            if q is not None:
-                r.plan = q
-
-    def tick(self) -> None:
-        """An update of the plan set begins."""
-        self._updates += 1
-
-    def revive(self, before: State, after: State) -> list[Plan]:
-        """Take out the plans whose breaking fact changed the right way between the states."""
-        if not self._kept:
-            return []
-        added = after.dynamic - before.dynamic
-        deleted = before.dynamic - after.dynamic
-        if after.static is not before.static:
-            added |= after.static.facts - before.static.facts
-            deleted |= before.static.facts - after.static.facts
-        out: list[Plan] = []
-        keep: list[_Removed] = []
-        for r in self._kept:
-            fact, positive = r.key
-            if (positive and fact in added) or (not positive and fact in deleted):
-                out.append(r.plan)
-            else:
-                keep.append(r)
-        self._kept = keep
-        return out
-
-    def expire(self) -> None:
-        """An update ended: forget the plans that waited more than ``window`` updates."""
-        self._kept = [r for r in self._kept if self._updates - r.update <= self.window]
-
-
 # -- helpers -----------------------------------------------------------------------------------------
 
 
 _KINDS: dict[Replanning, type[PlanSet]] = {Replanning.ONLINE: OnlinePlanSet, Replanning.NAIVE: NaivePlanSet}
 """The plan-set class of each replanning mode (``PlanSet(..., mode)`` picks from it)."""
-
-
-def _one_plan(settings: PlannerSettings) -> PlannerSettings:
-    """The settings for one plan (repairs, fresh comparisons, naive mode)."""
-    return PlannerSettings(alternatives=1, budget=settings.budget, rollbacks=settings.rollbacks)
 
 
 def _first_failure(domain: Domain, p: Plan, state: State) -> tuple[int, State] | None:
@@ -1017,39 +791,6 @@ def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool
         return False
     dynamic = domain.actions.apply_dynamic(after, undo)
     return dynamic is not None and dynamic == before.dynamic
-
-
-def _span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
-    """The first and last index of the steps that ``record``'s task produced."""
-    start = end = -1
-    for i, s in enumerate(steps):
-        node = s.record
-        while node is not None:
-            if node is record:
-                if start < 0:
-                    start = i
-                end = i
-                break
-            node = node.parent
-    return start, end
-
-
-def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:
-    """The precondition literal of the action that fails: ``(fact, must be true)``.
-
-    SHOP binding makes later literals depend on earlier ones, so the culprit is
-    the first literal with which the precondition's prefix has no satisfier;
-    it is made ground with the first satisfier of the prefix before it.
-    """
-    op, bindings = domain.actions.ground(action)
-    prefix_binding = bindings
-    for i, lit in enumerate(op.pre):
-        extended = next(satisfiers(op.pre[: i + 1], state, bindings), None)
-        if extended is None:
-            fact = substitute(lit.atom, prefix_binding)
-            return (fact, lit.positive) if fact.is_ground else None
-        prefix_binding = extended
-    return None
 
 
 __all__ = [
