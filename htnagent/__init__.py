@@ -27,7 +27,7 @@ _WHERE = {
     "GoalStatus": "agent",
     "Domain": "domain",
     "Effect": "domain",
-    "State": "domain",
+    "State": "state",
     "Suspension": "domain",
     "DomainError": "errors",
     "HtnAgentError": "errors",
@@ -35,6 +35,7 @@ _WHERE = {
     "PlotError": "errors",
     "RuntimeClosedError": "errors",
     "ScenarioError": "errors",
+    "SettingsError": "errors",
     "TextFormError": "errors",
     "Executor": "executor",
     "ExecutorActor": "executor",
@@ -82,6 +83,7 @@ __all__ = [
     "RuntimeClosedError",
     "Scenario",
     "ScenarioError",
+    "SettingsError",
     "State",
     "Step",
     "Suspension",
@@ -108,7 +110,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:
     from htnagent.agent import Agent, AgentConfig, GoalStatus
-    from htnagent.domain import Domain, Effect, State, Suspension
+    from htnagent.domain import Domain, Effect, Suspension
     from htnagent.errors import (
         DomainError,
         HtnAgentError,
@@ -116,6 +118,7 @@ if TYPE_CHECKING:
         PlotError,
         RuntimeClosedError,
         ScenarioError,
+        SettingsError,
         TextFormError,
     )
     from htnagent.executor import Executor, ExecutorActor, Outcome
@@ -125,4 +128,5 @@ if TYPE_CHECKING:
     from htnagent.runtime import GoalOutcome, Runtime
     from htnagent.scenario import Scenario, load_scenario
     from htnagent.simulation import RunReport, run_scenario
+    from htnagent.state import State
     from htnagent.terms import Atom, parse

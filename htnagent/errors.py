@@ -3,11 +3,11 @@
 ::
 
     HtnAgentError
-    ├── TextFormError        a task, action or fact text is not ``name(arg,...)``
+    ├── TextFormError        a task, action or fact text is not ``name(arg,...)``   (also a ValueError)
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
-    ├── PlanningError        a task names something the domain cannot do
-    ├── SettingsError        planner or plan-set settings out of range or contradictory (also a ValueError)
+    ├── PlanningError        a task or action names something the domain cannot do
+    ├── SettingsError        planner or plan-set settings out of range or at odds   (also a ValueError)
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     └── RuntimeClosedError   a goal is given to a runtime that is not running
 
@@ -56,7 +56,8 @@ class ScenarioError(HtnAgentError):
 
 
 class PlanningError(HtnAgentError):
-    """Raised when a task names something the domain does not know."""
+    """Raised when a task or action names something the domain does not know, or asks
+    what its operator cannot do (suspending an action that declares no suspension)."""
 
 
 class SettingsError(HtnAgentError, ValueError):

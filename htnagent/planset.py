@@ -15,9 +15,9 @@ are two kinds, one per :class:`Replanning` mode, both :class:`PlanSet`:
   - each of them re-checks every plan by progressing the belief through it, and
     a :class:`~htnagent.repair.Repairer` repairs a broken plan by re-decomposing
     only the lowest compound task above the failing action that can be
-    decomposed again (§2.4, :mod:`htnagent.repair`);
-    plans known to be valid (they ran the action that just succeeded, or sit
-    behind an undo that provably restores the belief) are not walked again;
+    decomposed again (§2.4, :mod:`htnagent.repair`); plans known to be valid
+    (they ran the action that just succeeded, or sit behind an undo that
+    provably restores the belief) are flagged so and not walked again;
   - plans removed because a fact was false wait in a
     :class:`~htnagent.revival.Revival` store, indexed by that fact, and come
     back when it becomes true again (§2.5, :mod:`htnagent.revival`);
