@@ -117,17 +117,19 @@ class Actions:
     :meth:`forget` empties the caches when the domain gains an operator.
     """
 
-    __slots__ = ("_compiled", "_domain", "_ground")
+    __slots__ = ("_compiled", "_domain", "_ground", "_undo")
 
     def __init__(self, domain: Domain) -> None:
         self._domain = domain
         self._ground: dict[Atom, tuple[Operator, Bindings] | None] = {}
         self._compiled: dict[Atom, CompiledAction] = {}
+        self._undo: dict[Atom, Atom | None] = {}
 
     def forget(self) -> None:
         """Empty the caches (the domain's operators changed)."""
         self._ground.clear()
         self._compiled.clear()
+        self._undo.clear()
 
     # -- grounding --------------------------------------------------------------
 
@@ -251,11 +253,16 @@ class Actions:
 
     def undo_of(self, action: Atom) -> Atom | None:
         """The action that undoes a finished action, if the domain declares one."""
-        if action.name in RECOVERY:
-            # Undoing a resumed half would not lead back to the half-done state.
-            return None
-        op, b = self.ground(action)
-        return substitute(op.undo, b) if op.undo is not None else None
+        # Cached: the tidy-up rules (ALGORITHMS.md §2.6) ask for every pair of steps.
+        found = self._undo.get(action, _MISSING)
+        if found is _MISSING:
+            found = None
+            if action.name not in RECOVERY:  # undoing a resumed half would not lead back to it
+                op, b = self.ground(action)
+                if op.undo is not None:
+                    found = substitute(op.undo, b)
+            self._undo[action] = found
+        return found  # type: ignore[return-value]
 
     def resume_of(self, action: Atom) -> Atom | None:
         """``resume(action)`` when the action's operator can resume."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from htnagent.actions import rolled_back
+from htnagent.actions import ROLLBACK, rolled_back
 from htnagent.domain import Domain
 from htnagent.state import State
 from htnagent.terms import Atom
@@ -126,16 +126,18 @@ def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple
             return tuple(steps)
         return (*tidy(domain, steps[:2]), *steps[2:])
     actions = domain.actions
+    undo_of = actions.undo_of
+    rollback = ROLLBACK
     out: list[Step] = []
     for step in steps:
         if out:
             prev = out[-1].action
             # §2.6: an action directly followed by its own undo vanishes with it.
-            if actions.undo_of(prev) == step.action:
+            if undo_of(prev) == step.action:
                 out.pop()
                 continue
             # §2.6: rollback(A) directly followed by A is resume(A).
-            if rolled_back(prev) == step.action:
+            if prev.name == rollback and rolled_back(prev) == step.action:
                 resume = actions.resume_of(step.action)
                 if resume is not None:
                     out[-1] = Step(resume, actions.cost(resume), step.record)

@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
-from htnagent.actions import resume_action, resumed
+from htnagent.actions import RESUME, half_done, resume_action
 from htnagent.domain import Domain
 from htnagent.errors import SettingsError
 from htnagent.plan import Plan, Step, replay, span, tidy
@@ -533,8 +533,11 @@ class OnlinePlanSet(PlanSet):
         how much of A is left is not known.
         """
         cost = self.domain.actions.cost
+        # The name test first: this runs on every step of every kept plan.
         rest = tuple(
-            Step(s.action, cost(inner), s.record) if (inner := resumed(s.action)) is not None else s
+            Step(s.action, cost(inner), s.record)
+            if s.action.name == RESUME and (inner := half_done(s.action)) is not None
+            else s
             for s in steps
         )
         return tidy(self.domain, (Step(undo, cost(undo), None), *rest), front=True)
