@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import anyio
 from anyio.abc import TaskStatus
 
+from htnagent.actions import rolled_back
 from htnagent.clock import Clock, TimerHandle
 from htnagent.events import RobotActing, RobotMoving
 from htnagent.executor import ExecutorActor
@@ -159,8 +160,9 @@ class Robot(ExecutorActor):
 
     def _execute(self, order: Execute) -> None:
         action = order.action
-        if action.name == "rollback" and action.args and isinstance(action.args[0], Atom):
-            self._rollback(order, action.args[0])
+        inner = rolled_back(action)
+        if inner is not None:
+            self._rollback(order, inner)
             return
         if action.name != "move" and action.name in self.durations:
             self._act(order, action)

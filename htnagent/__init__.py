@@ -27,7 +27,7 @@ _WHERE = {
     "GoalStatus": "agent",
     "Domain": "domain",
     "Effect": "domain",
-    "State": "domain",
+    "State": "state",
     "Suspension": "domain",
     "DomainError": "errors",
     "HtnAgentError": "errors",
@@ -35,7 +35,7 @@ _WHERE = {
     "PlotError": "errors",
     "RuntimeClosedError": "errors",
     "ScenarioError": "errors",
-    "SettingError": "errors",
+    "SettingsError": "errors",
     "TextFormError": "errors",
     "UnknownNameError": "errors",
     "EVENT_KINDS": "events",
@@ -90,7 +90,7 @@ __all__ = [
     "RuntimeClosedError",
     "Scenario",
     "ScenarioError",
-    "SettingError",
+    "SettingsError",
     "State",
     "Step",
     "Summary",
@@ -120,7 +120,7 @@ def __dir__() -> list[str]:
 
 if TYPE_CHECKING:
     from htnagent.agent import Agent, AgentConfig, GoalStatus
-    from htnagent.domain import Domain, Effect, State, Suspension
+    from htnagent.domain import Domain, Effect, Suspension
     from htnagent.errors import (
         DomainError,
         HtnAgentError,
@@ -128,7 +128,7 @@ if TYPE_CHECKING:
         PlotError,
         RuntimeClosedError,
         ScenarioError,
-        SettingError,
+        SettingsError,
         TextFormError,
         UnknownNameError,
     )
@@ -140,5 +140,6 @@ if TYPE_CHECKING:
     from htnagent.runtime import GoalOutcome, Runtime
     from htnagent.scenario import Scenario, load_scenario
     from htnagent.simulation import RunReport, run_scenario
+    from htnagent.state import State
     from htnagent.terms import Atom, parse
     from htnagent.trace import EventStream

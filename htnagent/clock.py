@@ -27,7 +27,7 @@ from typing import Generic, TypeVar
 import anyio
 import anyio.lowlevel
 
-from htnagent.errors import SettingError
+from htnagent.errors import SettingsError
 
 T = TypeVar("T")
 
@@ -58,7 +58,7 @@ class Clock:
 
     def __init__(self, speed: float | None = None) -> None:
         if speed is not None and not (speed > 0 and math.isfinite(speed)):
-            raise SettingError(f"speed must be a positive number, not {speed}")
+            raise SettingsError(f"speed must be a positive number, not {speed}")
         self.speed = speed
         self._now = 0.0
         self._timers: list[_Timer] = []

@@ -1,7 +1,11 @@
-"""The domain model: facts and states, operators, methods and the :class:`Domain`.
+"""The definition of a planning domain: operators, methods, estimates, and the :class:`Domain`.
 
-Everything here is an immutable value that checks itself when built.  A method
-reads as "when this holds, do these subtasks"::
+A :class:`Domain` is built step by step — it is a **mutable builder** — with
+:meth:`Domain.operator`, :meth:`Domain.method` and :meth:`Domain.estimate`; what
+it is made of (:class:`Operator`, :class:`Method`, and the :class:`Suspension` /
+:class:`Effect` declarations behind resume and rollback) are immutable values
+that check themselves when built.  A method reads as "when this holds, do these
+subtasks" (ALGORITHMS.md §1)::
 
     d = Domain("nav")
     d.operator("move(?f,?t,?a)", pre=["at(?f)", "arc(?f,?t,?a)"],
@@ -10,317 +14,36 @@ reads as "when this holds, do these subtasks"::
     d.method("goto(?n)", "step", when=["not at(?n)", "at(?x)", "arc(?x,?y,?a)"],
              do=["move(?x,?y,?a)", "goto(?n)"])
 
-States split facts into *static* ones (predicates no operator changes, such as
-the map) kept in an indexed :class:`FactBase` shared between states, and
-*dynamic* ones (predicates some effect changes) kept in a small frozenset, so
-that applying an action copies only what actions can change.
+Besides what was declared, a domain keeps two caches, both emptied whenever an
+operator is added: the set of dynamic predicates, and ``domain.actions`` (an
+:class:`~htnagent.actions.Actions`: ground actions compiled once, and what each
+does to a belief).  For convenience the domain forwards the belief transitions
+to it (:meth:`Domain.apply`, :meth:`~Domain.progress`, :meth:`~Domain.suspend`,
+:meth:`~Domain.clear`, :meth:`~Domain.can_suspend`); their meaning is defined in
+:mod:`htnagent.actions`.
+
+Related modules: beliefs are :mod:`htnagent.state`, precondition literals and
+their matching :mod:`htnagent.preconditions`, A*'s estimate over a task list is
+:func:`htnagent.planner.heuristic`.  The names those modules define that were
+once defined here are still importable from here.
 """
 
 from __future__ import annotations
 
-import itertools
-from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from htnagent.errors import DomainError, PlanningError
-from htnagent.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
+from htnagent.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
+from htnagent.errors import DomainError
+from htnagent.preconditions import Literal, all_satisfiers, bound_by, literals, satisfiers
+from htnagent.state import FactBase, State
+from htnagent.terms import Atom, Bindings, atom, is_variable, substitute
 
 CostSpec = float | int | Callable[[Atom], float]
-Estimate = Callable[[Atom, "State"], float]
-
-
-class FactBase:
-    """An immutable set of ground facts, indexed by predicate and argument on demand.
-
-    Facts keep the order they were given in: SHOP tries them in that order, so ties
-    between equal-cost plans are broken the same way in every run.
-    """
-
-    __slots__ = ("_by_arg", "_by_name", "_facts", "_indexed", "_order")
-
-    def __init__(self, facts: Iterable[Atom] = ()) -> None:
-        self._order: tuple[Atom, ...] = tuple(dict.fromkeys(facts))
-        self._facts: frozenset[Atom] = frozenset(self._order)
-        self._by_name: dict[str, list[Atom]] | None = None
-        self._by_arg: dict[tuple[str, int, Term], list[Atom]] = {}
-        self._indexed: set[tuple[str, int]] = set()
-
-    def __contains__(self, fact: object) -> bool:
-        return fact in self._facts
-
-    def __iter__(self) -> Iterator[Atom]:
-        return iter(self._order)
-
-    def __len__(self) -> int:
-        return len(self._facts)
-
-    @property
-    def facts(self) -> frozenset[Atom]:
-        """The facts as a frozenset."""
-        return self._facts
-
-    def with_changes(self, add: Iterable[Atom] = (), delete: Iterable[Atom] = ()) -> FactBase:
-        """A new fact base with ``delete`` removed and ``add`` added."""
-        gone = frozenset(delete)
-        return FactBase(itertools.chain((f for f in self._order if f not in gone), add))
-
-    def candidates(self, name: str, position: int | None, value: Term) -> list[Atom]:
-        """Facts named ``name`` (whose argument ``position`` is ``value``, if given)."""
-        if self._by_name is None:
-            by_name: dict[str, list[Atom]] = defaultdict(list)
-            for f in self._order:
-                by_name[f.name].append(f)
-            self._by_name = dict(by_name)
-        if position is None:
-            return self._by_name.get(name, [])
-        if (name, position) not in self._indexed:
-            self._indexed.add((name, position))
-            for f in self._by_name.get(name, []):
-                if position < len(f.args):
-                    self._by_arg.setdefault((name, position, f.args[position]), []).append(f)
-        return self._by_arg.get((name, position, value), [])
-
-
-class State:
-    """A belief: static facts (shared, indexed) plus dynamic facts (small, per state)."""
-
-    __slots__ = ("dynamic", "dynamic_predicates", "static")
-
-    def __init__(
-        self, static: FactBase, dynamic: frozenset[Atom], dynamic_predicates: frozenset[str]
-    ) -> None:
-        self.static = static
-        self.dynamic = dynamic
-        self.dynamic_predicates = dynamic_predicates
-
-    @classmethod
-    def from_facts(cls, facts: Iterable[Atom | str], domain: Domain) -> State:
-        """Split ``facts`` into static and dynamic parts as the domain's effects dictate."""
-        parsed = [atom(f) for f in facts]
-        dyn = domain.dynamic_predicates
-        return cls(
-            FactBase(f for f in parsed if f.name not in dyn),
-            frozenset(f for f in parsed if f.name in dyn),
-            dyn,
-        )
-
-    def key(self) -> tuple[object, ...]:
-        """What tells this belief from others, cheaply: its dynamic facts and its static
-        fact base by identity (a fact base compares by identity; the key keeps it alive)."""
-        return (self.dynamic, self.static)
-
-    def holds(self, fact: Atom) -> bool:
-        """Whether the ground fact is true in this state."""
-        if fact.name in self.dynamic_predicates:
-            return fact in self.dynamic
-        return fact in self.static
-
-    def with_dynamic(self, dynamic: frozenset[Atom]) -> State:
-        """The same static facts with other dynamic facts."""
-        return State(self.static, dynamic, self.dynamic_predicates)
-
-    def updated(self, add: Iterable[Atom] = (), delete: Iterable[Atom] = ()) -> State:
-        """A new state with facts deleted then added (a belief change from outside)."""
-        add, delete = list(add), list(delete)
-        dyn = self.dynamic_predicates
-        static = self.static
-        s_add = [f for f in add if f.name not in dyn]
-        s_del = [f for f in delete if f.name not in dyn]
-        if s_add or s_del:
-            static = static.with_changes(s_add, s_del)
-        d_del = frozenset(f for f in delete if f.name in dyn)
-        d_add = frozenset(f for f in add if f.name in dyn)
-        return State(static, (self.dynamic - d_del) | d_add, dyn)
-
-    def facts(self) -> frozenset[Atom]:
-        """Every fact of the state."""
-        return self.static.facts | self.dynamic
-
-    def match(self, pattern: Atom, bindings: Bindings) -> Iterator[Bindings]:
-        """Every extension of ``bindings`` under which ``pattern`` is a fact of the state."""
-        if pattern.name in self.dynamic_predicates:
-            found = [f for f in self.dynamic if f.name == pattern.name]
-            if len(found) > 1:
-                # A frozenset's order changes with the hash seed: bind in text order instead.
-                found.sort(key=str)
-            for f in found:
-                b = unify(pattern, f, bindings)
-                if b is not None:
-                    yield b
-            return
-        position: int | None = None
-        value: Term = ""
-        for i, a in enumerate(pattern.args):
-            if isinstance(a, str):
-                if a.startswith("?"):
-                    bound = bindings.get(a)
-                    if bound is None:
-                        continue
-                    a = bound
-                position, value = i, a
-                break
-        for f in self.static.candidates(pattern.name, position, value):
-            b = unify(pattern, f, bindings)
-            if b is not None:
-                yield b
-
-    def __eq__(self, other: object) -> bool:
-        return (
-            isinstance(other, State)
-            and self.dynamic == other.dynamic
-            and (self.static is other.static or self.static.facts == other.static.facts)
-        )
-
-    def __hash__(self) -> int:
-        return hash(self.dynamic)
-
-    def __repr__(self) -> str:
-        return f"State(dynamic={sorted(map(str, self.dynamic))}, static={len(self.static)} facts)"
-
-
-@dataclass(frozen=True, slots=True)
-class Literal:
-    """A positive or negated atom in a precondition."""
-
-    atom: Atom
-    positive: bool = True
-    variables: frozenset[str] = field(init=False, repr=False, compare=False)
-
-    def __post_init__(self) -> None:
-        object.__setattr__(self, "variables", frozenset(self.atom.variables()))
-
-    @classmethod
-    def parse(cls, text: str | Literal | Atom) -> Literal:
-        """Read ``"at(?x)"`` or ``"not at(?x)"``."""
-        if isinstance(text, Literal):
-            return text
-        if isinstance(text, Atom):
-            return cls(text)
-        stripped = text.strip()
-        if stripped.startswith("not "):
-            return cls(atom(stripped[4:].strip()), positive=False)
-        return cls(atom(stripped))
-
-    def __str__(self) -> str:
-        return str(self.atom) if self.positive else f"not {self.atom}"
-
-
-def satisfiers(
-    pre: Sequence[Literal], state: State, bindings: Bindings, start: int = 0
-) -> Iterator[Bindings]:
-    """Every binding under which the conjunction holds, SHOP-style, left to right.
-
-    A negative literal holds when no fact matches it under the bindings so far.
-    """
-    # Literals whose variables are all bound are plain look-ups: check them in a row.
-    n = len(pre)
-    i = start
-    while i < n:
-        lit = pre[i]
-        names = lit.variables
-        if names and not all(v in bindings for v in names):
-            break
-        fact = substitute(lit.atom, bindings) if names else lit.atom
-        if state.holds(fact) != lit.positive:
-            return
-        i += 1
-    if i == n:
-        yield bindings
-        return
-    lit = pre[i]
-    if lit.positive:
-        for b in state.match(lit.atom, bindings):
-            yield from satisfiers(pre, state, b, i + 1)
-    else:
-        if next(state.match(lit.atom, bindings), None) is not None:
-            return
-        yield from satisfiers(pre, state, bindings, i + 1)
-
-
-def all_satisfiers(pre: Sequence[Literal], state: State, bindings: Bindings) -> list[Bindings]:
-    """Every binding of :func:`satisfiers`, as a list, in the same order — its fast form.
-
-    The planner decomposes with it at every search step: no generators, and flat
-    facts are matched argument by argument without building atoms.
-    """
-    out: list[Bindings] = []
-    _collect(pre, 0, state, bindings, out)
-    return out
-
-
-def _collect(pre: Sequence[Literal], i: int, state: State, bindings: Bindings, out: list[Bindings]) -> None:
-    n = len(pre)
-    while i < n:
-        lit = pre[i]
-        names = lit.variables
-        if names and not names <= bindings.keys():
-            break
-        fact = substitute(lit.atom, bindings) if names else lit.atom
-        if state.holds(fact) != lit.positive:
-            return
-        i += 1
-    if i == n:
-        out.append(bindings)
-        return
-    lit = pre[i]
-    if not lit.positive:
-        if next(state.match(lit.atom, bindings), None) is None:
-            _collect(pre, i + 1, state, bindings, out)
-        return
-    pattern = lit.atom
-    args = pattern.args
-    if any(not isinstance(a, str) for a in args):
-        for b in state.match(pattern, bindings):
-            _collect(pre, i + 1, state, b, out)
-        return
-    # Flat pattern: each argument is a constant, a bound variable or a free one.
-    wanted: list[tuple[int, Term]] = []
-    free: list[tuple[int, str]] = []
-    for k, a in enumerate(args):
-        assert isinstance(a, str)
-        if a[:1] == "?":
-            value = bindings.get(a)
-            if value is None:
-                free.append((k, a))
-            else:
-                wanted.append((k, value))
-        else:
-            wanted.append((k, a))
-    name, arity = pattern.name, len(args)
-    if name in state.dynamic_predicates:
-        facts: Iterable[Atom] = sorted((f for f in state.dynamic if f.name == name), key=str)
-    elif wanted:
-        facts = state.static.candidates(name, wanted[0][0], wanted[0][1])
-    else:
-        facts = state.static.candidates(name, None, "")
-    for f in facts:
-        fargs = f.args
-        if len(fargs) != arity or any(fargs[k] != v for k, v in wanted):
-            continue
-        b = dict(bindings)
-        ok = True
-        for k, var in free:
-            seen = b.get(var)
-            if seen is None:
-                b[var] = fargs[k]
-            elif seen != fargs[k]:  # the same free variable twice in the pattern
-                ok = False
-                break
-        if ok:
-            _collect(pre, i + 1, state, b, out)
-
-
-def _literals(items: Iterable[str | Literal | Atom]) -> tuple[Literal, ...]:
-    return tuple(Literal.parse(i) for i in items)
-
-
-def _bound_by(pre: Sequence[Literal]) -> set[str]:
-    out: set[str] = set()
-    for lit in pre:
-        if lit.positive:
-            out |= lit.atom.variables()
-    return out
+"""An operator's cost: a number, or a function of the ground action."""
+Estimate = Callable[[Atom, State], float]
+"""A compound task's estimate of the cost left, from a state (A*'s h; admissible if it
+never over-estimates)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -375,7 +98,7 @@ class Operator:
     undo: Atom | None = None
 
     def __post_init__(self) -> None:
-        known = self.head.variables() | _bound_by(self.pre)
+        known = self.head.variables() | bound_by(self.pre)
         for part, items in (
             ("add", self.add),
             ("delete", self.delete),
@@ -408,19 +131,20 @@ class Operator:
         return value
 
     def applicable(self, state: State, bindings: Bindings) -> Bindings | None:
-        """The first binding that satisfies the precondition, or None."""
+        """The first extension of ``bindings`` that satisfies the precondition, or None."""
         return next(satisfiers(self.pre, state, bindings), None)
 
-    def progress(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
-        """The dynamic facts after the action's delete then add effects."""
-        return _apply(dynamic, self.delete, self.add, bindings)
+    def effects_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
+        """The dynamic facts after the delete then add effects, unchecked (the precondition
+        is the caller's to test: see :mod:`htnagent.actions` for the checked forms)."""
+        return _changed(dynamic, self.delete, self.add, bindings)
 
-    def suspended(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
-        """The dynamic facts after the action is stopped half way (suspension effect)."""
-        return _apply(dynamic, self.suspend_delete, self.suspend_add, bindings)
+    def suspension_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
+        """The dynamic facts after the action is stopped half way (its suspension effect)."""
+        return _changed(dynamic, self.suspend_delete, self.suspend_add, bindings)
 
 
-def _apply(
+def _changed(
     dynamic: frozenset[Atom],
     delete: tuple[Atom, ...],
     add: tuple[Atom, ...],
@@ -446,7 +170,7 @@ class Method:
     subtasks: tuple[Atom, ...] = ()
 
     def __post_init__(self) -> None:
-        known = self.head.variables() | _bound_by(self.pre)
+        known = self.head.variables() | bound_by(self.pre)
         for t in self.subtasks:
             unknown = t.variables() - known
             if unknown:
@@ -460,26 +184,13 @@ class Method:
         )
 
 
-@dataclass(frozen=True, slots=True)
-class CompiledAction:
-    """A ground action's operator, bindings, ground precondition and effects, and cost.
-
-    ``checks`` is None when the precondition binds variables the head does not.
-    """
-
-    op: Operator
-    bindings: Bindings
-    checks: tuple[tuple[Atom, bool], ...] | None
-    delete: frozenset[Atom]
-    add: frozenset[Atom]
-    cost: float
-
-
 @dataclass(slots=True)
 class Domain:
-    """Operators, methods and estimates of one planning agent, by task name.
+    """Operators, methods and estimates of one planning agent, by task name — a mutable builder.
 
-    Build it with :meth:`operator`, :meth:`method` and :meth:`estimate`.
+    Build it with :meth:`operator`, :meth:`method` and :meth:`estimate`, and set
+    :attr:`facts` / :attr:`world_facts` for the start belief.  ``actions`` (read
+    only) holds the ground actions met so far and answers what they do.
     """
 
     name: str
@@ -490,9 +201,12 @@ class Domain:
     """Facts the agent believes from the start, whatever the world."""
     world_facts: Callable[[str], Iterable[Atom]] | None = None
     """For map-based domains: the belief about a world whose robot stands at a node."""
-    _dynamic: frozenset[str] | None = None
-    _ground: dict[Atom, tuple[Operator, Bindings] | None] = field(default_factory=dict)
-    _compiled: dict[Atom, CompiledAction] = field(default_factory=dict)
+    actions: Actions = field(init=False, repr=False, compare=False)
+    """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.actions`)."""
+    _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)
+
+    def __post_init__(self) -> None:
+        self.actions = Actions(self)
 
     # -- building -------------------------------------------------------------
 
@@ -511,9 +225,9 @@ class Domain:
         h = atom(head)
         if h.name in self.methods:
             raise DomainError(f"domain {self.name}: {h.name} is already a compound task")
-        if h.name in ("resume", "rollback"):
+        if h.name in RECOVERY:
             raise DomainError(f"domain {self.name}: {h.name} is reserved for suspension")
-        pre_l = _literals(pre)
+        pre_l = literals(pre)
         resume = rollback = None
         s_add: tuple[Atom, ...] = ()
         s_del: tuple[Atom, ...] = ()
@@ -522,8 +236,8 @@ class Domain:
             c_del = tuple(atom(a) for a in suspend.cleared)
             s_add = tuple(atom(a) for a in suspend.add)
             s_del = tuple(atom(a) for a in suspend.delete)
-            resume = self._half(h, "resume", suspend.resume, s_add, cost)
-            rollback = self._half(h, "rollback", suspend.rollback, s_add, cost)
+            resume = self._half(h, RESUME, suspend.resume, s_add, cost)
+            rollback = self._half(h, ROLLBACK, suspend.rollback, s_add, cost)
         op = Operator(
             head=h,
             pre=pre_l,
@@ -552,9 +266,10 @@ class Domain:
         suspension_add: tuple[Atom, ...],
         cost: CostSpec,
     ) -> Operator | None:
+        """The ``resume(A)`` or ``rollback(A)`` operator (``kind``) of the operator ``head``."""
         if effect is None:
             return None
-        pre = _literals(effect.pre) if effect.pre is not None else _literals(suspension_add)
+        pre = literals(effect.pre) if effect.pre is not None else literals(suspension_add)
         return Operator(
             head=Atom(kind, (head,)),
             pre=pre,
@@ -566,15 +281,14 @@ class Domain:
     def _register(self, op: Operator) -> None:
         self.operators.setdefault(op.name, []).append(op)
         self._dynamic = None
-        self._ground.clear()
-        self._compiled.clear()
+        self.actions.forget()
 
     def method(self, head: str, name: str, *, when: Iterable[str] = (), do: Iterable[str] = ()) -> Method:
         """Add a method: to do ``head``, when ``when`` holds, do the tasks ``do`` in order."""
         h = atom(head)
         if h.name in self.operators:
             raise DomainError(f"domain {self.name}: {h.name} is already a primitive task")
-        m = Method(head=h, name=name, pre=_literals(when), subtasks=tuple(atom(t) for t in do))
+        m = Method(head=h, name=name, pre=literals(when), subtasks=tuple(atom(t) for t in do))
         self.methods.setdefault(h.name, []).append(m)
         return m
 
@@ -591,7 +305,7 @@ class Domain:
             facts.extend(self.world_facts(start))
         return State.from_facts(facts, self)
 
-    # -- queries ----------------------------------------------------------------
+    # -- what was declared ----------------------------------------------------------
 
     @property
     def dynamic_predicates(self) -> frozenset[str]:
@@ -613,181 +327,31 @@ class Domain:
         """Whether some operator or method can handle a task of this name."""
         return task.name in self.operators or task.name in self.methods
 
-    def ground(self, action: Atom) -> tuple[Operator, Bindings]:
-        """The operator implementing the ground action, and its head bindings."""
-        cached = self._ground.get(action, _MISSING)
-        if cached is _MISSING:
-            cached = None
-            for op in self.operators.get(action.name, ()):
-                b = unify(op.head, action, {})
-                if b is not None:
-                    cached = (op, b)
-                    break
-            self._ground[action] = cached
-        if cached is None:
-            raise PlanningError(f"domain {self.name}: no operator for action {action}")
-        return cached  # type: ignore[return-value]
+    def recovery_operators(self) -> list[Operator]:
+        """Every resume and rollback operator (tried by the planner first, see planner)."""
+        return [op for name in RECOVERY for op in self.operators.get(name, ())]
 
-    def compiled_or_none(self, action: Atom) -> CompiledAction | None:
-        """:meth:`compiled`, or None when no operator implements the action."""
-        found = self._compiled.get(action)
-        if found is not None:
-            return found
-        if self._ground.get(action, _MISSING) is None:
-            return None
-        try:
-            return self.compiled(action)
-        except PlanningError:
-            return None
-
-    def compiled(self, action: Atom) -> CompiledAction:
-        """The ground action with its precondition and effects worked out once (cached)."""
-        found = self._compiled.get(action)
-        if found is None:
-            op, b = self.ground(action)
-            checks: tuple[tuple[Atom, bool], ...] | None = None
-            delete: frozenset[Atom] = frozenset()
-            add: frozenset[Atom] = frozenset()
-            if all(lit.variables <= b.keys() for lit in op.pre):
-                checks = tuple((substitute(lit.atom, b), lit.positive) for lit in op.pre)
-                delete = frozenset(substitute(a, b) for a in op.delete)
-                add = frozenset(substitute(a, b) for a in op.add)
-            found = CompiledAction(op, b, checks, delete, add, op.action_cost(action))
-            self._compiled[action] = found
-        return found
-
-    def known_action(self, action: Atom) -> CompiledAction | None:
-        """The compiled ground action if it was compiled before (a plain look-up)."""
-        return self._compiled.get(action)
-
-    def step(self, state: State, action: Atom) -> frozenset[Atom] | None:
-        """The dynamic facts after the ground action, or None when its precondition is false."""
-        return self.step_compiled(state, self.compiled(action))
-
-    def step_compiled(self, state: State, c: CompiledAction) -> frozenset[Atom] | None:
-        """:meth:`step` for an action already compiled."""
-        if c.checks is None:
-            full = c.op.applicable(state, c.bindings)
-            return None if full is None else c.op.progress(state.dynamic, full)
-        for fact, positive in c.checks:
-            if state.holds(fact) != positive:
-                return None
-        if not c.delete and not c.add:
-            return state.dynamic
-        return (state.dynamic - c.delete) | c.add
+    # -- belief transitions, forwarded to ``actions`` (defined in htnagent.actions) ----------
 
     def apply(self, state: State, action: Atom) -> State | None:
         """The state after the action, or None when its precondition is false."""
-        dynamic = self.step(state, action)
-        return None if dynamic is None else state.with_dynamic(dynamic)
+        return self.actions.apply(state, action)
 
     def progress(self, state: State, action: Atom) -> State:
-        """The state after an action reported done, even if the belief doubted it could run.
-
-        The executor is the authority on what happened: the effects are applied
-        with the precondition's bindings when it holds, the head's otherwise.
-        """
-        op, b = self.ground(action)
-        full = op.applicable(state, b) or b
-        return state.with_dynamic(op.progress(state.dynamic, full))
-
-    def cost(self, action: Atom) -> float:
-        """The cost of a ground action."""
-        return self.compiled(action).cost
-
-    def can_suspend(self, action: Atom) -> bool:
-        """Whether the belief can follow the ground action being stopped half way.
-
-        True when its operator declares a suspension, and for ``resume(A)`` and
-        ``rollback(A)`` of such an A: stopping either leaves A suspended, with
-        less (or more) of it left to do (ALGORITHMS.md §4, Algorithm 3).
-        """
-        target = half_done(action) or action
-        try:
-            op, _ = self.ground(target)
-        except PlanningError:
-            return False
-        return op.suspendable
+        """The state after an action the executor reports done (see :meth:`Actions.progress`)."""
+        return self.actions.progress(state, action)
 
     def suspend(self, state: State, action: Atom) -> State:
-        """The belief after the running action is stopped half way (Algorithm 1, step 1).
-
-        Stopping ``resume(A)`` or ``rollback(A)`` leaves A suspended as it was before
-        they started: the belief already says so, and stays as it is.
-        """
-        if half_done(action) is not None:
-            return state
-        op, b = self.ground(action)
-        if not op.suspendable:
-            raise PlanningError(f"domain {self.name}: action {action} is not suspendable")
-        full = next(satisfiers(op.pre, state, b), b)
-        return state.with_dynamic(op.suspended(state.dynamic, full))
+        """The belief after the running action is stopped half way (see :meth:`Actions.suspend`)."""
+        return self.actions.suspend(state, action)
 
     def clear(self, state: State, action: Atom) -> State:
-        """The belief once a suspended action will never be resumed.
+        """The belief once a suspended action will never be resumed (see :meth:`Actions.clear`)."""
+        return self.actions.clear(state, action)
 
-        The facts that only recorded that it could be resumed (its suspension's
-        ``cleared``) go; facts about the world stay.
-        """
-        op, b = self.ground(action)
-        gone = {substitute(a, b) for a in op.clear_delete}
-        if not gone & state.dynamic:
-            return state
-        return state.with_dynamic(state.dynamic - gone)
-
-    def undo_of(self, action: Atom) -> Atom | None:
-        """The action that undoes a finished action, if the domain declares one."""
-        if action.name in ("resume", "rollback"):
-            # Undoing a resumed half would not lead back to the half-done state.
-            return None
-        op, b = self.ground(action)
-        return substitute(op.undo, b) if op.undo is not None else None
-
-    def resume_of(self, action: Atom) -> Atom | None:
-        """``resume(action)`` when the action's operator can resume."""
-        op, _ = self.ground(action)
-        return Atom("resume", (action,)) if op.resume is not None else None
-
-    def rollback_of(self, action: Atom) -> Atom | None:
-        """``rollback(action)`` when the action's operator can roll back."""
-        op, _ = self.ground(action)
-        return Atom("rollback", (action,)) if op.rollback is not None else None
-
-    def recovery_operators(self) -> list[Operator]:
-        """Every resume and rollback operator (tried by the planner first, see planner)."""
-        return [op for name in ("resume", "rollback") for op in self.operators.get(name, ())]
-
-    def h(self, tasks: Sequence[Atom], state: State) -> float:
-        """A*'s estimate of the cost of the task list: the first compound task's estimate.
-
-        Estimates are computed from the current state, which is right for the first
-        compound task only: adding those of later tasks (as if each started here)
-        could over-estimate — ``[goto(A), goto(B)]`` costs d(here,A) + d(A,B), not
-        d(here,A) + d(here,B) — and an over-estimate costs A* its optimality.
-        """
-        est = self.estimates
-        if not est:
-            return 0.0
-        for t in tasks:
-            fn = est.get(t.name)
-            if fn is not None:
-                return fn(t, state)
-            if t.name in self.methods:
-                return 0.0  # a compound task without an estimate comes first
-        return 0.0
-
-
-_MISSING: object = object()
-
-RECOVERY = ("resume", "rollback")
-"""The names of the actions that finish or undo a suspended action."""
-
-
-def half_done(action: Atom) -> Atom | None:
-    """A for ``resume(A)`` or ``rollback(A)``; None for any other action."""
-    if action.name in RECOVERY and len(action.args) == 1 and isinstance(action.args[0], Atom):
-        return action.args[0]
-    return None
+    def can_suspend(self, action: Atom) -> bool:
+        """Whether the belief can follow the action being stopped half way (:meth:`Actions.can_suspend`)."""
+        return self.actions.can_suspend(action)
 
 
 def _inner_cost(cost: CostSpec) -> CostSpec:
@@ -803,16 +367,22 @@ def _inner_cost(cost: CostSpec) -> CostSpec:
     return cost
 
 
+# Besides its own names, the module still exports those other modules define that were
+# defined here before the split (State, FactBase, Literal, satisfiers, half_done...).
 __all__ = [
     "Atom",
+    "CompiledAction",
+    "CostSpec",
     "Domain",
     "Effect",
+    "Estimate",
     "FactBase",
     "Literal",
     "Method",
     "Operator",
     "State",
     "Suspension",
+    "all_satisfiers",
     "half_done",
     "is_variable",
     "satisfiers",

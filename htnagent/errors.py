@@ -3,13 +3,14 @@
 ::
 
     HtnAgentError
-    ├── TextFormError        a task, action or fact text is not ``name(arg,...)``
+    ├── TextFormError        a task, action or fact text is not ``name(arg,...)``   (also a ValueError)
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
-    ├── PlanningError        a task names something the domain cannot do
+    ├── PlanningError        a task or action names something the domain cannot do
+    ├── SettingsError        a setting out of range or at odds: planner, plan set, runtime,
+    │                        clock, event stream, size limit (also a ValueError)
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     ├── RuntimeClosedError   a goal is given to a runtime that is not running
-    ├── SettingError         a runtime, clock, stream or limit is given an invalid setting (also a ValueError)
     └── UnknownNameError     an agent name or goal ticket the runtime does not have (also a KeyError)
 
 Messages quote what they refuse with :func:`shown`, never with a bare ``repr``:
@@ -57,7 +58,14 @@ class ScenarioError(HtnAgentError):
 
 
 class PlanningError(HtnAgentError):
-    """Raised when a task names something the domain does not know."""
+    """Raised when a task or action names something the domain does not know, or asks
+    what its operator cannot do (suspending an action that declares no suspension)."""
+
+
+class SettingsError(HtnAgentError, ValueError):
+    """Raised when a setting is out of range or at odds: planner settings (``alternatives``
+    below 1, say), a replanning mode a plan set does not implement, a runtime with no agent,
+    a clock's speed, an event stream's room, a size limit."""
 
 
 class PlotError(HtnAgentError):
@@ -111,10 +119,6 @@ def _clipped(text: str, limit: int) -> str:
 
 class RuntimeClosedError(HtnAgentError):
     """Raised when a goal is submitted to a runtime that is not running (not entered, or closed)."""
-
-
-class SettingError(HtnAgentError, ValueError):
-    """Raised when a runtime, clock, event stream or size limit is given an invalid setting."""
 
 
 class UnknownNameError(HtnAgentError, KeyError):

@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import os
 
-from htnagent.errors import ScenarioError, SettingError
+from htnagent.errors import ScenarioError, SettingsError
 
 MAX_FILE_BYTES = 64 * 1024 * 1024
 """Default largest scenario or map file read, in bytes (64 MiB).
@@ -85,7 +85,7 @@ def max_file_bytes(override: int | None = None) -> int:
     """The file-size bound: ``override`` if given, else the environment's, else :data:`MAX_FILE_BYTES`."""
     if override is not None:
         if isinstance(override, bool) or not isinstance(override, int) or override < 1:
-            raise SettingError(f"max_file_bytes must be a positive whole number, not {override!r}")
+            raise SettingsError(f"max_file_bytes must be a positive whole number, not {override!r}")
         return override
     text = os.environ.get(MAX_FILE_BYTES_ENV)
     if text is None or not text.strip():

@@ -2,9 +2,10 @@
 
 Every step of a plan remembers which compound task (and which of its methods)
 produced it, through a chain of :class:`Decomposition` records up to the goal.
-Plan repair (ALGORITHMS.md §2 item 4) walks that chain.  Steps inserted by plan
+Plan repair (ALGORITHMS.md §2.4) walks that chain.  Steps inserted by plan
 maintenance — ``resume``/``rollback``/undo actions — belong to no compound task
-and have no record.
+and have no record.  :func:`replay` checks a plan against a belief; :func:`tidy`
+is the tidy-up of ALGORITHMS.md §2.6.
 """
 
 from __future__ import annotations
@@ -12,7 +13,9 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
-from htnagent.domain import Domain, State
+from htnagent.actions import ROLLBACK, rolled_back
+from htnagent.domain import Domain
+from htnagent.state import State
 from htnagent.terms import Atom
 
 
@@ -80,19 +83,35 @@ class Plan:
         return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
 
 
+def span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
+    """The first and last index of the steps that ``record``'s task produced (-1, -1 if none)."""
+    start = end = -1
+    for i, s in enumerate(steps):
+        node = s.record
+        while node is not None:
+            if node is record:
+                if start < 0:
+                    start = i
+                end = i
+                break
+            node = node.parent
+    return start, end
+
+
 def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | None:
     """The state after all the actions, or None if one of them is not applicable."""
     current: State | None = state
+    apply = domain.actions.apply
     for a in actions:
         assert current is not None
-        current = domain.apply(current, a)
+        current = apply(current, a)
         if current is None:
             return None
     return current
 
 
 def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple[Step, ...]:
-    """Apply the tidy-up rules of ALGORITHMS.md §2 item 6 until none applies.
+    """Apply the tidy-up rules of ALGORITHMS.md §2.6 until none applies.
 
     - an action directly followed by its own undo: both go;
     - ``rollback(A)`` directly followed by ``A``: they become ``resume(A)``.
@@ -106,19 +125,22 @@ def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple
         if len(steps) < 2:
             return tuple(steps)
         return (*tidy(domain, steps[:2]), *steps[2:])
+    actions = domain.actions
+    undo_of = actions.undo_of
+    rollback = ROLLBACK
     out: list[Step] = []
     for step in steps:
         if out:
             prev = out[-1].action
             # §2.6: an action directly followed by its own undo vanishes with it.
-            if domain.undo_of(prev) == step.action:
+            if undo_of(prev) == step.action:
                 out.pop()
                 continue
             # §2.6: rollback(A) directly followed by A is resume(A).
-            if prev.name == "rollback" and prev.args and prev.args[0] == step.action:
-                resume = domain.resume_of(step.action)
+            if prev.name == rollback and rolled_back(prev) == step.action:
+                resume = actions.resume_of(step.action)
                 if resume is not None:
-                    out[-1] = Step(resume, domain.cost(resume), step.record)
+                    out[-1] = Step(resume, actions.cost(resume), step.record)
                     continue
         out.append(step)
     return tuple(out)

@@ -4,8 +4,8 @@ Pure, synchronous code.  The first task of the task list is always the one
 decomposed or applied, so the state is known at every step.  Search is
 best-first A* over ``(state, remaining tasks)`` with ``f = g + h``: ``g`` the
 cost of the actions so far, ``h`` the domain's estimate for the first compound
-task left (see :meth:`~htnagent.domain.Domain.h`: later tasks start elsewhere, and
-adding their estimates could over-estimate).  The planner returns up to ``alternatives`` complete plans
+task left (see :func:`heuristic`: later tasks start elsewhere, and adding their
+estimates could over-estimate).  The planner returns up to ``alternatives`` complete plans
 in cost order; each key may be expanded that many times, and a plan never
 returns to a ``(state, tasks)`` it already passed through, so alternatives are
 genuinely different routes rather than detours with loops.
@@ -24,9 +24,12 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from enum import Enum
 
-from htnagent.domain import Domain, State, all_satisfiers, satisfiers
-from htnagent.errors import PlanningError
+from htnagent.actions import ROLLBACK, Actions
+from htnagent.domain import Domain
+from htnagent.errors import PlanningError, SettingsError
 from htnagent.plan import Decomposition, Plan, Step, tidy
+from htnagent.preconditions import all_satisfiers, satisfiers
+from htnagent.state import State
 from htnagent.terms import Atom, Bindings, substitute, unify
 
 TaskEntry = tuple[Atom, Decomposition | None]
@@ -63,11 +66,13 @@ class PlannerSettings:
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
-            raise ValueError("alternatives must be at least 1")
+            raise SettingsError(f"planner settings: alternatives must be at least 1, not {self.alternatives}")
         if self.budget < 1:
-            raise ValueError("budget must be at least 1")
+            raise SettingsError(f"planner settings: budget must be at least 1, not {self.budget}")
         if self.alternatives_effort < 0:
-            raise ValueError("alternatives_effort must not be negative")
+            raise SettingsError(
+                f"planner settings: alternatives_effort must not be negative, not {self.alternatives_effort}"
+            )
 
 
 @dataclass(frozen=True, slots=True)
@@ -180,7 +185,7 @@ def plan(
     h_cache: dict[tuple[frozenset[Atom], Atom], float] = {}
 
     def push(node: _Node, st: State) -> None:
-        # h is the first compound task's estimate (Domain.h); the children of one node
+        # h is the first compound task's estimate (heuristic below); the children of one node
         # mostly share their state and that task, so it is worked out once for them.
         h = 0.0
         for t in node.tasks:
@@ -200,7 +205,7 @@ def plan(
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
-            if op.name == "rollback" and not settings.rollbacks:
+            if op.name == ROLLBACK and not settings.rollbacks:
                 continue
             for b in satisfiers(op.pre, state, {}):
                 action = substitute(op.head, b)
@@ -208,7 +213,7 @@ def plan(
                     continue
                 child = _Node(
                     op.action_cost(action),
-                    op.progress(state.dynamic, b),
+                    op.effects_on(state.dynamic, b),
                     root.tasks,
                     root.records,
                     Step(action, op.action_cost(action), None),
@@ -216,6 +221,7 @@ def plan(
                 )
                 push(child, state.with_dynamic(child.dynamic))
 
+    ground_actions = domain.actions
     popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
@@ -258,7 +264,7 @@ def plan(
         if domain.is_primitive(task):
             applied = primitive_cache.get(cache_key)
             if applied is None:
-                applied = _apply_task(domain, st, task)
+                applied = _apply_task(domain, ground_actions, st, task)
                 primitive_cache[cache_key] = applied
             for action, c, dyn in applied:
                 if avoid and action in avoid and node.dynamic == state.dynamic:
@@ -294,17 +300,19 @@ def plan(
     return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
 
 
-def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float, frozenset[Atom]]]:
+def _apply_task(
+    domain: Domain, actions: Actions, st: State, task: Atom
+) -> list[tuple[Atom, float, frozenset[Atom]]]:
     """The ways to apply a primitive task: (action, cost, dynamic facts after)."""
     operators = domain.operators[task.name]
     if len(operators) == 1:
-        compiled = domain.known_action(task)  # a ground action met before, if it is one
+        compiled = actions.known(task)  # a ground action met before, if it is one
         if compiled is None and task.is_ground:
-            compiled = domain.compiled_or_none(task)
+            compiled = actions.compiled_or_none(task)
             if compiled is None:
                 return []  # e.g. rollback(A) for an A of another domain: a dead end, not an error
         if compiled is not None:
-            dynamic = domain.step_compiled(st, compiled)
+            dynamic = compiled.apply_dynamic(st)
             return [] if dynamic is None else [(task, compiled.cost, dynamic)]
     out = []
     for op in domain.operators[task.name]:
@@ -315,7 +323,7 @@ def _apply_task(domain: Domain, st: State, task: Atom) -> list[tuple[Atom, float
         if b is None:
             continue
         action = substitute(op.head, b)
-        out.append((action, op.action_cost(action), op.progress(st.dynamic, b)))
+        out.append((action, op.action_cost(action), op.effects_on(st.dynamic, b)))
     return out
 
 
@@ -333,6 +341,29 @@ def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[A
                 seen.add(subtasks)
                 out.append((m.name, subtasks))
     return out
+
+
+def heuristic(domain: Domain, tasks: Sequence[Atom], state: State) -> float:
+    """A*'s estimate of the cost of the task list: the first compound task's estimate.
+
+    Estimates are computed from the current state, which is right for the first
+    compound task only: adding those of later tasks (as if each started here)
+    could over-estimate — ``[goto(A), goto(B)]`` costs d(here,A) + d(A,B), not
+    d(here,A) + d(here,B) — and an over-estimate costs A* its optimality.  0 when
+    the first compound task has no estimate.  (The search inlines the same rule,
+    caching it per node.)
+    """
+    est = domain.estimates
+    if not est:
+        return 0.0
+    methods = domain.methods
+    for t in tasks:
+        fn = est.get(t.name)
+        if fn is not None:
+            return fn(t, state)
+        if t.name in methods:
+            return 0.0  # a compound task without an estimate comes first
+    return 0.0
 
 
 def _unify_head(head: Atom, task: Atom) -> Bindings | None:

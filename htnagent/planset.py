@@ -1,44 +1,67 @@
 """Keeping a goal's alternative plans valid while the agent acts (ALGORITHMS.md §2–§3).
 
-A :class:`PlanSet` holds the alternative plans of one goal — the active goal or
-one waiting on the suspension stack — and updates them after every event
-instead of planning again:
+A plan set holds the alternative plans of one goal — the active goal or one
+waiting on the suspension stack — and updates them after every event.  There
+are two kinds, one per :class:`Replanning` mode, both :class:`PlanSet`:
+``PlanSet(domain, goal, mode)`` makes the one the mode names.
 
-- :meth:`PlanSet.action_succeeded` (§2.1), :meth:`PlanSet.action_failed` (§2.2),
-  :meth:`PlanSet.action_suspended` (§3, the published Algorithm 1),
-  :meth:`PlanSet.belief_changed` (§2.3), :meth:`PlanSet.suspension_cleared`
-  (a suspended action will not be resumed);
-- each of them re-checks every plan by progressing the belief through it and
-  *repairs* a broken plan by re-decomposing only the lowest compound task above
-  the failing action that can be decomposed again (§2.4); plans known to be
-  valid (they ran the action that just succeeded, or sit behind an undo that
-  provably restores the belief) are not walked again;
-- plans removed because a fact was false are kept, indexed by that fact, and
-  revived when it becomes true again (§2.5);
-- the tidy-up rules run after every update (§2.6);
-- :meth:`PlanSet.ensure` plans from scratch when nothing is left (§2.7);
-- :meth:`PlanSet.shorten_detours`, at resumption, offers a shorter way than a
-  plan's leading undo steps.
+- :class:`OnlinePlanSet` (Dynagent style) keeps up to K plans and modifies them
+  instead of planning again:
 
-In **naive** mode the set keeps only the plan being executed: suspension drops
-it, and whenever a plan is needed again it is made from scratch.
+  - :meth:`~PlanSet.action_succeeded` (§2.1), :meth:`~PlanSet.action_failed`
+    (§2.2), :meth:`~PlanSet.action_suspended` (§3, the published Algorithm 1),
+    :meth:`~PlanSet.belief_changed` (§2.3), :meth:`~PlanSet.suspension_cleared`
+    (a suspended action will not be resumed);
+  - each of them re-checks every plan by progressing the belief through it, and
+    a :class:`~htnagent.repair.Repairer` repairs a broken plan by re-decomposing
+    only the lowest compound task above the failing action that can be
+    decomposed again (§2.4, :mod:`htnagent.repair`); plans known to be valid
+    (they ran the action that just succeeded, or sit behind an undo that
+    provably restores the belief) are flagged so and not walked again;
+  - plans removed because a fact was false wait in a
+    :class:`~htnagent.revival.Revival` store, indexed by that fact, and come
+    back when it becomes true again (§2.5, :mod:`htnagent.revival`);
+  - the tidy-up rules run after every update (§2.6);
+  - :meth:`~PlanSet.shorten_detours`, at resumption, offers a shorter way than a
+    plan's leading undo steps.
+
+- :class:`NaivePlanSet`, kept for comparison, keeps only the plan being
+  executed: suspension or failure drops it, and whenever a plan is needed again
+  it is made from scratch (§2, last paragraph).
+
+Both plan from scratch when nothing is left (:meth:`~PlanSet.ensure`, §2.7) and
+keep an emptied plan only if the goal is achieved now
+(:meth:`~PlanSet.confirm_achieved`, §2.8).
 
 Pure and synchronous: the agent runtime calls it; no event loop inside.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
+from typing import ClassVar, NamedTuple
 
-from htnagent.domain import Domain, State, half_done, satisfiers
-from htnagent.plan import Decomposition, Plan, Step, replay, tidy
-from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, TaskEntry, achieved_by_nothing, plan
-from htnagent.terms import Atom, substitute
+from htnagent.actions import RESUME, half_done, resume_action
+from htnagent.domain import Domain
+from htnagent.errors import SettingsError
+from htnagent.plan import Plan, Step, replay, span, tidy
+from htnagent.planner import (
+    PlannerSettings,
+    PlanResult,
+    PlanStatus,
+    TaskEntry,
+    achieved_by_nothing,
+    heuristic,
+    plan,
+)
+from htnagent.repair import LOCAL_BUDGET, Repairer, SearchMemo, one_plan
+from htnagent.revival import Revival
+from htnagent.state import State
+from htnagent.terms import Atom
 
 
 class Replanning(Enum):
@@ -81,42 +104,58 @@ class PlanningStats:
         }
 
 
-@dataclass(slots=True)
-class _Removed:
-    plan: Plan
-    key: tuple[Atom, bool]
-    update: int
+# -- the plan set: what both modes share -------------------------------------------------------
 
 
-@dataclass
 class PlanSet:
     """The alternative plans of one goal, cheapest first, kept valid from the belief.
 
-    ``revival_window`` bounds how many updates a removed plan waits for its fact,
-    and ``revival_capacity`` how many removed plans are kept at once.
+    ``PlanSet(domain, goal, mode, settings, stats)`` makes an
+    :class:`OnlinePlanSet` or a :class:`NaivePlanSet` as ``mode`` (a
+    :class:`Replanning`, on-line by default) says — as ``pathlib.Path`` makes a
+    ``PosixPath`` — so callers choose the mode with a value, not a class.  This
+    class holds what both share; the updates on events are each subclass's own.
+    ``plans`` is the list of kept plans, cheapest first.
     """
 
-    domain: Domain
-    goal: Atom
-    mode: Replanning = Replanning.ONLINE
-    settings: PlannerSettings = field(default_factory=PlannerSettings)
-    stats: PlanningStats = field(default_factory=PlanningStats)
-    revival_window: int = 64
-    revival_capacity: int = 32
-    plans: list[Plan] = field(default_factory=list)
-    last_status: PlanStatus | None = None
-    avoid: tuple[tuple[object, ...], frozenset[Atom]] | None = None
-    """Actions the executor has said it cannot do from one belief (a child agent found
-    no plan for them): no plan starts with them from that belief."""
-    lazy: bool = False
-    """Set while the goal waits on the stack: a plan an event breaks is not repaired at
-    once but put aside (for revival); what is left is made good when the goal is about
-    to run again (prepared or resumed) — one search then, instead of one per event."""
-    _removed: list[_Removed] = field(default_factory=list)
-    _updates: int = 0
-    _checked: State | None = None  # every kept plan is valid from this belief
-    _trusted: set[int] = field(default_factory=set)  # plans known valid without a re-check
-    _unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
+    mode: ClassVar[Replanning]
+    """The replanning mode this class implements."""
+
+    def __new__(
+        cls, domain: Domain, goal: Atom, mode: Replanning | None = None, *args: object, **kwargs: object
+    ) -> PlanSet:
+        kind = _KINDS[mode or Replanning.ONLINE] if cls is PlanSet else cls
+        return object.__new__(kind)
+
+    def __init__(
+        self,
+        domain: Domain,
+        goal: Atom,
+        mode: Replanning | None = None,
+        settings: PlannerSettings | None = None,
+        stats: PlanningStats | None = None,
+    ) -> None:
+        if mode is not None and mode is not self.mode:
+            raise SettingsError(f"{type(self).__name__} keeps plans {self.mode.value}, not {mode.value}")
+        self.domain = domain
+        self.goal = goal
+        self.settings = settings if settings is not None else PlannerSettings()
+        self.stats = stats if stats is not None else PlanningStats()
+        self.plans: list[Plan] = []
+        self.last_status: PlanStatus | None = None
+        """How the last search from scratch ended."""
+        self.avoid: tuple[tuple[object, ...], frozenset[Atom]] | None = None
+        """Actions the executor has said it cannot do from one belief (a child agent found
+        no plan for them): no plan starts with them from that belief."""
+        self.lazy = False
+        """Set while the goal waits on the stack: a plan an event breaks is not repaired at
+        once but put aside (for revival); what is left is made good when the goal is about
+        to run again (prepared or resumed) — one search then, instead of one per event."""
+        self._checked: State | None = None  # every kept plan is valid from this belief
+        self._unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
+
+    def __repr__(self) -> str:
+        return f"{type(self).__name__}({self.goal}, {len(self.plans)} plans)"
 
     # -- queries --------------------------------------------------------------
 
@@ -134,21 +173,20 @@ class PlanSet:
         return len(self.plans)
 
     def fork(self) -> PlanSet:
-        """A copy to update speculatively (the plans themselves are immutable values)."""
-        copy = dataclasses.replace(self)
-        copy.plans = list(self.plans)
-        copy._removed = [_Removed(r.plan, r.key, r.update) for r in self._removed]
-        copy._trusted = set(self._trusted)
-        return copy
+        """A copy to update speculatively (the plans themselves are immutable values).
+
+        The copy shares the settings and the statistics.
+        """
+        forked = object.__new__(type(self))
+        forked.__dict__.update(self.__dict__)
+        forked.plans = list(self.plans)
+        return forked
 
     def adopt(self, other: PlanSet) -> None:
         """Take over the state of a fork (a speculation that came true)."""
         self.plans = other.plans
         self.last_status = other.last_status
-        self._removed = other._removed
-        self._updates = other._updates
         self._checked = other._checked
-        self._trusted = other._trusted
         self._unsolvable = other._unsolvable
 
     # -- making plans ---------------------------------------------------------
@@ -172,7 +210,7 @@ class PlanSet:
         with self._timed():
             # One plan: the alternatives are worth their search only for a goal that
             # gets suspended (see widen).
-            self._from_scratch(state, self._single())
+            self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
@@ -181,30 +219,9 @@ class PlanSet:
         Called for a goal that was just suspended, off the critical path (after the
         emergency's first action is on its way), and when an action ``failed`` left
         no plan: the alternatives are then the plans that do not start with it
-        (§2.2).  ``state`` is the belief the kept plans are valid from.  In naive
-        mode nothing is kept, so nothing is added.
+        (§2.2).  ``state`` is the belief the kept plans are valid from.
         """
-        k = self.settings.alternatives
-        if self.mode is Replanning.NAIVE or k <= 1 or len(self.plans) >= k:
-            return
-        with self._timed():
-            wanted = PlannerSettings(
-                alternatives=k + (failed is not None),
-                budget=self.settings.budget,
-                alternatives_effort=self.settings.alternatives_effort,
-                rollbacks=self.settings.rollbacks,
-            )
-            result = plan(self.domain, state, [self.goal], wanted, avoid=self._avoided(state))
-            self.stats.from_scratch += 1
-            self.stats.expansions += result.expansions
-            seen = {p.actions for p in self.plans}
-            extra = [
-                p
-                for p in result.plans
-                if p.actions not in seen and not (failed is not None and p.actions[:1] == (failed,))
-            ]
-            self.plans = sorted([*self.plans, *extra], key=lambda q: q.cost)[:k]
-            self._checked = state
+        raise NotImplementedError(f"{type(self).__name__} does not implement widen")
 
     def cannot_do(self, action: Atom, state: State) -> None:
         """The executor cannot do ``action`` from ``state``: plan around it from there."""
@@ -220,7 +237,6 @@ class PlanSet:
     def drop(self) -> None:
         """Forget every plan (naive mode's "plan needed again")."""
         self.plans = []
-        self._removed.clear()
 
     def confirm_achieved(self, state: State) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
@@ -244,31 +260,231 @@ class PlanSet:
         best_broke = bool(self.plans) and (not kept or kept[0] is not self.plans[0])
         self.plans = kept
         if best_broke and kept:
-            with self._timed():
-                self._as_good_as_fresh(state, _Scratch(0))
+            self._best_replaced(state)
+
+    def _best_replaced(self, state: State) -> None:
+        """The best plan went and another took its place, in the belief ``state``."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement _best_replaced")
+
+    def shorten_detours(self, state: State) -> bool:
+        """Give a resumed goal the chance of a shorter way than its undo detour.
+
+        Returns whether the best plan was shortened (never, unless on-line: see
+        :meth:`OnlinePlanSet.shorten_detours`).
+        """
+        return False
 
     def _from_scratch(self, state: State, settings: PlannerSettings | None = None) -> PlanResult:
         self.stats.from_scratch += 1
-        settings = settings or self._settings()
+        settings = settings or self._search_settings()
         result = plan(self.domain, state, [self.goal], settings, avoid=self._avoided(state))
         self.stats.expansions += result.expansions
         self.last_status = result.status
         self.plans = list(result.plans)
-        if self.mode is Replanning.NAIVE:
-            self.plans = self.plans[:1]
         self._checked = state
         if result.status is PlanStatus.UNSOLVABLE:
             self._unsolvable = state.key()
         return result
 
-    def _settings(self) -> PlannerSettings:
-        if self.mode is Replanning.NAIVE:
-            return self._single()
+    def _search_settings(self) -> PlannerSettings:
+        """The settings of a search from scratch for :meth:`make`."""
         return self.settings
 
-    def _single(self) -> PlannerSettings:
-        """The settings for one plan (repairs, fresh comparisons, naive mode)."""
-        return PlannerSettings(alternatives=1, budget=self.settings.budget, rollbacks=self.settings.rollbacks)
+    def _valid(self, p: Plan, state: State) -> bool:
+        self.stats.rechecks += 1
+        return _first_failure(self.domain, p, state) is None
+
+    @contextmanager
+    def _timed(self) -> Iterator[None]:
+        started = time.perf_counter()
+        try:
+            yield
+        finally:
+            self.stats.seconds += time.perf_counter() - started
+
+    # -- events ---------------------------------------------------------------
+
+    def action_succeeded(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement action_succeeded")
+
+    def action_failed(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The executed action failed (§2.2)."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement action_failed")
+
+    def action_suspended(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The running action was stopped half way (§3, Algorithm 1, steps 2–3).
+
+        ``after`` is the belief with the suspension effect (step 1, done by the caller).
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not implement action_suspended")
+
+    def suspension_cleared(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The half-done ``action`` will never be resumed; its half-done facts are gone.
+
+        A kept plan that still meant to ``resume(action)`` does the whole action
+        instead (the counterpart of §2.6's rollback(A), A → resume(A)).
+        """
+        raise NotImplementedError(f"{type(self).__name__} does not implement suspension_cleared")
+
+    def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
+        """The world changed from outside (§2.3)."""
+        raise NotImplementedError(f"{type(self).__name__} does not implement belief_changed")
+
+    def _whole(self, action: Atom) -> Callable[[Plan], Plan]:
+        """The rewrite of a plan that meant to ``resume(action)`` into one doing the whole action."""
+        resume = resume_action(action)
+        cost = self.domain.actions.cost(action)
+
+        def whole(p: Plan) -> Plan:
+            return Plan(tuple(Step(action, cost, s.record) if s.action == resume else s for s in p.steps))
+
+        return whole
+
+
+# -- naive mode ------------------------------------------------------------------------------------
+
+
+class NaivePlanSet(PlanSet):
+    """Naive plan keeping: only the plan being executed, planned afresh when needed again.
+
+    The plan follows the actions it makes; any other event — a failure, a
+    suspension, a belief change that breaks it — drops it, and the next
+    :meth:`~PlanSet.ensure` plans from scratch (one plan, no alternatives).
+    """
+
+    mode = Replanning.NAIVE
+
+    def widen(self, state: State, *, failed: Atom | None = None) -> None:
+        """Nothing is kept in naive mode, so nothing is added."""
+
+    def _search_settings(self) -> PlannerSettings:
+        return one_plan(self.settings)
+
+    def _best_replaced(self, state: State) -> None:
+        """Nothing to compare: a naive plan was made from scratch."""
+
+    def action_succeeded(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The plan that ran the action moves on; any other is dropped (§2.1)."""
+        with self._timed():
+            # A plan valid from ``before`` that ran the action is valid from ``after``.
+            trusted = before is self._checked
+            ran = [Plan(p.steps[1:]) for p in self.plans if p.steps and p.steps[0].action == action]
+            self.plans = [p for p in ran[:1] if trusted or self._valid(p, after)]
+            self._checked = after
+
+    def action_failed(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The plan is dropped."""
+        with self._timed():
+            self.plans = []
+
+    def action_suspended(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """The plan is dropped."""
+        with self._timed():
+            self.plans = []
+
+    def suspension_cleared(
+        self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
+    ) -> None:
+        """A ``resume(action)`` in the plan becomes the whole action; the plan stays if still valid."""
+        with self._timed():
+            whole = self._whole(action)
+            self.plans = [p for p in map(whole, self.plans[:1]) if self._valid(p, after)]
+            self._checked = after
+
+    def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
+        """The plan stays if still valid."""
+        with self._timed():
+            if self.plans and not self._valid(self.plans[0], after):
+                self.plans = []
+            self._checked = after
+
+
+# -- on-line mode ----------------------------------------------------------------------------------
+
+
+class _Kept(NamedTuple):
+    """A plan going into a re-check, and whether it is known valid from the new belief."""
+
+    plan: Plan
+    valid: bool
+
+
+class OnlinePlanSet(PlanSet):
+    """On-line plan keeping (Dynagent style): up to K plans, modified after every event.
+
+    ``revival_window`` bounds how many updates a removed plan waits for its fact,
+    and ``revival_capacity`` how many removed plans are kept at once (see :class:`Revival`).
+    """
+
+    mode = Replanning.ONLINE
+
+    def __init__(
+        self,
+        domain: Domain,
+        goal: Atom,
+        mode: Replanning | None = None,
+        settings: PlannerSettings | None = None,
+        stats: PlanningStats | None = None,
+        *,
+        revival_window: int = 64,
+        revival_capacity: int = 32,
+    ) -> None:
+        super().__init__(domain, goal, mode, settings, stats)
+        self.revival = Revival(domain, revival_window, revival_capacity)
+        """Plans removed because a fact was false, waiting for it to be true again (§2.5)."""
+
+    def fork(self) -> PlanSet:
+        forked = super().fork()
+        assert isinstance(forked, OnlinePlanSet)
+        forked.revival = self.revival.copy()
+        return forked
+
+    def adopt(self, other: PlanSet) -> None:
+        super().adopt(other)
+        assert isinstance(other, OnlinePlanSet)
+        self.revival = other.revival
+
+    def drop(self) -> None:
+        super().drop()
+        self.revival.clear()
+
+    def widen(self, state: State, *, failed: Atom | None = None) -> None:
+        k = self.settings.alternatives
+        if k <= 1 or len(self.plans) >= k:
+            return
+        with self._timed():
+            wanted = PlannerSettings(
+                alternatives=k + (failed is not None),
+                budget=self.settings.budget,
+                alternatives_effort=self.settings.alternatives_effort,
+                rollbacks=self.settings.rollbacks,
+            )
+            result = plan(self.domain, state, [self.goal], wanted, avoid=self._avoided(state))
+            self.stats.from_scratch += 1
+            self.stats.expansions += result.expansions
+            seen = {p.actions for p in self.plans}
+            extra = [
+                p
+                for p in result.plans
+                if p.actions not in seen and not (failed is not None and p.actions[:1] == (failed,))
+            ]
+            self.plans = sorted([*self.plans, *extra], key=lambda q: q.cost)[:k]
+            self._checked = state
 
     # -- events ---------------------------------------------------------------
 
@@ -277,42 +493,37 @@ class PlanSet:
     ) -> None:
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         with self._timed():
-            undo = self.domain.undo_of(action)
-            kept: list[Plan] = []
+            undo = self.domain.actions.undo_of(action)
             # A plan valid from ``before`` that ran the action is valid from ``after``;
-            # so is one behind the undo, when the undo really leads back to ``before``.
+            # so is one behind the undo, when the undo really leads back to ``before``;
+            # so is any other when the action changed nothing at all.
             trusted = before is self._checked
             undo_restores = trusted and undo is not None and _leads_back(self.domain, undo, before, after)
-            self._trusted.clear()
+            unchanged = (
+                trusted and undo is None and after.static is before.static and after.dynamic == before.dynamic
+            )
+            kept: list[_Kept] = []
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
                     # §2.1: the plan that ran the action moves on.
-                    advanced = Plan(p.steps[1:])
-                    kept.append(advanced)
-                    if trusted:
-                        self._trusted.add(id(advanced))
-                elif self.mode is Replanning.NAIVE:
-                    continue
+                    kept.append(_Kept(Plan(p.steps[1:]), trusted))
                 elif undo is not None:
                     # §2.1: another plan stays valid by undoing the action first.
-                    undone = Plan(self._behind(undo, p.steps))
-                    kept.append(undone)
-                    if undo_restores:
-                        self._trusted.add(id(undone))
+                    kept.append(_Kept(Plan(self._behind(undo, p.steps)), undo_restores))
                 else:
-                    kept.append(p)
-                    if trusted and after.dynamic == before.dynamic and after.static is before.static:
-                        self._trusted.add(id(p))  # the action changed nothing the plan relies on
-            self.plans = kept
+                    kept.append(_Kept(p, unchanged))
+
             # §2.5: plans kept for revival follow the same steps, so that a revived plan
             # is valid from where the robot is by then (not from where it was removed).
-            for r in self._removed:
-                steps = r.plan.steps
-                if steps and steps[0].action == action:
-                    r.plan = Plan(steps[1:])
-                elif undo is not None:
-                    r.plan = Plan(self._behind(undo, steps))
-            self._revise(before, after, memo=memo)
+            def follow(p: Plan) -> Plan | None:
+                if p.steps and p.steps[0].action == action:
+                    return Plan(p.steps[1:])
+                if undo is not None:
+                    return Plan(self._behind(undo, p.steps))
+                return None
+
+            self.revival.rewrite(follow)
+            self._revise(before, after, kept, memo=memo)
 
     def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
         """The steps behind the undo of an action another goal made (§2.1), tidied.
@@ -321,22 +532,21 @@ class PlanSet:
         the executor has since done other things — so it is costed as the whole A:
         how much of A is left is not known.
         """
+        cost = self.domain.actions.cost
+        # The name test first: this runs on every step of every kept plan.
         rest = tuple(
-            Step(s.action, self.domain.cost(inner), s.record)
-            if s.action.name == "resume" and (inner := half_done(s.action)) is not None
+            Step(s.action, cost(inner), s.record)
+            if s.action.name == RESUME and (inner := half_done(s.action)) is not None
             else s
             for s in steps
         )
-        return tidy(self.domain, (Step(undo, self.domain.cost(undo), None), *rest), front=True)
+        return tidy(self.domain, (Step(undo, cost(undo), None), *rest), front=True)
 
     def action_failed(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
         """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
         with self._timed():
-            if self.mode is Replanning.NAIVE:
-                self.plans = []
-                return
             had = bool(self.plans)
             self.plans = [p for p in self.plans if not (p.steps and p.steps[0].action == action)]
             if had and not self.plans and not self.lazy:
@@ -356,28 +566,24 @@ class PlanSet:
         ``after`` is the belief with the suspension effect (step 1, done by the caller).
         """
         with self._timed():
-            if self.mode is Replanning.NAIVE:
-                self.plans = []
-                return
-            resume = self.domain.resume_of(action)
-            rollback = self.domain.rollback_of(action) if self.settings.rollbacks else None
+            actions = self.domain.actions
+            resume = actions.resume_of(action)
+            rollback = actions.rollback_of(action) if self.settings.rollbacks else None
 
             def suspended(p: Plan) -> Plan | None:
                 if p.steps and p.steps[0].action == action:
                     if resume is None:
                         return None
                     # Algorithm 1, step 3: resume(A) takes A's place (and its record).
-                    first = Step(resume, self.domain.cost(resume), p.steps[0].record)
+                    first = Step(resume, actions.cost(resume), p.steps[0].record)
                     return Plan((first, *p.steps[1:]))
                 if rollback is not None:
                     # Algorithm 1, step 3: undo the half-done A before the other plan.
-                    return Plan((Step(rollback, self.domain.cost(rollback), None), *p.steps))
+                    return Plan((Step(rollback, actions.cost(rollback), None), *p.steps))
                 return p
 
             self.plans = [q for q in map(suspended, self.plans) if q is not None]
-            for r in self._removed:
-                q = suspended(r.plan)
-                r.plan = q if q is not None else r.plan
+            self.revival.rewrite(suspended)
             # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
             self._revise(before, after, memo=memo)
 
@@ -391,29 +597,14 @@ class PlanSet:
         plan is re-checked as for any belief change.
         """
         with self._timed():
-            resume = Atom("resume", (action,))
-            cost = self.domain.cost(action)
-
-            def whole(p: Plan) -> Plan:
-                return Plan(tuple(Step(action, cost, s.record) if s.action == resume else s for s in p.steps))
-
+            whole = self._whole(action)
             self.plans = [whole(p) for p in self.plans]
-            for r in self._removed:
-                r.plan = whole(r.plan)
-            if self.mode is Replanning.NAIVE:
-                self.plans = [p for p in self.plans[:1] if self._valid(p, after)]
-                self._checked = after
-                return
+            self.revival.rewrite(whole)
             self._revise(before, after, memo=memo)
 
     def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
         """The world changed from outside (§2.3): every plan is re-checked."""
         with self._timed():
-            if self.mode is Replanning.NAIVE:
-                if self.plans and not self._valid(self.plans[0], after):
-                    self.plans = []
-                self._checked = after
-                return
             self._revise(before, after, memo=memo)
 
     def shorten_detours(self, state: State) -> bool:
@@ -428,7 +619,7 @@ class PlanSet:
         whether the plan was shortened.
         """
         best = self.best
-        if self.mode is Replanning.NAIVE or best is None:
+        if best is None:
             return False
         # The detour: the leading steps that plan maintenance put there (undo steps, a
         # rollback of another goal's action: steps without a record) — not a resume(A)
@@ -445,15 +636,15 @@ class PlanSet:
             else:
                 record = best.steps[first].record
                 assert record is not None
-                _, end = _span(best.steps, record)
+                _, end = span(best.steps, record)
                 tasks = [(record.task, record.parent)]
                 tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
                 head, fixed = record.task, sum(s.cost for s in best.steps[end + 1 :])
             # With admissible estimates nothing can beat a plan that costs no more than
             # the estimate of the rival's tasks: then the search is not worth making.
-            if best.cost <= self.domain.h([head], state) + fixed + 1e-9:
+            if best.cost <= heuristic(self.domain, [head], state) + fixed + 1e-9:
                 return False
-            rival = self._plan_cached(state, tasks, self._single(), _Scratch(0))
+            rival = self._repairer().search(state, tasks, one_plan(self.settings))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
             shorter = rival  # the planner returns tidy plans
@@ -464,34 +655,40 @@ class PlanSet:
 
     # -- the machinery --------------------------------------------------------
 
+    def _repairer(self, memo: SearchMemo | None = None, local_budget: int = 0) -> Repairer:
+        return Repairer(self.domain, self.goal, self.settings, self.stats, self._avoided, memo, local_budget)
+
     def _revise(
-        self, before: State, after: State, *, best_broke: bool = False, memo: SearchMemo | None = None
+        self,
+        before: State,
+        after: State,
+        kept: list[_Kept] | None = None,
+        *,
+        best_broke: bool = False,
+        memo: SearchMemo | None = None,
     ) -> None:
         """Revive (§2.5), tidy (§2.6), re-check and repair (§2.4); cheapest first.
 
-        When the best plan breaks, whatever takes its place must be as good as a
-        plan made afresh from the belief (§2.4): the domain's admissible estimate
-        proves it, or the goal is planned from scratch and the cheaper one wins.
+        ``kept`` are the plans with what is known of them (by default ``plans``, none
+        known valid).  When the best plan breaks, whatever takes its place must be as
+        good as a plan made afresh from the belief (§2.4): the domain's admissible
+        estimate proves it, or the goal is planned from scratch and the cheaper one wins.
         """
-        self._updates += 1
-        if self.mode is Replanning.NAIVE:
-            self.plans = [p for p in self.plans[:1] if id(p) in self._trusted or self._valid(p, after)]
-            self._trusted.clear()
-            self._checked = after
-            return
-        candidates = self._revivable(before, after)
+        self.revival.tick()
+        if kept is None:
+            kept = [_Kept(p, False) for p in self.plans]
+        revived_from = len(kept)
+        candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
-        cache = _Scratch(min(self.settings.budget, _LOCAL_BUDGET), memo)
-        kept = len(self.plans)
-        trusted, self._trusted = self._trusted, set()
-        for n, p in enumerate([*self.plans, *candidates]):
-            revived = n >= kept
-            if id(p) in trusted:
+        repairer = self._repairer(memo, min(self.settings.budget, LOCAL_BUDGET))
+        for n, (p, valid) in enumerate(candidates):
+            revived = n >= revived_from
+            if valid:
                 checked: Plan | None = p
             else:
                 p = Plan(tidy(self.domain, p.steps))
-                checked = self._recheck(p, after, cache, allow_repair=not revived, remember=not revived)
+                checked = self._recheck(p, after, repairer, allow_repair=not revived, remember=not revived)
                 if n == 0 and checked is not p:
                     best_broke = True
             if checked is None:
@@ -505,19 +702,25 @@ class PlanSet:
         out.sort(key=lambda q: q.cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
         if best_broke and not self.lazy:
-            self._as_good_as_fresh(after, cache)
+            self._as_good_as_fresh(after, repairer)
+        if repairer.unsolvable is not None:
+            self._unsolvable = repairer.unsolvable
         self._checked = after
-        self._removed = [r for r in self._removed if self._updates - r.update <= self.revival_window]
+        self.revival.expire()
 
-    def _as_good_as_fresh(self, state: State, cache: _Scratch) -> None:
+    def _best_replaced(self, state: State) -> None:
+        with self._timed():
+            self._as_good_as_fresh(state, self._repairer())
+
+    def _as_good_as_fresh(self, state: State, repairer: Repairer) -> None:
         """§2.4: the best plan took the place of a broken one: it must be no worse than a
         plan made afresh from ``state`` — proven by the estimate, or else compared.
 
-        The search is shared (``cache``) with a repair that reached the goal itself.
+        The search is shared (``repairer``) with a repair that reached the goal itself.
         """
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return
-        fresh = self._plan_cached(state, [(self.goal, None)], self._single(), cache)
+        fresh = repairer.search(state, [(self.goal, None)], one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1
@@ -526,233 +729,80 @@ class PlanSet:
 
     def _proven_optimal(self, p: Plan, state: State) -> bool:
         """Whether the admissible estimate proves no plan from ``state`` is cheaper."""
-        return p.cost <= self.domain.h([self.goal], state) + 1e-9
-
-    def _valid(self, p: Plan, state: State) -> bool:
-        self.stats.rechecks += 1
-        return self._first_failure(p, state) is None
-
-    def _first_failure(self, p: Plan, state: State) -> tuple[int, State] | None:
-        """Progress the belief through the plan: the first step that cannot run, and the state there."""
-        current = state
-        step = self.domain.step
-        for i, s in enumerate(p.steps):
-            dynamic = step(current, s.action)
-            if dynamic is None:
-                return i, current
-            if dynamic is not current.dynamic:
-                current = current.with_dynamic(dynamic)
-        return None
-
-    def _states(self, p: Plan, state: State, upto: int) -> list[State]:
-        """The belief before each of the first ``upto + 1`` steps (all applicable)."""
-        states = [state]
-        for s in p.steps[:upto]:
-            nxt = self.domain.apply(states[-1], s.action)
-            assert nxt is not None
-            states.append(nxt)
-        return states
+        return p.cost <= heuristic(self.domain, [self.goal], state) + 1e-9
 
     def _recheck(
-        self, p: Plan, state: State, cache: _Scratch, *, allow_repair: bool, remember: bool
+        self, p: Plan, state: State, repairer: Repairer, *, allow_repair: bool, remember: bool
     ) -> Plan | None:
         """The plan if valid, else its repair, else None (and it is kept for revival)."""
         self.stats.rechecks += 1
-        failure = self._first_failure(p, state)
+        failure = _first_failure(self.domain, p, state)
         if failure is None:
             return p
         index, at_failure = failure
+        culprit = p.steps[index].action
         if not allow_repair or self.lazy:
             if remember:
                 self.stats.removed += 1
-                self._remember(p, p.steps[index].action, at_failure)
+                self.revival.keep(p, culprit, at_failure)
             return None
-        repaired = self._repair(p, index, self._states(p, state, index), cache)
+        repaired = repairer.repair(p, index, _states(self.domain, p, state, index))
+        # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.
+        self.revival.keep(p, culprit, at_failure)
         if repaired is not None:
             self.stats.repairs += 1
-            # §2.5: the plan as it was before the repair comes back if the fact does.
-            self._remember(p, p.steps[index].action, at_failure)
             return repaired
         self.stats.failed_repairs += 1
         self.stats.removed += 1
-        self._remember(p, p.steps[index].action, at_failure)
         return None
 
-    def _repair(
-        self,
-        p: Plan,
-        index: int,
-        states: list[State],
-        cache: _Scratch,
-    ) -> Plan | None:
-        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
-        The last ancestor is the goal itself; steps inserted by maintenance (undo,
-        rollback) belong to no task, so for them the goal is the only ancestor.
-        The goal is re-decomposed from the current belief, once per update, and
-        the result is shared by every plan that needs it.
-        """
-        step = p.steps[index]
-        chain = step.record.chain() if step.record is not None else []
-        settings = self._single()
-        # A recursive method makes the record as long as the plan; past a few levels a
-        # re-decomposition costs as much as planning the goal, so go straight to it.
-        for record in chain[:_REPAIR_LEVELS]:
-            if record.parent is None:
-                break  # the goal's own decomposition: below, shared
-            start, end = _span(p.steps, record)
-            if start > index:
-                continue
-            # Repairs below the goal are local fixes: together, in one update, they get
-            # a small budget; what they cannot fix the goal's re-decomposition will.
-            if cache.local_left <= 0:
-                break
-            tasks: list[TaskEntry] = [(record.task, record.parent)]
-            tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-            before = self.stats.expansions
-            local = PlannerSettings(
-                alternatives=1, budget=cache.local_left, rollbacks=self.settings.rollbacks
-            )
-            result = self._plan_cached(states[start], tasks, local, cache)
-            cache.local_left -= self.stats.expansions - before
-            if result is not None:
-                return Plan(tidy(self.domain, (*p.steps[:start], *result.steps)))
-        # The goal itself, from the current belief: one search shared by all plans.
-        found = self._plan_cached(states[0], [(self.goal, None)], settings, cache)
-        if found is None:
-            self._unsolvable = states[0].key()
-        return found
-
-    def _plan_cached(
-        self,
-        state: State,
-        tasks: Sequence[TaskEntry],
-        settings: PlannerSettings,
-        cache: _Scratch,
-    ) -> Plan | None:
-        # Records do not change whether tasks can be done: a search that found the
-        # task list impossible from a state answers for every plan that asks again.
-        impossible: tuple[object, ...] = (state.dynamic, self._avoided(state), *(t for t, _ in tasks))
-        if impossible in cache.impossible:
-            return None
-        key: tuple[object, ...] = (*impossible, *(id(r) for _, r in tasks))
-        if key in cache.results:
-            return cache.results[key]
-        result = plan(self.domain, state, tasks, settings, avoid=self._avoided(state))
-        self.stats.expansions += result.expansions
-        found = result.best
-        cache.results[key] = found
-        if result.status is PlanStatus.UNSOLVABLE:
-            cache.impossible.add(impossible)
-        return found
-
-    def _remember(self, p: Plan, action: Atom, state: State) -> None:
-        """Keep a removed plan, indexed by a fact that broke it (§2.5)."""
-        key = _broken_by(self.domain, action, state)
-        if key is None:
-            return
-        self._removed.append(_Removed(p, key, self._updates))
-        if len(self._removed) > self.revival_capacity:
-            del self._removed[0]
-
-    def _revivable(self, before: State, after: State) -> list[Plan]:
-        """Removed plans whose breaking fact changed the right way between the states."""
-        if not self._removed:
-            return []
-        added = after.dynamic - before.dynamic
-        deleted = before.dynamic - after.dynamic
-        if after.static is not before.static:
-            added |= after.static.facts - before.static.facts
-            deleted |= before.static.facts - after.static.facts
-        out: list[Plan] = []
-        keep: list[_Removed] = []
-        for r in self._removed:
-            fact, positive = r.key
-            if (positive and fact in added) or (not positive and fact in deleted):
-                out.append(r.plan)
-            else:
-                keep.append(r)
-        self._removed = keep
-        return out
-
-    @contextmanager
-    def _timed(self) -> Iterator[None]:
-        started = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.stats.seconds += time.perf_counter() - started
+# -- helpers -----------------------------------------------------------------------------------------
 
 
-_REPAIR_LEVELS = 3
-"""How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
-
-_LOCAL_BUDGET = 2_000
-"""Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
+_KINDS: dict[Replanning, type[PlanSet]] = {Replanning.ONLINE: OnlinePlanSet, Replanning.NAIVE: NaivePlanSet}
+"""The plan-set class of each replanning mode (``PlanSet(..., mode)`` picks from it)."""
 
 
-@dataclass
-class SearchMemo:
-    """Searches made during one update of an agent's plan sets, shared between them.
+def _first_failure(domain: Domain, p: Plan, state: State) -> tuple[int, State] | None:
+    """Progress the belief through the plan: the first step that cannot run, and the state there."""
+    current = state
+    compiled = domain.actions.compiled
+    for i, s in enumerate(p.steps):
+        dynamic = compiled(s.action).apply_dynamic(current)
+        if dynamic is None:
+            return i, current
+        if dynamic is not current.dynamic:
+            current = current.with_dynamic(dynamic)
+    return None
 
-    The goals on a stack often repeat, and all of them are updated from the same
-    belief: a search one plan set made (a goal from a state, or a task list found
-    impossible) answers for the others.  Make one per update; never keep it.
-    """
 
-    results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
-    impossible: set[tuple[object, ...]] = field(default_factory=set)
-
-
-class _Scratch:
-    """What the searches of one plan set's update share, and the expansions left for
-    repairs below the goal."""
-
-    __slots__ = ("impossible", "local_left", "results")
-
-    def __init__(self, local_left: int, memo: SearchMemo | None = None) -> None:
-        memo = memo if memo is not None else SearchMemo()
-        self.local_left = local_left
-        self.results = memo.results
-        self.impossible = memo.impossible
+def _states(domain: Domain, p: Plan, state: State, upto: int) -> list[State]:
+    """The belief before each of the first ``upto + 1`` steps (all applicable)."""
+    apply = domain.actions.apply
+    states = [state]
+    for s in p.steps[:upto]:
+        nxt = apply(states[-1], s.action)
+        assert nxt is not None
+        states.append(nxt)
+    return states
 
 
 def _leads_back(domain: Domain, undo: Atom, before: State, after: State) -> bool:
     """Whether doing ``undo`` in ``after`` gives back exactly the belief ``before``."""
     if after.static is not before.static:
         return False
-    dynamic = domain.step(after, undo)
+    dynamic = domain.actions.apply_dynamic(after, undo)
     return dynamic is not None and dynamic == before.dynamic
 
 
-def _span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
-    """The first and last index of the steps that ``record``'s task produced."""
-    start = end = -1
-    for i, s in enumerate(steps):
-        node = s.record
-        while node is not None:
-            if node is record:
-                if start < 0:
-                    start = i
-                end = i
-                break
-            node = node.parent
-    return start, end
-
-
-def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:
-    """The precondition literal of the action that fails: ``(fact, must be true)``.
-
-    SHOP binding makes later literals depend on earlier ones, so the culprit is
-    the first literal with which the precondition's prefix has no satisfier;
-    it is made ground with the first satisfier of the prefix before it.
-    """
-    op, bindings = domain.ground(action)
-    prefix_binding = bindings
-    for i, lit in enumerate(op.pre):
-        extended = next(satisfiers(op.pre[: i + 1], state, bindings), None)
-        if extended is None:
-            fact = substitute(lit.atom, prefix_binding)
-            return (fact, lit.positive) if fact.is_ground else None
-        prefix_binding = extended
-    return None
+__all__ = [
+    "NaivePlanSet",
+    "OnlinePlanSet",
+    "PlanSet",
+    "PlanningStats",
+    "Repairer",
+    "Replanning",
+    "Revival",
+    "SearchMemo",
+]

@@ -32,7 +32,7 @@ from anyio.abc import TaskGroup, TaskStatus
 
 from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
-from htnagent.errors import RuntimeClosedError, SettingError, UnknownNameError
+from htnagent.errors import RuntimeClosedError, SettingsError, UnknownNameError
 from htnagent.events import AgentCrashed
 from htnagent.executor import AdapterActor, Executor, ExecutorActor
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
@@ -95,9 +95,9 @@ class Runtime:
         run ``clock.keep_time()`` yourself, once, beside the runtimes.
         """
         if not agents:
-            raise SettingError("a runtime needs at least one agent")
+            raise SettingsError("a runtime needs at least one agent")
         if clock is not None and speed is not None:
-            raise SettingError("a shared clock has its own speed: give speed to the Clock")
+            raise SettingsError("a shared clock has its own speed: give speed to the Clock")
         if isinstance(executor, Executor) and speed is None and clock is None:
             # A user's executor acts in the real world: its time is the wall clock's.
             speed = 1.0

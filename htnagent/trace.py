@@ -16,7 +16,7 @@ from typing import Self
 import anyio
 
 from htnagent.clock import Clock
-from htnagent.errors import SettingError
+from htnagent.errors import SettingsError
 from htnagent.events import EventsDropped, TraceEvent
 
 Observer = Callable[[TraceEvent], None]
@@ -73,7 +73,7 @@ class EventStream:
 
     def __init__(self, trace: Trace, limit: int = 10_000) -> None:
         if limit < 1:
-            raise SettingError("an event stream needs room for at least one event")
+            raise SettingsError("an event stream needs room for at least one event")
         self.limit = limit
         self.dropped = 0
         """Events dropped so far (the reader was told of them with ``events_dropped``)."""

@@ -39,7 +39,7 @@ def _both_ways(
     world: WorldMap, a: tuple[float, float], b: tuple[float, float]
 ) -> tuple[PlanResult, PlanResult]:
     informed = nodes_domain(world)
-    blind: Domain = dataclasses.replace(informed, estimates={}, _ground={})
+    blind: Domain = dataclasses.replace(informed, estimates={})  # a copy gets caches of its own
     start, goal = _node_near(world, *a), _node_near(world, *b)
     assert world.distance(start, goal) > 80.0  # far apart: the map is about 135 m across
     task = [Atom("goto_node", (goal,))]

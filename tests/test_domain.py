@@ -19,6 +19,7 @@ from htnagent.domain import (
     satisfiers,
 )
 from htnagent.errors import DomainError, PlanningError
+from htnagent.planner import heuristic
 from htnagent.terms import Atom, parse
 
 StateAt = Callable[[Domain, str], State]
@@ -238,9 +239,9 @@ def test_negative_cost_is_rejected() -> None:
 def test_cost_function_giving_a_negative_cost_is_rejected_when_costed() -> None:
     d = Domain("d")
     d.operator("pay(?x)", cost=lambda action: -float(str(action.args[0])))
-    assert d.cost(parse("pay(-2)")) == 2.0
+    assert d.actions.cost(parse("pay(-2)")) == 2.0
     with pytest.raises(DomainError, match=r"negative cost -3.0 for pay\(3\)"):
-        d.cost(parse("pay(3)"))
+        d.actions.cost(parse("pay(3)"))
 
 
 def test_method_subtask_with_unbound_variable_is_rejected() -> None:
@@ -299,7 +300,7 @@ def test_apply_progresses_the_dynamic_facts() -> None:
     assert s.dynamic == {parse("at(a)")}
     assert d.apply(s, parse("move(b,a)")) is None
     assert d.apply(s, parse("wait")) == s
-    assert d.cost(parse("move(a,b)")) == 2.0
+    assert d.actions.cost(parse("move(a,b)")) == 2.0
 
 
 def test_apply_of_an_unknown_action_raises() -> None:
@@ -307,31 +308,31 @@ def test_apply_of_an_unknown_action_raises() -> None:
     with pytest.raises(PlanningError, match="fly"):
         d.apply(_state(d, "at(a)"), parse("fly(a,b)"))
     with pytest.raises(PlanningError):
-        d.cost(parse("move(a,b,c)"))
+        d.actions.cost(parse("move(a,b,c)"))
 
 
 def test_undo_of_names_the_inverse_action(nodes: Domain) -> None:
     d = _nav()
-    assert d.undo_of(parse("move(a,b)")) == parse("move(b,a)")
-    assert d.undo_of(parse("wait")) is None
-    assert nodes.undo_of(parse("move(n1,n6,arc5)")) == parse("move(n6,n1,arc5)")
-    assert nodes.undo_of(parse("resume(move(n40,n35,arc59))")) is None
-    assert nodes.undo_of(parse("rollback(move(n40,n35,arc59))")) is None
+    assert d.actions.undo_of(parse("move(a,b)")) == parse("move(b,a)")
+    assert d.actions.undo_of(parse("wait")) is None
+    assert nodes.actions.undo_of(parse("move(n1,n6,arc5)")) == parse("move(n6,n1,arc5)")
+    assert nodes.actions.undo_of(parse("resume(move(n40,n35,arc59))")) is None
+    assert nodes.actions.undo_of(parse("rollback(move(n40,n35,arc59))")) is None
 
 
 def test_suspending_a_move_leaves_the_robot_on_the_arc(nodes: Domain, state_at: StateAt) -> None:
     move = parse("move(n40,n35,arc59)")
     s = nodes.suspend(state_at(nodes, "n40"), move)
     assert s.dynamic == {parse("on_arc(arc59,n40,n35)")}
-    resume, rollback = nodes.resume_of(move), nodes.rollback_of(move)
+    resume, rollback = nodes.actions.resume_of(move), nodes.actions.rollback_of(move)
     assert resume == parse("resume(move(n40,n35,arc59))")
     assert rollback == parse("rollback(move(n40,n35,arc59))")
     resumed, rolled_back = nodes.apply(s, resume), nodes.apply(s, rollback)
     assert resumed is not None and resumed.dynamic == {parse("at(n35)")}
     assert rolled_back is not None and rolled_back.dynamic == {parse("at(n40)")}
     # Each half is costed at half the arc (the planner cannot know how far the robot got).
-    assert nodes.cost(resume) == pytest.approx(nodes.cost(move) / 2)
-    assert nodes.cost(rollback) == pytest.approx(nodes.cost(move) / 2)
+    assert nodes.actions.cost(resume) == pytest.approx(nodes.actions.cost(move) / 2)
+    assert nodes.actions.cost(rollback) == pytest.approx(nodes.actions.cost(move) / 2)
     # Resume and rollback need the robot on that arc.
     assert nodes.apply(state_at(nodes, "n40"), resume) is None
 
@@ -347,7 +348,7 @@ def test_parent_suspension_only_notes_the_move(areas: Domain, state_at: StateAt)
     move = parse("move_area(area8,area7)")
     s = areas.suspend(state_at(areas, "n40"), move)
     assert s.dynamic == {parse("at(area8)"), parse("moving(area8,area7)")}
-    assert areas.rollback_of(move) is None
+    assert areas.actions.rollback_of(move) is None
     resumed = areas.apply(s, parse("resume(move_area(area8,area7))"))
     assert resumed is not None and resumed.dynamic == {parse("at(area7)")}
 
@@ -356,8 +357,8 @@ def test_only_suspendable_actions_can_be_suspended() -> None:
     d = _nav()
     with pytest.raises(PlanningError, match="not suspendable"):
         d.suspend(_state(d, "at(a)", "edge(a,b)"), parse("move(a,b)"))
-    assert d.resume_of(parse("move(a,b)")) is None
-    assert d.rollback_of(parse("move(a,b)")) is None
+    assert d.actions.resume_of(parse("move(a,b)")) is None
+    assert d.actions.rollback_of(parse("move(a,b)")) is None
 
 
 def test_resume_precondition_defaults_to_the_suspension_facts() -> None:
@@ -393,7 +394,7 @@ def test_estimate_is_the_first_compound_tasks_from_the_current_state() -> None:
     d.estimate("goto", lambda task, state: 3.0 if task == parse("goto(a)") else 5.0)
     s = _state(d, "at(a)")
     # Later compound tasks start elsewhere: their estimates from here could over-estimate.
-    assert d.h([parse("goto(a)"), parse("move(a,b)"), parse("goto(b)")], s) == 3.0
-    assert d.h([parse("move(a,b)"), parse("goto(b)")], s) == 5.0
-    assert d.h([parse("tour(a)"), parse("goto(b)")], s) == 0.0  # no estimate for the first
-    assert _nav().h([parse("move(a,b)")], s) == 0.0
+    assert heuristic(d, [parse("goto(a)"), parse("move(a,b)"), parse("goto(b)")], s) == 3.0
+    assert heuristic(d, [parse("move(a,b)"), parse("goto(b)")], s) == 5.0
+    assert heuristic(d, [parse("tour(a)"), parse("goto(b)")], s) == 0.0  # no estimate for the first
+    assert heuristic(_nav(), [parse("move(a,b)")], s) == 0.0

@@ -322,7 +322,7 @@ def test_tidy_removes_an_action_and_its_undo_and_joins_rollback_and_redo() -> No
     d = _roads(suspendable=True)
 
     def steps(*texts: str) -> list[Step]:
-        return [Step(parse(t), d.cost(parse(t))) for t in texts]
+        return [Step(parse(t), d.actions.cost(parse(t))) for t in texts]
 
     assert [str(s) for s in tidy(d, steps("move(a,b)", "move(b,a)", "move(a,c)"))] == ["move(a,c)"]
     assert [str(s) for s in tidy(d, steps("rollback(move(a,b))", "move(a,b)", "move(b,d)"))] == [

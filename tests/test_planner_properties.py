@@ -115,7 +115,7 @@ def _check_navigation(trip: Trip, k: int) -> None:
         end = replay(domain, start, p.actions)
         assert end is not None, f"{p} does not replay"
         assert end.dynamic == {Atom("at", (trip.goal,))}
-        assert p.cost == pytest.approx(sum(domain.cost(a) for a in p.actions))
+        assert p.cost == pytest.approx(sum(domain.actions.cost(a) for a in p.actions))
 
 
 @FAST

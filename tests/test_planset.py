@@ -13,7 +13,7 @@ from htnagent.domains import areas_domain, nodes_domain
 from htnagent.maps import WorldMap, parse_map
 from htnagent.plan import Plan, Step, replay, tidy
 from htnagent.planner import PlannerSettings, plan
-from htnagent.planset import PlanSet, Replanning
+from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
 from htnagent.terms import Atom, parse
 from tests.stratified_sync import run_situation
 
@@ -236,7 +236,7 @@ def test_plan_removed_by_a_closed_door_is_revived_when_it_opens(world: WorldMap)
 def test_revival_is_bounded_in_time(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
-    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1), revival_window=2)
+    ps = OnlinePlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1), revival_window=2)
     ps.make(belief)
     closed = belief.updated(add=[a("closed(arc51)")])
     ps.belief_changed(belief, closed)

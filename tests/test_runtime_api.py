@@ -19,7 +19,7 @@ import anyio
 import pytest
 
 from htnagent.agent import GoalStatus
-from htnagent.errors import HtnAgentError, SettingError, UnknownNameError
+from htnagent.errors import HtnAgentError, SettingsError, UnknownNameError
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.scenario import load_scenario
 from htnagent.simulation import run_scenario
@@ -177,7 +177,7 @@ def test_run_prints_a_readable_trace_with_the_suspension_and_the_resumption() ->
 async def test_what_the_runtime_refuses_is_an_htnagent_error() -> None:
     # Expect: misuse of the embedding API raises our own errors (also the builtin ones
     # callers may catch), never a bare KeyError or ValueError.
-    with pytest.raises(SettingError) as setting:
+    with pytest.raises(SettingsError) as setting:
         Runtime([], robot())
     async with Runtime([courier()], robot()) as rt:
         with pytest.raises(UnknownNameError) as name:

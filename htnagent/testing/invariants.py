@@ -22,6 +22,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from htnagent.actions import half_done, resumed
 from htnagent.events import (
     ActionFinished,
     ActionStarted,
@@ -199,11 +200,11 @@ def world_refuses(robot: Robot, action: Atom) -> str | None:
         if arc in state.closed:
             return f"{arc} is closed"
         return None
-    inner = action.args[0] if action.args else None
-    if action.name in ("resume", "rollback") and isinstance(inner, Atom) and inner.name == "move":
+    inner = half_done(action)
+    if inner is not None and inner.name == "move":
         frm, to, arc = (str(a) for a in inner.args)
         if state.on_arc is None or state.on_arc[:3] != (arc, frm, to):
             return f"the robot is not half way along {arc} from {frm} to {to}"
-        if action.name == "resume" and arc in state.closed:
+        if resumed(action) is not None and arc in state.closed:
             return f"{arc} is closed"
     return None

@@ -1,0 +1,164 @@
+"""Plan repair (ALGORITHMS.md §2.4): re-plan only the lowest task above a failing step.
+
+A plan that fails at action *i* when re-checked is not thrown away: the
+:class:`Repairer` walks up its decomposition record from action *i* to the
+lowest compound task that can be decomposed again from the state at that point,
+and re-plans that task plus what follows it; only when no ancestor below the
+goal can be, the goal itself is planned from the current belief.  The same
+object makes the comparison with a plan made afresh (§2.4, "a repair must not
+be worse than planning afresh"), so the two share their searches.
+
+One :class:`Repairer` serves one update of one plan set
+(:class:`~htnagent.planset.OnlinePlanSet`); a :class:`SearchMemo` shares the
+searches of one update between all the plan sets of an agent.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+from htnagent.domain import Domain
+from htnagent.plan import Plan, span, tidy
+from htnagent.planner import PlannerSettings, PlanStatus, TaskEntry, plan
+from htnagent.state import State
+from htnagent.terms import Atom
+
+if TYPE_CHECKING:
+    from htnagent.planset import PlanningStats
+
+
+@dataclass
+class SearchMemo:
+    """Searches made during one update of an agent's plan sets, shared between them.
+
+    The goals on a stack often repeat, and all of them are updated from the same
+    belief: a search one plan set made (a goal from a state, or a task list found
+    impossible) answers for the others.  Make one per update; never keep it.
+    """
+
+    results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
+    impossible: set[tuple[object, ...]] = field(default_factory=set)
+
+
+def one_plan(settings: PlannerSettings) -> PlannerSettings:
+    """The settings for one plan (repairs, fresh comparisons, naive mode)."""
+    return PlannerSettings(alternatives=1, budget=settings.budget, rollbacks=settings.rollbacks)
+
+
+_REPAIR_LEVELS = 3
+"""How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
+
+LOCAL_BUDGET = 2_000
+"""Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
+
+
+class Repairer:
+    """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
+
+    A repair re-decomposes the lowest ancestor task of a failing step that can
+    be decomposed again.  Searches are shared — through ``memo``, with the other
+    plan sets updated from the same belief — so a goal re-planned for one broken
+    plan answers for all.  Repairs below the goal share ``local_budget``
+    expansions; the goal itself gets the planner's full budget.  Make one per
+    update; ``unsolvable`` is then the belief the goal was found impossible
+    from, if it was.
+    """
+
+    __slots__ = (
+        "_avoided",
+        "_domain",
+        "_goal",
+        "_impossible",
+        "_results",
+        "_settings",
+        "_stats",
+        "local_left",
+        "unsolvable",
+    )
+
+    def __init__(
+        self,
+        domain: Domain,
+        goal: Atom,
+        settings: PlannerSettings,
+        stats: PlanningStats,
+        avoided: Callable[[State], frozenset[Atom]],
+        memo: SearchMemo | None = None,
+        local_budget: int = 0,
+    ) -> None:
+        memo = memo if memo is not None else SearchMemo()
+        self._domain = domain
+        self._goal = goal
+        self._settings = settings
+        self._stats = stats
+        self._avoided = avoided
+        self._results = memo.results
+        self._impossible = memo.impossible
+        self.local_left = local_budget
+        """Expansions left for repairs below the goal in this update."""
+        self.unsolvable: tuple[object, ...] | None = None
+        """The key of a belief from which the goal itself has no plan, once a repair found so."""
+
+    def repair(self, p: Plan, index: int, states: list[State]) -> Plan | None:
+        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
+
+        ``states`` are the beliefs before each of the plan's first ``index + 1``
+        steps.  The last ancestor is the goal itself; steps inserted by maintenance
+        (undo, rollback) belong to no task, so for them the goal is the only
+        ancestor.  The goal is re-decomposed from the current belief, once per
+        update, and the result is shared by every plan that needs it.
+        """
+        step = p.steps[index]
+        chain = step.record.chain() if step.record is not None else []
+        # A recursive method makes the record as long as the plan; past a few levels a
+        # re-decomposition costs as much as planning the goal, so go straight to it.
+        for record in chain[:_REPAIR_LEVELS]:
+            if record.parent is None:
+                break  # the goal's own decomposition: below, shared
+            start, end = span(p.steps, record)
+            if start > index:
+                continue
+            # Repairs below the goal are local fixes: together, in one update, they get
+            # a small budget; what they cannot fix the goal's re-decomposition will.
+            if self.local_left <= 0:
+                break
+            tasks: list[TaskEntry] = [(record.task, record.parent)]
+            tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
+            spent = self._stats.expansions
+            local = PlannerSettings(
+                alternatives=1, budget=self.local_left, rollbacks=self._settings.rollbacks
+            )
+            result = self.search(states[start], tasks, local)
+            self.local_left -= self._stats.expansions - spent
+            if result is not None:
+                return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+        # The goal itself, from the current belief: one search shared by all plans.
+        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings))
+        if found is None:
+            self.unsolvable = states[0].key()
+        return found
+
+    def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
+        """The best plan for the task list from the state, searched once per update."""
+        avoided = self._avoided(state)
+        # Records do not change whether tasks can be done: a search that found the
+        # task list impossible from a state answers for every plan that asks again.
+        impossible: tuple[object, ...] = (state.dynamic, avoided, *(t for t, _ in tasks))
+        if impossible in self._impossible:
+            return None
+        # Records compare by identity; the key holds them, so none can be mistaken for another.
+        key: tuple[object, ...] = (*impossible, *(r for _, r in tasks))
+        if key in self._results:
+            return self._results[key]
+        result = plan(self._domain, state, tasks, settings, avoid=avoided)
+        self._stats.expansions += result.expansions
+        found = result.best
+        self._results[key] = found
+        if result.status is PlanStatus.UNSOLVABLE:
+            self._impossible.add(impossible)
+        return found
+
+
+__all__ = ["LOCAL_BUDGET", "Repairer", "SearchMemo", "one_plan"]

@@ -1,0 +1,131 @@
+"""Revival of removed plans (ALGORITHMS.md §2.5): a plan broken by a fact comes back with it.
+
+A plan removed because a fact was false — or the plan as it was before a
+repair — is kept in a :class:`Revival` store, indexed by the precondition
+literal that broke it, and revived when that fact becomes true again (a door
+shut and opened again gives back the first route).  The store is bounded in
+time and in number.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from htnagent.domain import Domain
+from htnagent.plan import Plan
+from htnagent.preconditions import satisfiers
+from htnagent.state import State
+from htnagent.terms import Atom, substitute
+
+
+@dataclass(slots=True)
+class _Removed:
+    plan: Plan
+    key: tuple[Atom, bool]
+    update: int
+
+
+class Revival:
+    """Plans removed because a fact was false, kept to come back when it is true again (§2.5).
+
+    Each plan is indexed by the precondition literal that broke it — ``(fact,
+    must be true)`` — and revived when that fact changes the right way.  The
+    store is bounded twice: a plan waits at most ``window`` updates, and at most
+    ``capacity`` plans are kept at once (the oldest goes first).  Kept plans
+    follow the agent's actions (:meth:`rewrite`), so that a revived plan starts
+    from where the robot is by then.
+    """
+
+    __slots__ = ("_domain", "_kept", "_updates", "capacity", "window")
+
+    def __init__(self, domain: Domain, window: int = 64, capacity: int = 32) -> None:
+        self._domain = domain
+        self.window = window
+        self.capacity = capacity
+        self._kept: list[_Removed] = []
+        self._updates = 0
+
+    def __len__(self) -> int:
+        return len(self._kept)
+
+    @property
+    def plans(self) -> list[Plan]:
+        """The plans kept, oldest first."""
+        return [r.plan for r in self._kept]
+
+    def copy(self) -> Revival:
+        """An independent copy (for a plan set's fork)."""
+        other = Revival(self._domain, self.window, self.capacity)
+        other._kept = [_Removed(r.plan, r.key, r.update) for r in self._kept]
+        other._updates = self._updates
+        return other
+
+    def clear(self) -> None:
+        """Forget every kept plan."""
+        self._kept.clear()
+
+    def keep(self, p: Plan, action: Atom, state: State) -> None:
+        """Keep the removed plan ``p``, whose ``action`` could not run in ``state``."""
+        key = _broken_by(self._domain, action, state)
+        if key is None:
+            return
+        self._kept.append(_Removed(p, key, self._updates))
+        if len(self._kept) > self.capacity:
+            del self._kept[0]
+
+    def rewrite(self, change: Callable[[Plan], Plan | None]) -> None:
+        """Replace each kept plan by ``change(plan)`` (unless that is None)."""
+        for r in self._kept:
+            q = change(r.plan)
+            if q is not None:
+                r.plan = q
+
+    def tick(self) -> None:
+        """An update of the plan set begins."""
+        self._updates += 1
+
+    def revive(self, before: State, after: State) -> list[Plan]:
+        """Take out the plans whose breaking fact changed the right way between the states."""
+        if not self._kept:
+            return []
+        added = after.dynamic - before.dynamic
+        deleted = before.dynamic - after.dynamic
+        if after.static is not before.static:
+            added |= after.static.facts - before.static.facts
+            deleted |= before.static.facts - after.static.facts
+        out: list[Plan] = []
+        keep: list[_Removed] = []
+        for r in self._kept:
+            fact, positive = r.key
+            if (positive and fact in added) or (not positive and fact in deleted):
+                out.append(r.plan)
+            else:
+                keep.append(r)
+        self._kept = keep
+        return out
+
+    def expire(self) -> None:
+        """An update ended: forget the plans that waited more than ``window`` updates."""
+        self._kept = [r for r in self._kept if self._updates - r.update <= self.window]
+
+
+def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:
+    """The precondition literal of the action that fails: ``(fact, must be true)``.
+
+    SHOP binding makes later literals depend on earlier ones, so the culprit is
+    the first literal with which the precondition's prefix has no satisfier;
+    it is made ground with the first satisfier of the prefix before it.
+    """
+    op, bindings = domain.actions.ground(action)
+    prefix_binding = bindings
+    for i, lit in enumerate(op.pre):
+        extended = next(satisfiers(op.pre[: i + 1], state, bindings), None)
+        if extended is None:
+            fact = substitute(lit.atom, prefix_binding)
+            return (fact, lit.positive) if fact.is_ground else None
+        prefix_binding = extended
+    return None
+
+
+__all__ = ["Revival"]
