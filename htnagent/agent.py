@@ -42,8 +42,9 @@ import anyio
 import anyio.lowlevel
 from anyio.abc import TaskStatus
 
+from htnagent.actions import ROLLBACK, half_done, resumed
 from htnagent.clock import Clock, TimerHandle
-from htnagent.domain import Domain, State, half_done
+from htnagent.domain import Domain, State
 from htnagent.events import (
     ActionFinished,
     ActionStarted,
@@ -177,7 +178,7 @@ class Agent(ExecutorActor):
         executor.connect(self.inbox)
         self.on_outcome = on_outcome
         self.settings = config.settings
-        if isinstance(executor, Agent) and "rollback" not in executor.domain.methods:
+        if isinstance(executor, Agent) and ROLLBACK not in executor.domain.methods:
             # §5: a rollback(A) of an action a child agent carries out is offered only as a
             # task the child can plan.
             self.settings = PlannerSettings(
@@ -430,7 +431,7 @@ class Agent(ExecutorActor):
     async def _act(self, action: Atom) -> tuple[Success | Failure | Suspended, bool]:
         """Carry out the action; its result, and whether a suspension of it was asked for."""
         seq = next(self._seq)
-        inner = half_done(action) if action.name == "resume" else None
+        inner = resumed(action)
         ordered = inner if inner is not None else action
         if inner is not None:
             self.order(self.executor, Resume(action=inner, seq=seq))
@@ -503,7 +504,7 @@ class Agent(ExecutorActor):
                 # very result while the action ran: take that over.
                 self._prepared = None
                 for ps in self._plansets():
-                    fork = prepared.forks.get(id(ps))
+                    fork = prepared.fork_of(ps)
                     if fork is not None:
                         ps.adopt(fork)
                     else:
@@ -532,7 +533,7 @@ class Agent(ExecutorActor):
                 self.current.suspended.append(action)
         else:
             self._maintain(lambda ps, memo: ps.action_failed(action, before, before, memo))
-            if action.name == "resume" and inner is not None:
+            if resumed(action) is not None and inner is not None:
                 # The executor could not finish A: what was kept for it is no use, and the
                 # same resume must not be planned again from the same belief (§5).
                 holder = self._holder(inner)
@@ -603,7 +604,7 @@ class Agent(ExecutorActor):
         before = self.belief
         after = self.domain.progress(before, action)
         memo = SearchMemo()
-        forks: dict[int, PlanSet] = {}
+        forks: list[tuple[PlanSet, PlanSet]] = []
         top = self.stack[-1]
         current = self.current.plans if self.current is not None else None
         for ps in self._plansets():
@@ -613,11 +614,12 @@ class Agent(ExecutorActor):
             if ps is top.plans:
                 fork.lazy = False
             fork.action_succeeded(action, before, after, memo)
-            forks[id(ps)] = fork
-        self._prepared = _Prepared(action, before, after, forks)
-        if id(top.plans) not in forks:
+            forks.append((ps, fork))
+        prepared = self._prepared = _Prepared(action, before, after, forks)
+        top_fork = prepared.fork_of(top.plans)
+        if top_fork is None:
             return False
-        self._get_ready(top, forks[id(top.plans)].fork(), after, (action,))
+        self._get_ready(top, top_fork.fork(), after, (action,))
         assert top.ready is not None
         best = top.ready.plans.best
         if isinstance(self.executor, Agent) and best is not None and best.steps:
@@ -637,7 +639,7 @@ class Agent(ExecutorActor):
         predicted = replay(self.domain, self.belief, steps)
         if predicted is None:
             return
-        inner = half_done(action) if action.name == "resume" else None
+        inner = resumed(action)
         if inner is not None:
             held = self._held(inner)
             if held is not None:
@@ -900,7 +902,12 @@ class _Prepared:
     action: Atom
     before: State
     after: State
-    forks: dict[int, PlanSet]
+    forks: list[tuple[PlanSet, PlanSet]]
+    """Each stacked plan set with its updated copy (looked up by identity: plan sets
+    compare by value, and an id could be taken over by a plan set made later)."""
+
+    def fork_of(self, plans: PlanSet) -> PlanSet | None:
+        return next((fork for ps, fork in self.forks if ps is plans), None)
 
     def came_true(self, action: Atom, before: State, after: State) -> bool:
         return (
