@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import itertools
 from pathlib import Path
 
 import pytest
@@ -15,7 +14,6 @@ from htnagent.plan import Plan, Step, replay, tidy
 from htnagent.planner import PlannerSettings, plan
 from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
 from htnagent.terms import Atom, parse
-from tests.stratified_sync import run_situation
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -341,41 +339,8 @@ def test_clearing_a_suspended_action_removes_its_half_done_facts(world: WorldMap
     assert a("moving(area8,area7)") not in areas.clear(suspended, running).dynamic
 
 
-# -- the published situations, both levels, stacked plans updated throughout ---------------------------
-
-SITUATIONS = [
-    ("n40", "n1", "move(n40,n35,arc59)", "n38"),
-    ("n40", "n1", "move(n40,n35,arc59)", "n28"),
-    ("n40", "n1", "move(n40,n35,arc59)", "n29"),
-    ("n1", "n40", "move(n1,n6,arc5)", "n13"),
-    ("n1", "n40", "move(n1,n6,arc5)", "n4"),
-    ("n1", "n40", "move(n1,n6,arc5)", "n12"),
-]
-
-
-@pytest.mark.parametrize(("start", "goal", "interrupted", "emergency"), SITUATIONS)
-def test_published_situations_resume_at_the_cost_of_planning_from_scratch(
-    world: WorldMap, start: str, goal: str, interrupted: str, emergency: str
-) -> None:
-    areas, nodes = areas_domain(world), nodes_domain(world)
-    online = run_situation(areas, nodes, start, goal, interrupted, emergency, Replanning.ONLINE)
-    naive = run_situation(areas, nodes, start, goal, interrupted, emergency, Replanning.NAIVE)
-    assert online.parent_kept == pytest.approx(online.parent_scratch)
-    if online.child_kept is not None:
-        assert online.child_kept == pytest.approx(online.child_scratch)
-    assert online.robot_path[-1] == goal and emergency in online.robot_path
-    assert naive.robot_path[-1] == goal
-    assert _length(world, online.robot_path) <= _length(world, naive.robot_path) + 1e-9
-
-
-def _length(world: WorldMap, path: list[str]) -> float:
-    total = 0.0
-    for x, y in itertools.pairwise(path):
-        if x != y:
-            arc = world.arc_between(x, y)
-            assert arc is not None
-            total += arc.length
-    return total
+# -- the published situations on the real agents: tests/test_museum.py
+# (test_the_published_situations_resume_at_the_cost_of_a_fresh_plan) --------------------------
 
 
 def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None:
