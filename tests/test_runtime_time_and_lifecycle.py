@@ -1,4 +1,4 @@
-"""Runtime edge cases found in review: real executors, start-up failures, pacing, run end."""
+"""Runtime time and lifecycle: real executors on the wall clock, start-up failures, pacing, run end, timeouts."""
 
 from __future__ import annotations
 
