@@ -20,7 +20,8 @@ Built-in domains are looked up here too: :func:`resolve_domain` answers every
 ``agents[].domain`` with the domain and its :class:`~htnagent.domains.DomainInfo`
 (what its arguments name on the map, which actions are the robot's moves).  A
 user's factory carries the info it declared with ``@domain_factory(...)``; a
-``Domain`` object named directly declares nothing.
+``Domain`` object named directly has the defaults (no argument checked against
+the map; the robot's moves are :data:`~htnagent.domains.ROBOT_TRAVEL`).
 """
 
 from __future__ import annotations

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 # info first: museum declares its domains with it.
 from htnagent.domains.info import (
+    ROBOT_TRAVEL,
     DomainFactory,
     DomainInfo,
     MapKind,
@@ -23,6 +24,7 @@ BUILTIN: dict[str, DomainInfo] = {"museum.areas": AREAS, "museum.nodes": NODES}
 
 __all__ = [
     "BUILTIN",
+    "ROBOT_TRAVEL",
     "DomainFactory",
     "DomainInfo",
     "MapKind",

@@ -14,8 +14,10 @@ declares both here, next to its factory, so that the generic scenario checks
 
 Built-in domains declare theirs in :mod:`htnagent.domains.museum`; a user's
 factory declares its own with ``@domain_factory(argument_kinds=...,
-robot_moves=...)``, or nothing (no argument is checked against the map, and
-the robot performs only the actions given times in ``robot.durations``).
+robot_moves=...)``, or nothing: then no argument is checked against the map,
+and the robot's moves are :data:`ROBOT_TRAVEL`, the action the simulated robot
+travels on whatever the domain (its other actions are those given times in
+``robot.durations``).
 """
 
 from __future__ import annotations
@@ -40,6 +42,10 @@ DomainFactory = Callable[[WorldMap], Domain]
 MOVE_KINDS: tuple[MapKind, MapKind, MapKind] = ("node", "node", "arc")
 """The arguments of a robot move: ``name(From,To,Arc)``."""
 
+ROBOT_TRAVEL: frozenset[str] = frozenset({"move"})
+"""The robot moves of a domain that declares none: the simulated robot (:mod:`executors.robot`)
+travels on ``move(From,To,Arc)``, whichever domain plans it."""
+
 
 @dataclass(frozen=True, slots=True)
 class DomainInfo:
@@ -56,11 +62,13 @@ class DomainInfo:
     Names not listed are not checked against the map; robot moves need not be
     listed (their arguments are always :data:`MOVE_KINDS`).
     """
-    robot_moves: frozenset[str] = frozenset()
+    robot_moves: frozenset[str] = ROBOT_TRAVEL
     """Actions the robot performs itself by travelling an arc, written ``name(From,To,Arc)``.
 
     The simulated robot (:mod:`executors.robot`) travels on ``move``; an action
-    named here must be that one for the robot to carry it out.
+    named here must be that one for the robot to carry it out.  A domain whose
+    actions the robot never does itself (one planning for another agent)
+    declares none.
     """
 
     def __post_init__(self) -> None:
@@ -97,7 +105,7 @@ def domain_factory(function: F, /) -> F: ...
 def domain_factory(
     *,
     argument_kinds: Mapping[str, Iterable[MapKind]] | None = None,
-    robot_moves: Iterable[str] = (),
+    robot_moves: Iterable[str] = ROBOT_TRAVEL,
 ) -> Callable[[F], F]: ...
 
 
@@ -106,7 +114,7 @@ def domain_factory(
     /,
     *,
     argument_kinds: Mapping[str, Iterable[MapKind]] | None = None,
-    robot_moves: Iterable[str] = (),
+    robot_moves: Iterable[str] = ROBOT_TRAVEL,
 ) -> F | Callable[[F], F]:
     """Mark ``function`` (map → :class:`~htnagent.domain.Domain`) as one a scenario may name.
 
@@ -125,7 +133,8 @@ def domain_factory(
 
     Given keyword arguments, it also declares what the domain's arguments name
     on the map and which of its actions are the robot's moves (see
-    :class:`DomainInfo`)::
+    :class:`DomainInfo`; by default none is checked, and the moves are
+    :data:`ROBOT_TRAVEL`)::
 
         @domain_factory(argument_kinds={"goto_node": ["node"]}, robot_moves={"move"})
         def walker(world): ...

@@ -242,6 +242,7 @@ def nodes_facts(world: WorldMap, start: str) -> list[Atom]:
 AREAS = DomainInfo(
     areas_domain,
     argument_kinds={"goto": ("node",), "goto_node": ("node",), "move_area": ("area", "area")},
+    robot_moves=frozenset(),
 )
 """``museum.areas``: its tasks and actions name nodes and areas; the robot does none of its actions."""
 

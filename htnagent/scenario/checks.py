@@ -20,7 +20,7 @@ from collections.abc import Collection
 from pathlib import Path
 
 from htnagent.domain import Domain
-from htnagent.domains import DomainInfo
+from htnagent.domains import ROBOT_TRAVEL, DomainInfo
 from htnagent.errors import ScenarioError
 from htnagent.maps import WorldMap
 from htnagent.scenario.schema import ROBOT, Scenario, Trigger, no_agent
@@ -31,9 +31,6 @@ __all__ = ["check_task", "cross_check"]
 
 _PLANNER_ACTIONS = ("resume", "rollback")
 """Actions every domain has for suspended actions: never a goal's task, never timed by name."""
-
-_ROBOT_TRAVEL = "move"
-"""The simulated robot's travel action (:mod:`executors.robot`): it always takes the arc's length."""
 
 
 def cross_check(s: Scenario, base_dir: Path) -> None:
@@ -103,7 +100,8 @@ def _check_durations(s: Scenario) -> None:
     """Each timed robot action must be an action of the agent the robot serves, and not a move."""
     last = s.agents[-1]
     domain = s.domain_for(last.name)
-    untimed = {_ROBOT_TRAVEL, *_PLANNER_ACTIONS, *s.info_for(last.name).robot_moves}
+    # The simulated robot travels on its moves whatever the domain declares: never timed by name.
+    untimed = {*ROBOT_TRAVEL, *_PLANNER_ACTIONS, *s.info_for(last.name).robot_moves}
     for name in s.robot.durations:
         where = f"robot.durations.{name}"
         if name in untimed:

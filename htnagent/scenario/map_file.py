@@ -145,7 +145,7 @@ def _world(spec: MapFile, file: str, pre: str) -> WorldMap:
             raise ScenarioError(
                 file, f"{pre}nodes.{name}.area", f"unknown area {shown(area)}; it is not under areas"
             )
-        nodes[name] = Node(name, area, float(n["x"]), float(n["y"]))
+        nodes[name] = Node(name, area, n["x"], n["y"])  # pydantic gave floats
     arcs: dict[str, Arc] = {}
     hypot = math.hypot
     for name, arc in spec.arcs.items():
@@ -159,7 +159,7 @@ def _world(spec: MapFile, file: str, pre: str) -> WorldMap:
                 file, f"{pre}arcs.{name}", f"an arc must join two different nodes, not {a} to itself"
             )
         length = arc.get("length")
-        arcs[name] = Arc(name, a, b, float(length) if length is not None else hypot(na.x - nb.x, na.y - nb.y))
+        arcs[name] = Arc(name, a, b, length if length is not None else hypot(na.x - nb.x, na.y - nb.y))
     return WorldMap(tuple(areas), nodes, arcs, grid)
 
 

@@ -16,12 +16,20 @@ unknown key the reason lists the keys allowed there, read from the model
 from __future__ import annotations
 
 import types
-import typing
 from collections.abc import Mapping, Sequence
-from typing import Annotated, Union, get_args, get_origin, get_type_hints, is_typeddict
+from typing import (  # typing_extensions' TypedDicts too
+    Annotated,
+    NotRequired,
+    Required,
+    Union,
+    get_args,
+    get_origin,
+    get_type_hints,
+)
 
 from pydantic import BaseModel, ValidationError
 from pydantic_core import ErrorDetails
+from typing_extensions import is_typeddict
 
 from htnagent.errors import ScenarioError, shown
 
@@ -155,7 +163,7 @@ def _step(t: object, part: int | str) -> list[object]:
 
 def _required_inner(t: object) -> object:
     """``T`` of ``NotRequired[T]`` / ``Required[T]``; anything else as it is."""
-    if get_origin(t) in (typing.NotRequired, typing.Required):
+    if get_origin(t) in (NotRequired, Required):
         return get_args(t)[0]
     return t
 
