@@ -12,10 +12,11 @@ import copy
 from typing import Any
 
 import pytest
+from pydantic import ValidationError
 
 from htnagent.errors import HtnAgentError, ScenarioError
 from htnagent.maps import parse_map as parse_map_from_maps
-from htnagent.scenario import parse_map
+from htnagent.scenario import MapFile, parse_map
 
 SMALL: dict[str, Any] = {
     "areas": {"a1": {"col": 0, "row": 0}, "a2": None},
@@ -110,3 +111,11 @@ def test_map_and_scenario_errors_are_htnagent_errors() -> None:
     assert issubclass(ScenarioError, HtnAgentError)
     with pytest.raises(HtnAgentError):
         parse_map(None, "m.yaml")
+
+
+def test_validation_stops_at_the_first_bad_entry() -> None:
+    # Only the first error is told; a hostile map of many bad nodes must not collect them all first.
+    bad = {f"n{i}": {"area": "a1", "x": "far", "y": 0, "extra": 1} for i in range(10_000)}
+    with pytest.raises(ValidationError) as info:
+        MapFile.model_validate(small(nodes=bad))
+    assert info.value.error_count() <= 2  # the first node's errors, no other node's

@@ -89,9 +89,12 @@ class MapFile(BaseModel):
 
     model_config = ConfigDict(frozen=True, extra="forbid", coerce_numbers_to_str=True)
 
-    areas: Annotated[dict[MapName, AreaEntry | None], Field(min_length=1)]
-    nodes: Annotated[dict[MapName, NodeEntry], Field(min_length=1)]
-    arcs: Annotated[dict[MapName, ArcEntry], Field(min_length=1), BeforeValidator(_long_forms)]
+    # fail_fast: only the first error is told, so a map of a million bad nodes stops at the first.
+    areas: Annotated[dict[MapName, AreaEntry | None], Field(min_length=1, fail_fast=True)]
+    nodes: Annotated[dict[MapName, NodeEntry], Field(min_length=1, fail_fast=True)]
+    arcs: Annotated[
+        dict[MapName, ArcEntry], Field(min_length=1, fail_fast=True), BeforeValidator(_long_forms)
+    ]
 
 
 _WHAT = {"areas": "area", "nodes": "node", "arcs": "arc"}

@@ -81,6 +81,10 @@ class _Spec(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
+# Lists and mappings stop at their first bad item (fail_fast): only the first error is told,
+# and a file of a million bad goals must not make a million errors first.
+
+
 class RobotSpec(_Spec):
     """The simulated robot: where it starts, how fast it goes, how often an action fails."""
 
@@ -91,7 +95,7 @@ class RobotSpec(_Spec):
     """The chance that an action fails of itself (for failure experiments)."""
     seed: Annotated[int, Strict()] = 0
     """Seed of the robot's random failures, so runs repeat."""
-    durations: dict[Name, PositiveSeconds] = {}
+    durations: Annotated[dict[Name, PositiveSeconds], Field(fail_fast=True)] = {}
     """Seconds each of the robot's other actions takes, by action name (``explain: 60``).
 
     Moves take their arc's length at ``speed``; an action named here takes its
@@ -191,14 +195,14 @@ class Scenario(_Spec):
     map: MapSource
     """The map file name (relative to the scenario file) or the map inline, as written."""
     robot: RobotSpec
-    agents: Annotated[tuple[AgentSpec, ...], Field(min_length=1)]
+    agents: Annotated[tuple[AgentSpec, ...], Field(min_length=1, fail_fast=True)]
     """Parent first; each agent's executor is the next agent, the last one's the robot."""
     replanning: Literal["online", "naive"] = "online"
     planner: PlannerSpec = PlannerSpec()
     action_timeout: PositiveSeconds | None = None
     """Simulated seconds after which a running action is given up; None: never."""
-    goals: Annotated[tuple[GoalSpec, ...], Field(min_length=1)]
-    events: tuple[WorldEvent, ...] = ()
+    goals: Annotated[tuple[GoalSpec, ...], Field(min_length=1, fail_fast=True)]
+    events: Annotated[tuple[WorldEvent, ...], Field(fail_fast=True)] = ()
 
     _file: str = PrivateAttr(default="")
     _world: WorldMap | None = PrivateAttr(default=None)
