@@ -25,8 +25,7 @@ from yaml.resolver import Resolver
 from htnagent import limits
 from htnagent.cli import main
 from htnagent.errors import ScenarioError, shown
-from htnagent.scenario import load_scenario
-from htnagent.scenario import reading as loading
+from htnagent.scenario import load_scenario, reading
 from htnagent.scenario.reading import _plain_tag, load_yaml_text, read_text, read_yaml
 from htnagent.terms import parse
 
@@ -186,7 +185,7 @@ def test_a_file_growing_past_the_limit_while_read_is_refused(
     # stat() said small enough, the read finds more: the limit holds on what is read too.
     path = tmp_path / "growing.yaml"
     path.write_text("a: " + "x" * 500 + "\n")
-    monkeypatch.setattr(loading, "_check_kind", lambda *args: None)
+    monkeypatch.setattr(reading, "_check_kind", lambda *args: None)
     with pytest.raises(ScenarioError, match="too big"):
         read_text(path, "scenario", max_bytes=100)
 
@@ -497,10 +496,8 @@ def test_plain_scalars_get_the_tags_pyyaml_gives(value: str) -> None:
 
 
 def test_big_files_are_read_with_libyaml_when_present() -> None:
-    from htnagent.scenario import reading as loading
-
-    assert loading._Parser is getattr(yaml, "CSafeLoader", yaml.SafeLoader)
-    assert getattr(yaml, "__with_libyaml__", False) == (loading._Parser is not yaml.SafeLoader)
+    assert reading._Parser is getattr(yaml, "CSafeLoader", yaml.SafeLoader)
+    assert getattr(yaml, "__with_libyaml__", False) == (reading._Parser is not yaml.SafeLoader)
 
 
 def test_read_yaml_refuses_a_second_document(tmp_path: Path) -> None:

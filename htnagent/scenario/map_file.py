@@ -79,7 +79,7 @@ class ArcEntry(TypedDict):
 
 def _long_forms(arcs: object) -> object:
     """``id: [a, b]`` is short for ``id: {ends: [a, b]}``."""
-    if type(arcs) is not dict:
+    if not isinstance(arcs, Mapping):
         return arcs
     return {k: {"ends": v} if type(v) is list else v for k, v in arcs.items()}
 

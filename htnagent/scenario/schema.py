@@ -78,11 +78,14 @@ MapSource = Annotated[str | Mapping[object, object], PlainValidator(_map_source)
 
 
 class _Spec(BaseModel):
+    """A part of the file: frozen, and no key but those declared.
+
+    Its lists and mappings stop at their first bad item (``fail_fast``): only
+    the first error is told, and a file of a million bad goals must not make a
+    million errors first.
+    """
+
     model_config = ConfigDict(frozen=True, extra="forbid")
-
-
-# Lists and mappings stop at their first bad item (fail_fast): only the first error is told,
-# and a file of a million bad goals must not make a million errors first.
 
 
 class RobotSpec(_Spec):
