@@ -84,7 +84,14 @@ def test_names_written_as_numbers_are_their_text() -> None:
             "expected a finite number",
         ),
         (small(nodes={"n1": "a1"}), "map.nodes.n1", "expected a mapping, got text 'a1'"),
-        (small(arcs={"arc1": ["n1", "n2", "n3"]}), "map.arcs.arc1.ends", "expected 2 items, got 3"),
+        (small(arcs={"arc1": ["n1", "n2", "n3"]}), "map.arcs.arc1", "expected 2 items, got 3"),
+        (
+            small(arcs={"arc1": 7}),
+            "map.arcs.arc1",
+            "expected [node, node] or {ends: [node, node], length: L}, got 7",
+        ),
+        (small(arcs={"arc1": {"ends": ["n1"]}}), "map.arcs.arc1.ends[1]", "required, but missing"),
+        (small(arcs={"arc1": ["n1", None]}), "map.arcs.arc1[1]", "expected text, got None"),
         (small(arcs={"arc1": ["n1", "n9"]}), "map.arcs.arc1", "unknown node 'n9'"),
         (small(arcs={"arc1": ["n1", "n1"]}), "map.arcs.arc1", "not n1 to itself"),
         (

@@ -28,7 +28,16 @@ from typing import (
     NotRequired,  # pydantic reads TypedDicts from here before 3.12
 )
 
-from pydantic import BaseModel, BeforeValidator, ConfigDict, Field, Strict, StringConstraints, ValidationError
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Discriminator,
+    Field,
+    Strict,
+    StringConstraints,
+    Tag,
+    ValidationError,
+)
 from typing_extensions import TypedDict
 
 from htnagent.errors import ScenarioError, shown
@@ -37,7 +46,7 @@ from htnagent.maps import Arc, Node, WorldMap
 from htnagent.scenario.reading import read_yaml
 from htnagent.scenario.wording import NAME_PATTERN, kind_of, translate
 
-__all__ = ["ArcEntry", "AreaEntry", "MapFile", "NodeEntry", "load_map", "parse_map"]
+__all__ = ["ArcEntry", "ArcForm", "AreaEntry", "MapFile", "NodeEntry", "load_map", "parse_map"]
 
 MAX_GRID = 1_000_000
 """The largest ``col`` or ``row`` of an area, either way."""
@@ -77,11 +86,26 @@ class ArcEntry(TypedDict):
     length: NotRequired[ArcLength]
 
 
-def _long_forms(arcs: object) -> object:
-    """``id: [a, b]`` is short for ``id: {ends: [a, b]}``."""
-    if not isinstance(arcs, Mapping):
-        return arcs
-    return {k: {"ends": v} if type(v) is list else v for k, v in arcs.items()}
+def _arc_form(value: object) -> str | None:
+    """Which form an arc is written in: ``[a, b]``, ``{ends: [a, b], length: L}``, or neither."""
+    kind = type(value)
+    if kind is list:
+        return _SHORT
+    return _LONG if kind is dict or isinstance(value, Mapping) else None
+
+
+# The tags name the two forms; the translator leaves them out of key paths (no map name looks so).
+_SHORT, _LONG = "[a, b]", "{ends, length}"
+
+ArcForm = Annotated[
+    Annotated[tuple[str, str], Tag(_SHORT)] | Annotated[ArcEntry, Tag(_LONG)],
+    Discriminator(
+        _arc_form,
+        custom_error_type="arc_form",
+        custom_error_message="expected [node, node] or {ends: [node, node], length: L}",
+    ),
+]
+"""An arc in either form: ``id: [a, b]`` is short for ``id: {ends: [a, b]}``."""
 
 
 class MapFile(BaseModel):
@@ -92,9 +116,7 @@ class MapFile(BaseModel):
     # fail_fast: only the first error is told, so a map of a million bad nodes stops at the first.
     areas: Annotated[dict[MapName, AreaEntry | None], Field(min_length=1, fail_fast=True)]
     nodes: Annotated[dict[MapName, NodeEntry], Field(min_length=1, fail_fast=True)]
-    arcs: Annotated[
-        dict[MapName, ArcEntry], Field(min_length=1, fail_fast=True), BeforeValidator(_long_forms)
-    ]
+    arcs: Annotated[dict[MapName, ArcForm], Field(min_length=1, fail_fast=True)]
 
 
 _WHAT = {"areas": "area", "nodes": "node", "arcs": "arc"}
@@ -152,7 +174,10 @@ def _world(spec: MapFile, file: str, pre: str) -> WorldMap:
     arcs: dict[str, Arc] = {}
     hypot = math.hypot
     for name, arc in spec.arcs.items():
-        a, b = arc["ends"]
+        if isinstance(arc, tuple):
+            (a, b), length = arc, None
+        else:
+            (a, b), length = arc["ends"], arc.get("length")
         na, nb = nodes.get(a), nodes.get(b)
         if na is None or nb is None:
             unknown = b if na is not None else a
@@ -161,7 +186,6 @@ def _world(spec: MapFile, file: str, pre: str) -> WorldMap:
             raise ScenarioError(
                 file, f"{pre}arcs.{name}", f"an arc must join two different nodes, not {a} to itself"
             )
-        length = arc.get("length")
         arcs[name] = Arc(name, a, b, length if length is not None else hypot(na.x - nb.x, na.y - nb.y))
     return WorldMap(tuple(areas), nodes, arcs, grid)
 

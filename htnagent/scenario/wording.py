@@ -8,9 +8,12 @@ be at most 1, got 2``; ``nodes.n1.x: expected a finite number, got 'far'``.
 Only the first error is told: one line on stderr, never a list or a traceback.
 
 The key path is pydantic's location written as the file is: ``a.b[2].c``; a
-mapping's key that is refused is named by the mapping and the key.  For an
-unknown key the reason lists the keys allowed there, read from the model
-(a pydantic model or a ``TypedDict``) that the location leads to.
+mapping's key that is refused is named by the mapping and the key.  The
+location is read along the schema: the tag of a tagged union (which form of
+a value was read) is not a key of the file and is left out, and for an unknown
+key the reason lists the keys allowed there, read from the model (a pydantic
+model or a ``TypedDict``) that the location leads to.  A schema's own error
+(a ``Discriminator``'s ``custom_error_message``) is told as written.
 """
 
 from __future__ import annotations
@@ -27,7 +30,7 @@ from typing import (  # typing_extensions' TypedDicts too
     get_type_hints,
 )
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, Discriminator, Tag, ValidationError
 from pydantic_core import ErrorDetails
 from typing_extensions import is_typeddict
 
@@ -57,10 +60,10 @@ def translate(error: ValidationError, file: str, schema: object, prefix: str = "
     the validated data sits in the file (``map`` for a map written inline).
     """
     detail = error.errors(include_url=False)[0]
-    loc = tuple(detail["loc"])
+    loc, at = _walk(schema, tuple(detail["loc"]))
     if loc[-1:] == ("[key]",):
         return _refused_key(detail, file, loc[:-2], prefix)
-    return ScenarioError(file, key_path(loc, prefix), _reason(detail, schema, loc))
+    return ScenarioError(file, key_path(loc, prefix), _reason(detail, at))
 
 
 def _refused_key(
@@ -76,14 +79,15 @@ def _refused_key(
     return ScenarioError(file, key_path(mapping, prefix), f"{shown(key)} is not a valid name (expected text)")
 
 
-def _reason(detail: ErrorDetails, schema: object, loc: tuple[int | str, ...]) -> str:
+def _reason(detail: ErrorDetails, at: list[object]) -> str:
+    """Why, in the words of the file; ``at`` are the types the error's location leads to."""
     kind = detail["type"]
     got = detail.get("input")
     ctx = detail.get("ctx") or {}
     if kind == "missing":
         return "required, but missing"
     if kind == "extra_forbidden":
-        keys = _keys_at(schema, loc[:-1])
+        keys = _keys_in(at)
         return f"unknown key; expected one of {', '.join(keys)}" if keys else "unknown key"
     if kind in ("model_type", "dict_type", "model_attributes_type"):
         return f"expected a mapping, got {kind_of(got)}"
@@ -128,11 +132,42 @@ def key_path(loc: Sequence[int | str], prefix: str = "") -> str:
     return out
 
 
-def _keys_at(schema: object, loc: Sequence[int | str]) -> tuple[str, ...]:
-    """The keys allowed in the mapping at ``loc`` of data of type ``schema`` (none if unknown)."""
-    types_here: list[object] = [schema]
+def _walk(schema: object, loc: tuple[int | str, ...]) -> tuple[tuple[int | str, ...], list[object]]:
+    """``loc`` without the tags of tagged unions, and the types of the mapping holding its last part.
+
+    For an unknown key, the types are those of the mapping the key was found in.
+    """
+    kept: list[int | str] = []
+    here: list[object] = [schema]
+    parents: list[object] = []
     for part in loc:
-        types_here = [t for here in types_here for t in _step(here, part)]
+        members = [m for t in here for m in _tagged(t, part)]
+        if members:  # which form of the value was read: not a key of the file
+            here = members
+            continue
+        kept.append(part)
+        parents = here
+        here = [s for t in here for s in _step(t, part)]
+    return tuple(kept), parents
+
+
+def _tagged(t: object, tag: int | str) -> list[object]:
+    """The member tagged ``tag`` of ``t`` if ``t`` is a tagged union (``Discriminator``), else none."""
+    if get_origin(t) is not Annotated:
+        return []
+    inner, *metadata = get_args(t)
+    if any(isinstance(m, Discriminator) for m in metadata):
+        for member in get_args(inner):
+            if get_origin(member) is Annotated and any(
+                isinstance(m, Tag) and m.tag == tag for m in get_args(member)[1:]
+            ):
+                return [get_args(member)[0]]
+        return []
+    return _tagged(inner, tag)
+
+
+def _keys_in(types_here: list[object]) -> tuple[str, ...]:
+    """The keys allowed in a mapping of one of these types (none if unknown)."""
     for t in types_here:
         keys = _fields(t)
         if keys:
