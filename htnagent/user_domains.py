@@ -15,6 +15,13 @@ makes sure of is that nothing *else* runs:
 - whatever the user's code raises, ``SystemExit`` and ``KeyboardInterrupt``
   included, becomes one :class:`~htnagent.errors.ScenarioError`; what it prints
   goes to stderr, since stdout may be carrying JSON Lines.
+
+Built-in domains are looked up here too: :func:`resolve_domain` answers every
+``agents[].domain`` with the domain and its :class:`~htnagent.domains.DomainInfo`
+(what its arguments name on the map, which actions are the robot's moves).  A
+user's factory carries the info it declared with ``@domain_factory(...)``; a
+``Domain`` object named directly has the defaults (no argument checked against
+the map; the robot's moves are :data:`~htnagent.domains.ROBOT_TRAVEL`).
 """
 
 from __future__ import annotations
@@ -23,23 +30,33 @@ import contextlib
 import importlib
 import os
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from htnagent.domain import Domain
-from htnagent.domains import BUILTIN, is_domain_factory
+from htnagent.domains import BUILTIN, DomainInfo, declared_info
 from htnagent.errors import ScenarioError, shown
 from htnagent.maps import WorldMap
 
-__all__ = ["resolve_domain"]
+__all__ = ["ResolvedDomain", "resolve_domain"]
 
 
-def resolve_domain(spec: str, world: WorldMap, base_dir: Path, file: str, where: str) -> Domain:
-    """A built-in domain by name, or a user's ``package.module:attribute`` looked up from ``base_dir``."""
-    factory = BUILTIN.get(spec)
-    if factory is not None:
-        return factory(world)
+class ResolvedDomain(NamedTuple):
+    """An agent's domain, built for the scenario's map, and what it declares about itself."""
+
+    domain: Domain
+    info: DomainInfo
+
+
+def resolve_domain(spec: str, world: WorldMap, base_dir: Path, file: str, where: str) -> ResolvedDomain:
+    """A built-in domain by name, or a user's ``package.module:attribute`` looked up from ``base_dir``.
+
+    Every failure, the user's code's included, is a ScenarioError at ``file`` and ``where``.
+    """
+    builtin = BUILTIN.get(spec)
+    if builtin is not None:
+        return ResolvedDomain(builtin.factory(world), builtin)
     if ":" not in spec:
         raise ScenarioError(
             file,
@@ -62,8 +79,9 @@ def resolve_domain(spec: str, world: WorldMap, base_dir: Path, file: str, where:
         raise ScenarioError(file, where, f"{spec}: a __main__ module is a program, not a domain")
     target = _attribute(spec, module_name, attr_path, base_dir, file, where)
     if isinstance(target, Domain):
-        return target
-    if not is_domain_factory(target):
+        return ResolvedDomain(target, DomainInfo(_as_is(target)))
+    info = declared_info(target)
+    if info is None:
         raise ScenarioError(
             file,
             where,
@@ -73,12 +91,17 @@ def resolve_domain(spec: str, world: WorldMap, base_dir: Path, file: str, where:
         )
     with _user_code(base_dir):
         try:
-            built = target(world)
+            built = info.factory(world)
         except BaseException as e:  # the user's factory, whatever it raises (even SystemExit)
             raise ScenarioError(file, where, f"calling {spec}(map) failed: {_one_line(e)}") from None
     if not isinstance(built, Domain):
         raise ScenarioError(file, where, f"{spec}(map) returned a {type(built).__name__}, not a Domain")
-    return built
+    return ResolvedDomain(built, info)
+
+
+def _as_is(domain: Domain) -> Callable[[WorldMap], Domain]:
+    """The factory of a domain given ready-made: whatever the map, that domain."""
+    return lambda _world: domain
 
 
 def _attribute(spec: str, module_name: str, attr_path: str, base_dir: Path, file: str, where: str) -> Any:

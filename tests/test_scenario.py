@@ -494,7 +494,7 @@ BROKEN: list[tuple[str, Callable[[], Any], str, str]] = [
             lambda d: d.update(map={"areas": {"a": None}, "nodes": {"n1": {"area": "a", "x": "far", "y": 0}}})
         ),
         "map.nodes.n1.x",
-        "expected a number",
+        "expected a finite number, got 'far'",
     ),
 ]
 

@@ -32,7 +32,7 @@ from __future__ import annotations
 
 from htnagent.domain import Domain, Effect, Suspension
 from htnagent.domains import domain_factory
-from htnagent.domains.museum import nodes_domain
+from htnagent.domains.museum import NODES, nodes_domain
 from htnagent.maps import WorldMap
 from htnagent.terms import Atom
 
@@ -48,7 +48,8 @@ EXPLAIN_COST = 10.0
 """The planner's cost of a whole explanation (resuming one costs half)."""
 
 
-@domain_factory
+# Walking is the navigator's: the same arguments name the map, and move is the robot's.
+@domain_factory(argument_kinds=NODES.argument_kinds, robot_moves=NODES.robot_moves)
 def talk_domain(world: WorldMap) -> Domain:
     """The guide robot's domain: walking over the nodes of ``world``, and talking."""
     d = nodes_domain(world)

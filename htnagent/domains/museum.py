@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 
 from htnagent.domain import Domain, Effect, State, Suspension
+from htnagent.domains.info import DomainInfo
 from htnagent.domains.landmarks import Landmarks
 from htnagent.maps import WorldMap
 from htnagent.terms import Atom
@@ -236,3 +237,18 @@ def nodes_facts(world: WorldMap, start: str) -> list[Atom]:
         facts.append(Atom("arc", (arc.a, arc.b, arc.name)))
         facts.append(Atom("arc", (arc.b, arc.a, arc.name)))
     return facts
+
+
+AREAS = DomainInfo(
+    areas_domain,
+    argument_kinds={"goto": ("node",), "goto_node": ("node",), "move_area": ("area", "area")},
+    robot_moves=frozenset(),
+)
+"""``museum.areas``: its tasks and actions name nodes and areas; the robot does none of its actions."""
+
+NODES = DomainInfo(
+    nodes_domain,
+    argument_kinds={"goto_node": ("node",), "move_area": ("area", "area")},
+    robot_moves=frozenset({"move"}),
+)
+"""``museum.nodes``: ``move(From,To,Arc)`` is the robot's; its tasks name nodes and areas."""

@@ -1,0 +1,220 @@
+"""Cross-references of a scenario: what its values name must exist, and fit together.
+
+The schema (:mod:`htnagent.scenario.schema`) checks each value by itself; here,
+once the map is read and the agents' domains are built, everything a run would
+otherwise trip over later is checked: the robot's start node, the chain of
+agents, each goal's task (known to the agent's domain, with the right number of
+arguments, naming places of the map), each trigger's action (some agent's,
+reachable at its ``progress``), each event's arc, the robot's timed actions and
+the action timeout.  Every failure is one :class:`~htnagent.errors.ScenarioError`
+at the key path of the value at fault.
+
+Nothing here knows a particular domain: what an argument names on the map and
+which actions are the robot's moves, each domain declares
+(:class:`~htnagent.domains.DomainInfo`).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Collection
+from pathlib import Path
+
+from htnagent.domain import Domain
+from htnagent.domains import ROBOT_TRAVEL, DomainInfo
+from htnagent.errors import ScenarioError
+from htnagent.maps import WorldMap
+from htnagent.scenario.schema import ROBOT, Scenario, Trigger, no_agent
+from htnagent.terms import Atom
+from htnagent.user_domains import resolve_domain
+
+__all__ = ["check_task", "cross_check"]
+
+_PLANNER_ACTIONS = ("resume", "rollback")
+"""Actions every domain has for suspended actions: never a goal's task, never timed by name."""
+
+
+def cross_check(s: Scenario, base_dir: Path) -> None:
+    """Check every reference of ``s`` against its map and build its agents' domains (in ``s``)."""
+    file, world = s.file, s.world
+    if s.robot.start not in world.nodes:
+        raise ScenarioError(file, "robot.start", f"unknown node {s.robot.start!r}; it is not on the map")
+    _check_chain(s)
+    for i, a in enumerate(s.agents):
+        s._domains[a.name] = resolve_domain(a.domain, world, base_dir, file, f"agents[{i}].domain")
+    _check_durations(s)
+    _check_timeout(s)
+    names = s.agent_names
+    for i, g in enumerate(s.goals):
+        if g.agent not in names:
+            raise ScenarioError(file, f"goals[{i}].agent", no_agent(g.agent, names))
+        check_task(s, g.agent, g.task, f"goals[{i}].task")
+        if g.when is not None:
+            _check_trigger(s, g.when, f"goals[{i}].when")
+    for i, ev in enumerate(s.events):
+        _check_trigger(s, ev.when, f"events[{i}].when")
+        key = "close" if ev.closes else "open"
+        if ev.arc not in world.arcs:
+            raise ScenarioError(file, f"events[{i}].{key}", f"unknown arc {ev.arc!r}; it is not on the map")
+
+
+def check_task(s: Scenario, agent_name: str, task: Atom, where: str) -> None:
+    """Raise ScenarioError at ``where`` unless the agent can plan for ``task`` (see Scenario.check_task)."""
+    domain = s.domain_for(agent_name)
+    if not task.is_ground:
+        raise ScenarioError(s.file, where, f"{task} has variables; a goal must be ground")
+    if not domain.knows(task):
+        known = ", ".join(_task_names(domain)) or "none"
+        raise ScenarioError(
+            s.file,
+            where,
+            f"agent {agent_name}'s domain {domain.name} has no task {task.name} (its tasks: {known})",
+        )
+    _check_arity(domain, task, s.file, where)
+    _check_map_names(s.info_for(agent_name), task, s.world, s.file, where)
+
+
+def _check_chain(s: Scenario) -> None:
+    """Agents form a chain, parent first: unique names, each executed by the next, the last by the robot."""
+    names = s.agent_names
+    for i, a in enumerate(s.agents):
+        if a.name == ROBOT:
+            raise ScenarioError(
+                s.file, f"agents[{i}].name", f"{ROBOT!r} names the robot; call the agent something else"
+            )
+        if a.name in names[:i]:
+            raise ScenarioError(s.file, f"agents[{i}].name", f"duplicate agent name {a.name!r}")
+    for i, a in enumerate(s.agents):
+        expected = names[i + 1] if i + 1 < len(names) else ROBOT
+        if a.executor != expected:
+            what = (
+                f"the next agent, {expected!r}" if expected != ROBOT else f"{ROBOT!r} (it is the last agent)"
+            )
+            raise ScenarioError(
+                s.file,
+                f"agents[{i}].executor",
+                f"expected {what}, got {a.executor!r}; agents form a chain, parent first",
+            )
+
+
+def _check_durations(s: Scenario) -> None:
+    """Each timed robot action must be an action of the agent the robot serves, and not a move."""
+    last = s.agents[-1]
+    domain = s.domain_for(last.name)
+    # The simulated robot travels on its moves whatever the domain declares: never timed by name.
+    untimed = {*ROBOT_TRAVEL, *_PLANNER_ACTIONS, *s.info_for(last.name).robot_moves}
+    for name in s.robot.durations:
+        where = f"robot.durations.{name}"
+        if name in untimed:
+            raise ScenarioError(
+                s.file, where, f"{name} is not timed here: moves take their arc's length at the robot's speed"
+            )
+        if name not in domain.operators:
+            raise ScenarioError(
+                s.file,
+                where,
+                f"agent {last.name}'s domain {domain.name} has no action {name}, so the robot never does it",
+            )
+
+
+def _check_timeout(s: Scenario) -> None:
+    """A timeout must leave the robot time for its longest action, or a normal action times out."""
+    if s.action_timeout is None:
+        return
+    longest: list[tuple[float, str]] = []
+    speed = s.robot.speed
+    if s.info_for(s.agents[-1].name).robot_moves:
+        longest += [
+            (arc.length / speed, f"a move over {arc.name} ({arc.length:g} m at {speed:g} m/s)")
+            for arc in s.world.arcs.values()
+        ]
+    longest += [(seconds, f"{name} (robot.durations)") for name, seconds in s.robot.durations.items()]
+    if not longest:
+        return
+    need, what = max(longest)
+    if s.action_timeout <= need:
+        raise ScenarioError(
+            s.file,
+            "action_timeout",
+            f"{s.action_timeout:g} s is too short: {what} takes {need:.6g} s; give more than {need:.6g} s, "
+            "or a normal action times out while the robot is still doing it",
+        )
+
+
+def _check_trigger(s: Scenario, trigger: Trigger, where: str) -> None:
+    """The trigger's action must be one some agent does, and ``progress`` one it can reach.
+
+    Only the robot's own actions (moves, ``robot.durations``) have a duration
+    known when they start, so only they may fire part way (``progress`` below
+    1); any agent's action may fire when it finishes (``progress: 1``).
+    """
+    action = trigger.action
+    if action is None:
+        return
+    place = f"{where}.action"
+    if not action.is_ground:
+        raise ScenarioError(s.file, place, f"{action} has variables; a trigger names one ground action")
+    if action.name in _PLANNER_ACTIONS:
+        inner = action.args[0] if len(action.args) == 1 and isinstance(action.args[0], Atom) else None
+        named = f" ({inner})" if inner is not None else ""
+        raise ScenarioError(
+            s.file,
+            place,
+            f"{action}: a trigger names the action itself{named}, not its {action.name}; "
+            "its progress counts the part done after a resume too",
+        )
+    owners = [a for a in s.agents if s.domain_for(a.name).is_primitive(action)]
+    if not owners:
+        raise ScenarioError(
+            s.file, place, f"no agent has an action named {action.name}, so the trigger would never fire"
+        )
+    owner = owners[0]
+    _check_arity(s.domain_for(owner.name), action, s.file, place)
+    _check_map_names(s.info_for(owner.name), action, s.world, s.file, place)
+    if s.robot_does(action):
+        return
+    if [a.name for a in owners] == [s.agents[-1].name]:
+        raise ScenarioError(
+            s.file,
+            place,
+            f"the robot cannot do {action} (it is not a move and {action.name} is not in robot.durations), "
+            "so it never succeeds and the trigger would never fire",
+        )
+    if trigger.progress is not None and trigger.progress < 1:
+        raise ScenarioError(
+            s.file,
+            f"{where}.progress",
+            f"{action} is agent {owner.name}'s action, not the robot's: its duration is not known "
+            "in advance, so it can only trigger when it has finished (progress: 1), "
+            f"not at {trigger.progress:g}",
+        )
+
+
+def _check_arity(domain: Domain, task: Atom, file: str, where: str) -> None:
+    arities = {len(op.head.args) for op in domain.operators.get(task.name, ())}
+    arities |= {len(m.head.args) for m in domain.methods.get(task.name, ())}
+    if len(task.args) not in arities:
+        expected = " or ".join(str(n) for n in sorted(arities))
+        noun = "argument" if expected == "1" else "arguments"
+        raise ScenarioError(
+            file, where, f"{task.name} takes {expected} {noun} in {domain.name}, not {len(task.args)}"
+        )
+
+
+def _check_map_names(info: DomainInfo, task: Atom, world: WorldMap, file: str, where: str) -> None:
+    """The arguments the domain says name the map must be on it; a robot move's arc must join its ends."""
+    kinds = info.kinds_of(task.name)
+    if kinds is None or len(kinds) != len(task.args):
+        return
+    known: dict[str, Collection[str]] = {"node": world.nodes, "arc": world.arcs, "area": world.areas}
+    for kind, arg in zip(kinds, task.args, strict=True):
+        if not isinstance(arg, str) or arg not in known[kind]:
+            raise ScenarioError(file, where, f"{task}: unknown {kind} {str(arg)!r}; it is not on the map")
+    if task.name in info.robot_moves:
+        f, t, arc = (str(a) for a in task.args)
+        ends = world.arcs[arc]
+        if {ends.a, ends.b} != {f, t}:
+            raise ScenarioError(file, where, f"{task}: {arc} joins {ends.a} and {ends.b}, not {f} and {t}")
+
+
+def _task_names(domain: Domain) -> list[str]:
+    return sorted(n for n in (*domain.methods, *domain.operators) if n not in _PLANNER_ACTIONS)

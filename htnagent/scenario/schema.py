@@ -1,0 +1,295 @@
+"""The scenario file's schema: frozen pydantic models of what CONTRACTS.md "Scenario file" allows.
+
+Each model checks its own values (types, bounds, one form of a trigger);
+whatever refers to something else -- a node of the map, an agent, a domain's
+task -- is checked by :mod:`htnagent.scenario.checks` once the map and the
+domains are built.  :class:`Scenario` is what :func:`~htnagent.scenario.load_scenario`
+returns: the file's fields plus the parsed map and each agent's domain.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Annotated, Literal
+
+from pydantic import (
+    BaseModel,
+    ConfigDict,
+    Field,
+    PlainSerializer,
+    PlainValidator,
+    PrivateAttr,
+    Strict,
+    model_validator,
+)
+
+from htnagent.domain import Domain, State
+from htnagent.domains import DomainInfo
+from htnagent.errors import ScenarioError, TextFormError
+from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
+from htnagent.maps import WorldMap
+from htnagent.planner import PlannerSettings
+from htnagent.scenario.wording import kind_of
+from htnagent.terms import Atom, parse
+from htnagent.user_domains import ResolvedDomain
+
+__all__ = [
+    "ROBOT",
+    "AgentSpec",
+    "GoalSpec",
+    "MapSource",
+    "PlannerSpec",
+    "RobotSpec",
+    "Scenario",
+    "TextForm",
+    "Trigger",
+    "WorldEvent",
+]
+
+ROBOT = "robot"
+"""The executor name of the last agent of the chain: the robot itself."""
+
+
+def _parse_atom(value: object) -> Atom:
+    if isinstance(value, Atom):
+        return value
+    if isinstance(value, str):
+        return parse(value)  # a TextFormError is a ValueError: pydantic reports it at the key
+    raise TextFormError(f"expected text like name(arg,...), got {type(value).__name__}")
+
+
+TextForm = Annotated[Atom, PlainValidator(_parse_atom), PlainSerializer(str)]
+"""A task or action written ``name(arg,...)`` in the file, held as an :class:`Atom`."""
+
+Name = Annotated[str, Field(min_length=1)]
+PositiveSeconds = Annotated[float, Strict(), Field(gt=0, le=MAX_SECONDS, allow_inf_nan=False)]
+
+
+def _map_source(value: object) -> str | Mapping[object, object]:
+    if isinstance(value, str) and value.strip():
+        return value
+    if isinstance(value, Mapping):
+        return value
+    raise ValueError(f"expected a map file name or the map inline (a mapping), got {kind_of(value)}")
+
+
+MapSource = Annotated[str | Mapping[object, object], PlainValidator(_map_source)]
+"""A map file name (relative to the scenario file) or the map inline, as written."""
+
+
+class _Spec(BaseModel):
+    """A part of the file: frozen, and no key but those declared.
+
+    Its lists and mappings stop at their first bad item (``fail_fast``): only
+    the first error is told, and a file of a million bad goals must not make a
+    million errors first.
+    """
+
+    model_config = ConfigDict(frozen=True, extra="forbid")
+
+
+class RobotSpec(_Spec):
+    """The simulated robot: where it starts, how fast it goes, how often an action fails."""
+
+    start: Name
+    speed: Annotated[float, Strict(), Field(ge=MIN_SPEED, le=MAX_SPEED, allow_inf_nan=False)]
+    """Metres per simulated second."""
+    failure_rate: Annotated[float, Strict(), Field(ge=0, le=1)] = 0.0
+    """The chance that an action fails of itself (for failure experiments)."""
+    seed: Annotated[int, Strict()] = 0
+    """Seed of the robot's random failures, so runs repeat."""
+    durations: Annotated[dict[Name, PositiveSeconds], Field(fail_fast=True)] = {}
+    """Seconds each of the robot's other actions takes, by action name (``explain: 60``).
+
+    Moves take their arc's length at ``speed``; an action named here takes its
+    time wherever the robot stands, and may be suspended half way and resumed.
+    """
+
+
+class AgentSpec(_Spec):
+    """One planning agent: its name, its domain and who executes its actions."""
+
+    name: Name
+    domain: Name
+    """A built-in domain name or ``package.module:attribute``."""
+    executor: Name
+    """The next agent's name, or ``robot`` for the last agent."""
+
+
+class PlannerSpec(_Spec):
+    """How hard every agent's planner tries (see :class:`~htnagent.planner.PlannerSettings`)."""
+
+    alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
+    budget: Annotated[int, Strict(), Field(ge=1)] = 200_000
+
+
+class Trigger(_Spec):
+    """When something happens: at a simulated ``time``, or once ``action`` reaches ``progress``."""
+
+    action: TextForm | None = None
+    progress: Annotated[float, Strict(), Field(gt=0, le=1)] | None = None
+    """The fraction of the action's duration covered, in (0, 1].
+
+    Below 1 only for an action the robot performs itself (a move, or an action of
+    ``robot.durations``), followed through suspensions and resumptions; any
+    agent's action may trigger with 1, when it (or its ``resume``) succeeds.
+    """
+    time: Annotated[float, Strict(), Field(ge=0, le=MAX_SECONDS, allow_inf_nan=False)] | None = None
+    """Simulated seconds from the start."""
+
+    @model_validator(mode="after")
+    def _one_form(self) -> Trigger:
+        if self.time is not None:
+            if self.action is not None or self.progress is not None:
+                raise ValueError("give either {time: T} or {action: A, progress: P}, not both")
+        elif self.action is None:
+            raise ValueError("expected {time: T} or {action: A, progress: P}")
+        elif self.progress is None:
+            raise ValueError("an action trigger needs progress, the fraction in (0, 1] it fires at")
+        return self
+
+
+class GoalSpec(_Spec):
+    """A task given to an agent: at the start, or when its trigger fires."""
+
+    agent: Name
+    task: TextForm
+    emergency: Annotated[bool, Strict()] = False
+    """Whether the goal interrupts (suspends) what the agent is doing."""
+    when: Trigger | None = None
+    """None: given at time 0, in file order."""
+
+
+class WorldEvent(_Spec):
+    """A change of the world: an arc is closed (a door shut) or opened again."""
+
+    when: Trigger
+    close: Name | None = None
+    open: Name | None = None
+
+    @model_validator(mode="after")
+    def _one_change(self) -> WorldEvent:
+        if (self.close is None) == (self.open is None):
+            raise ValueError("an event either closes or opens one arc: give exactly one of close, open")
+        return self
+
+    @property
+    def arc(self) -> str:
+        """The arc the event closes or opens."""
+        arc = self.close if self.close is not None else self.open
+        assert arc is not None  # guaranteed by the validator
+        return arc
+
+    @property
+    def closes(self) -> bool:
+        """True when the event closes the arc, False when it opens it."""
+        return self.close is not None
+
+
+class Scenario(_Spec):
+    """A checked scenario; build it with :func:`~htnagent.scenario.load_scenario` (or ``parse_scenario``).
+
+    Besides the fields of the file it holds the parsed map (:attr:`world`) and
+    each agent's domain, built once from that map.  A Scenario made any other
+    way has neither, and its methods raise ScenarioError saying so.
+    """
+
+    name: Name
+    map: MapSource
+    """The map file name (relative to the scenario file) or the map inline, as written."""
+    robot: RobotSpec
+    agents: Annotated[tuple[AgentSpec, ...], Field(min_length=1, fail_fast=True)]
+    """Parent first; each agent's executor is the next agent, the last one's the robot."""
+    replanning: Literal["online", "naive"] = "online"
+    planner: PlannerSpec = PlannerSpec()
+    action_timeout: PositiveSeconds | None = None
+    """Simulated seconds after which a running action is given up; None: never."""
+    goals: Annotated[tuple[GoalSpec, ...], Field(min_length=1, fail_fast=True)]
+    events: Annotated[tuple[WorldEvent, ...], Field(fail_fast=True)] = ()
+
+    _file: str = PrivateAttr(default="")
+    _world: WorldMap | None = PrivateAttr(default=None)
+    _domains: dict[str, ResolvedDomain] = PrivateAttr(default_factory=dict)
+
+    @property
+    def file(self) -> str:
+        """The scenario file, as it was named when loaded."""
+        return self._file
+
+    @property
+    def world(self) -> WorldMap:
+        """The scenario's map."""
+        if self._world is None:
+            raise self._not_built()
+        return self._world
+
+    @property
+    def settings(self) -> PlannerSettings:
+        """The planner settings every agent uses."""
+        return PlannerSettings(alternatives=self.planner.alternatives, budget=self.planner.budget)
+
+    @property
+    def agent_names(self) -> tuple[str, ...]:
+        """The agents' names, parent first."""
+        return tuple(a.name for a in self.agents)
+
+    def agent(self, name: str) -> AgentSpec:
+        """The agent called ``name``; ScenarioError if there is none."""
+        for a in self.agents:
+            if a.name == name:
+                return a
+        raise ScenarioError(self._file, "agents", no_agent(name, self.agent_names))
+
+    def domain_for(self, agent_name: str) -> Domain:
+        """The agent's domain, built from the map (once; later calls return the same object)."""
+        return self._resolved(agent_name).domain
+
+    def info_for(self, agent_name: str) -> DomainInfo:
+        """What the agent's domain declares: its arguments' kinds on the map, the robot's moves."""
+        return self._resolved(agent_name).info
+
+    def initial_state(self, agent_name: str) -> State:
+        """The agent's belief at the start, with the robot at ``robot.start``."""
+        return self.domain_for(agent_name).initial_state(self.robot.start)
+
+    def robot_does(self, action: Atom) -> bool:
+        """Whether the robot itself performs ``action``: a move or an action of ``robot.durations``.
+
+        Such an action's duration is known when the robot starts it, so a trigger
+        may fire part way through it; any other action is a planning agent's,
+        achieved by the agents below it in however long that takes.  Which
+        actions are moves, the last agent's domain declares
+        (:attr:`~htnagent.domains.DomainInfo.robot_moves`).
+        """
+        last = self.agents[-1].name
+        if not self.domain_for(last).is_primitive(action):
+            return False
+        return action.name in self.info_for(last).robot_moves or action.name in self.robot.durations
+
+    def check_task(self, agent_name: str, task: Atom, where: str) -> None:
+        """Raise ScenarioError at ``where`` unless ``task`` is a task the agent can plan for.
+
+        The task must be ground, named by an operator or method of the agent's
+        domain with the same number of arguments, and name nodes, arcs and
+        areas of the map where the domain says its arguments do.
+        """
+        from htnagent.scenario.checks import check_task  # checks reads Scenario: imported when used
+
+        check_task(self, agent_name, task, where)
+
+    def _resolved(self, agent_name: str) -> ResolvedDomain:
+        self.agent(agent_name)
+        resolved = self._domains.get(agent_name)
+        if resolved is None:
+            raise self._not_built()
+        return resolved
+
+    def _not_built(self) -> ScenarioError:
+        return ScenarioError(
+            self._file or "<scenario>", "", "this Scenario was not built by load_scenario or parse_scenario"
+        )
+
+
+def no_agent(name: str, names: tuple[str, ...]) -> str:
+    """The reason for naming an agent that is not in the scenario."""
+    return f"no agent named {name!r}; the agents are {', '.join(names)}"
