@@ -91,19 +91,6 @@ class WorldMap:
         return None
 
 
-def parse_map(data: object, file: str, where: str = "map") -> WorldMap:
-    """Check a map given as parsed YAML; raise ScenarioError naming the key path.
-
-    The map file's schema and checks live with the other file formats, in
-    :func:`htnagent.scenario.map_file.parse_map`; this name is kept for callers
-    that build maps from data.
-    """
-    # Imported when called: the scenario package builds domains, which import this module.
-    from htnagent.scenario.map_file import parse_map as parse
-
-    return parse(data, file, where)
-
-
 def generate_map(cols: int, rows: int, side: int, seed: int = 0) -> WorldMap:
     """A museum of ``cols × rows`` areas, each a ``side × side`` grid of nodes.
 

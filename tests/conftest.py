@@ -16,7 +16,8 @@ from hypothesis import settings
 
 from htnagent.domain import Domain, State
 from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.maps import WorldMap, parse_map
+from htnagent.maps import WorldMap
+from htnagent.scenario import parse_map
 
 settings.register_profile("ci", derandomize=True, database=None)
 if os.environ.get("CI"):

@@ -10,7 +10,7 @@ import yaml
 from htnagent import AgentConfig, GoalStatus, Runtime, State, parse
 from htnagent.domains import areas_domain, nodes_domain
 from htnagent.executors.scripted import ScriptedExecutor
-from htnagent.maps import parse_map
+from htnagent.scenario import parse_map
 from tests.support import Event, record
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -15,7 +15,6 @@ import pytest
 from pydantic import ValidationError
 
 from htnagent.errors import HtnAgentError, ScenarioError
-from htnagent.maps import parse_map as parse_map_from_maps
 from htnagent.scenario import MapFile, parse_map
 
 SMALL: dict[str, Any] = {
@@ -49,7 +48,6 @@ def test_a_small_map_reads_as_written() -> None:
     assert world.nodes["n3"].x == 3.5
     assert world.arcs["arc1"].length == 5.0  # the distance of its ends
     assert world.arcs["arc2"].length == 2.5  # as given
-    assert parse_map_from_maps(SMALL, "m.yaml", "") == world
 
 
 def test_names_written_as_numbers_are_their_text() -> None:

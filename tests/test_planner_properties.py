@@ -17,9 +17,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.maps import WorldMap, generate_map, parse_map
+from htnagent.maps import WorldMap, generate_map
 from htnagent.plan import replay
 from htnagent.planner import PlannerSettings, PlanStatus, plan
+from htnagent.scenario import parse_map
 from htnagent.terms import Atom
 
 FAST = settings(

@@ -9,10 +9,11 @@ import yaml
 
 from htnagent.domain import Domain, State
 from htnagent.domains import areas_domain, nodes_domain
-from htnagent.maps import WorldMap, parse_map
+from htnagent.maps import WorldMap
 from htnagent.plan import Plan, Step, replay, tidy
 from htnagent.planner import PlannerSettings, plan
 from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
+from htnagent.scenario import parse_map
 from htnagent.terms import Atom, parse
 
 ROOT = Path(__file__).resolve().parent.parent

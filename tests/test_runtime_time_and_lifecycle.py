@@ -1,4 +1,4 @@
-"""Runtime time and lifecycle: real executors on the wall clock, start-up failures, pacing, run end, timeouts."""
+"""Runtime time and lifecycle: executors on the wall clock, start-up failures, pacing, run end, timeouts."""
 
 from __future__ import annotations
 
