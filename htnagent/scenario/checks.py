@@ -19,6 +19,7 @@ from __future__ import annotations
 from collections.abc import Collection
 from pathlib import Path
 
+from htnagent.actions import RECOVERY
 from htnagent.domain import Domain
 from htnagent.domains import ROBOT_TRAVEL, DomainInfo
 from htnagent.errors import ScenarioError
@@ -29,7 +30,7 @@ from htnagent.user_domains import resolve_domain
 
 __all__ = ["check_task", "cross_check"]
 
-_PLANNER_ACTIONS = ("resume", "rollback")
+_PLANNER_ACTIONS = RECOVERY
 """Actions every domain has for suspended actions: never a goal's task, never timed by name."""
 
 
