@@ -2,7 +2,7 @@
 
 Writes ``bench/results/replanning.md`` (the published parent, child and total
 tables with our figures beside the published ones), ``replanning.json`` (the
-CONTRACTS.md rows) and ``replanning.png``.
+docs/contracts.md rows) and ``replanning.png``.
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ CASES = [
 ]
 
 PUBLISHED = (
-    "Published (Prolog and Java on a Pentium 4, ALGORITHMS.md §6): total resume replanning "
+    "Published (Prolog and Java on a Pentium 4, docs/design.md §6): total resume replanning "
     "0.04–0.29 s on-line against 0.35–0.56 s naive; up to 30× faster at the parent when its "
     "plan needs no change, about 2× when it does. The per-case published figures are not in "
     "our reference material, so the tables show the published range for every case."

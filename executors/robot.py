@@ -234,7 +234,7 @@ class Robot(ExecutorActor):
             return
         motion = self.motion
         # A move stops half way wherever it is: a fresh one, the rest of a resumed one
-        # (a Resume order, whose action is the move), or a rollback (ALGORITHMS.md §4).
+        # (a Resume order, whose action is the move), or a rollback (docs/design.md §4).
         if motion is None or motion.order.seq != order.seq or motion.order.action != order.action:
             self.reply(Refused(action=order.action, seq=order.seq))
             return

@@ -11,16 +11,16 @@ One name per transition — each is a method of :class:`Actions`:
 - **apply**: the precondition is checked first; ``None`` when it does not hold.
   :meth:`Actions.apply` gives the whole state; :meth:`Actions.apply_dynamic`
   (and :meth:`CompiledAction.apply_dynamic`) only the dynamic facts, the fast
-  form the planner's search and plan re-checks (ALGORITHMS.md §2.4) run on.
+  form the planner's search and plan re-checks (docs/design.md §2.4) run on.
 - **progress**: the belief follows an action the executor *reports done*,
   whether or not the belief thought it could run (the executor is the authority).
 - **suspend**: the belief after the running action is stopped half way, by its
-  suspension effect (ALGORITHMS.md §3, Algorithm 1, step 1).
+  suspension effect (docs/design.md §3, Algorithm 1, step 1).
 - **clear**: the belief once a suspended action will never be resumed.
 
 The recovery actions of a suspended action A are ``resume(A)`` (finish the rest)
 and ``rollback(A)`` (undo the half done); an *undo* is the inverse of a finished
-action (ALGORITHMS.md §1).  Their names are defined here once, as :data:`RESUME`
+action (docs/design.md §1).  Their names are defined here once, as :data:`RESUME`
 and :data:`ROLLBACK`, with helpers to make and read such actions.
 
 The caches are filled as actions are met and emptied when an operator is added
@@ -213,7 +213,7 @@ class Actions:
 
         True when its operator declares a suspension, and for ``resume(A)`` and
         ``rollback(A)`` of such an A: stopping either leaves A suspended, with
-        less (or more) of it left to do (ALGORITHMS.md §4, Algorithm 3).
+        less (or more) of it left to do (docs/design.md §4, Algorithm 3).
         """
         target = half_done(action) or action
         try:
@@ -223,7 +223,7 @@ class Actions:
         return op.suspendable
 
     def suspend(self, state: State, action: Atom) -> State:
-        """The belief after the running action is stopped half way (ALGORITHMS.md §3, step 1).
+        """The belief after the running action is stopped half way (docs/design.md §3, step 1).
 
         Stopping ``resume(A)`` or ``rollback(A)`` leaves A suspended as it was before
         they started: the belief already says so, and stays as it is.  Raises
@@ -253,7 +253,7 @@ class Actions:
 
     def undo_of(self, action: Atom) -> Atom | None:
         """The action that undoes a finished action, if the domain declares one."""
-        # Cached: the tidy-up rules (ALGORITHMS.md §2.6) ask for every pair of steps.
+        # Cached: the tidy-up rules (docs/design.md §2.6) ask for every pair of steps.
         found = self._undo.get(action, _MISSING)
         if found is _MISSING:
             found = None

@@ -383,7 +383,7 @@ class Agent(ExecutorActor):
                 self._clear_suspended(entry, unused)
                 ps.ensure(self.belief)
                 ps.shorten_detours(self.belief)
-        # CONTRACTS.md: wall-clock time spent making the resumed goal's plan.
+        # docs/contracts.md: wall-clock time spent making the resumed goal's plan.
         replan_ms = (time.perf_counter() - started) * 1000
         self.trace.emit(
             GoalResumed(

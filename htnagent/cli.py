@@ -1,4 +1,4 @@
-"""The command line: ``python -m htnagent run|plan|check SCENARIO`` (CONTRACTS.md).
+"""The command line: ``python -m htnagent run|plan|check SCENARIO`` (docs/contracts.md).
 
 The CLI owns the console.  Exit codes: 0 success, 1 no plan / a goal failed,
 2 invalid input or usage, 130 interrupted.  Every error of kind 2 is exactly one

@@ -38,7 +38,7 @@ _STYLES = ["bold cyan", "bold green", "bold magenta", "bold yellow", "bold blue"
 
 
 class JsonLines:
-    """Writes each event as one JSON line, the ``summary`` last (CONTRACTS.md ``run --json``).
+    """Writes each event as one JSON line, the ``summary`` last (docs/contracts.md ``run --json``).
 
     When a run is interrupted, a reply already on its way (a robot's
     ``message``) can be traced after the summary; such stragglers are left out,

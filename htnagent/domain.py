@@ -5,7 +5,7 @@ A :class:`Domain` is built step by step — it is a **mutable builder** — with
 it is made of (:class:`Operator`, :class:`Method`, and the :class:`Suspension` /
 :class:`Effect` declarations behind resume and rollback) are immutable values
 that check themselves when built.  A method reads as "when this holds, do these
-subtasks" (ALGORITHMS.md §1)::
+subtasks" (docs/design.md §1)::
 
     d = Domain("nav")
     d.operator("move(?f,?t,?a)", pre=["at(?f)", "arc(?f,?t,?a)"],

@@ -1,4 +1,4 @@
-"""Every trace event, as a typed record (CONTRACTS.md "Trace events").
+"""Every trace event, as a typed record (docs/contracts.md "Trace events").
 
 The trace tells people and tools what the agents did; nothing in the runtime
 decides anything by reading it (triggers follow the robot's typed

@@ -2,7 +2,7 @@
 
 A scenario or map file may come from anyone, so reading it must stay cheap in
 time and memory whatever it holds, and every refusal must be one clear line
-(CONTRACTS.md "Command line").  The bounds sit far above anything a real
+(docs/contracts.md "Command line").  The bounds sit far above anything a real
 scenario needs; each is named here, with why it is what it is, so that a
 refusal can say which bound was hit.
 

@@ -1,4 +1,4 @@
-"""The typed messages agents and executors exchange (ALGORITHMS.md §4–§5).
+"""The typed messages agents and executors exchange (docs/design.md §4–§5).
 
 Frozen pydantic models, each with a literal ``kind`` as discriminator; the
 unions :data:`Order`, :data:`Result` and :data:`Message` type the mailboxes.
@@ -59,7 +59,7 @@ class Prepare(_Message):
     """A hint: ``action`` is likely to be ordered next; plan it ahead if there is time.
 
     An agent sends it to a child agent when it has prepared the plan it will resume
-    with (ALGORITHMS.md §4: work off the critical path).  The child may ignore it;
+    with (docs/design.md §4: work off the critical path).  The child may ignore it;
     nothing answers it.
     """
 

@@ -2,10 +2,10 @@
 
 Every step of a plan remembers which compound task (and which of its methods)
 produced it, through a chain of :class:`Decomposition` records up to the goal.
-Plan repair (ALGORITHMS.md §2.4) walks that chain.  Steps inserted by plan
+Plan repair (docs/design.md §2.4) walks that chain.  Steps inserted by plan
 maintenance — ``resume``/``rollback``/undo actions — belong to no compound task
 and have no record.  :func:`replay` checks a plan against a belief; :func:`tidy`
-is the tidy-up of ALGORITHMS.md §2.6.
+is the tidy-up of docs/design.md §2.6.
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ class Plan:
         return tuple(s.action for s in self.steps)
 
     def text(self) -> list[str]:
-        """The actions in the text form of CONTRACTS.md."""
+        """The actions in the text form of docs/contracts.md."""
         return [str(s.action) for s in self.steps]
 
     def __len__(self) -> int:
@@ -111,7 +111,7 @@ def replay(domain: Domain, state: State, actions: Iterable[Atom]) -> State | Non
 
 
 def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple[Step, ...]:
-    """Apply the tidy-up rules of ALGORITHMS.md §2.6 until none applies.
+    """Apply the tidy-up rules of docs/design.md §2.6 until none applies.
 
     - an action directly followed by its own undo: both go;
     - ``rollback(A)`` directly followed by ``A``: they become ``resume(A)``.

@@ -1,4 +1,4 @@
-"""The SHOP-style forward-decomposition HTN planner (ALGORITHMS.md §1).
+"""The SHOP-style forward-decomposition HTN planner (docs/design.md §1).
 
 Pure, synchronous code.  The first task of the task list is always the one
 decomposed or applied, so the state is known at every step.  Search is
@@ -62,7 +62,7 @@ class PlannerSettings:
     rollbacks: bool = True
     """Whether plans may roll a suspended action back.  An agent whose executor is a
     child agent that cannot plan ``rollback(A)`` as a task plans without them
-    (ALGORITHMS.md §5)."""
+    (docs/design.md §5)."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -371,7 +371,7 @@ def _unify_head(head: Atom, task: Atom) -> Bindings | None:
 
 
 def achieved_by_nothing(domain: Domain, state: State, task: Atom, budget: int = 10_000) -> bool:
-    """Whether the task decomposes to no action at all from the state (ALGORITHMS.md §2.8).
+    """Whether the task decomposes to no action at all from the state (docs/design.md §2.8).
 
     Such a task is achieved now.  Only decompositions are explored (the state never
     changes), so this is a small search over method choices; past ``budget`` task

@@ -1,4 +1,4 @@
-"""Keeping a goal's alternative plans valid while the agent acts (ALGORITHMS.md §2–§3).
+"""Keeping a goal's alternative plans valid while the agent acts (docs/design.md §2–§3).
 
 A plan set holds the alternative plans of one goal — the active goal or one
 waiting on the suspension stack — and updates them after every event.  There
@@ -610,7 +610,7 @@ class OnlinePlanSet(PlanSet):
     def shorten_detours(self, state: State) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
 
-        ALGORITHMS.md §2.1 keeps a plan valid by putting the undo of every action
+        docs/design.md §2.1 keeps a plan valid by putting the undo of every action
         the emergency made in front of it, so after an emergency the best kept
         plan may walk back first.  At resumption, if it starts with such inserted
         undo steps, it gets a rival: the lowest compound task above its first own

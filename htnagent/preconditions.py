@@ -1,4 +1,4 @@
-"""Preconditions: literals, and matching them against a belief SHOP-style (ALGORITHMS.md §1).
+"""Preconditions: literals, and matching them against a belief SHOP-style (docs/design.md §1).
 
 An operator's or method's precondition is a conjunction of :class:`Literal`
 values, positive or negated atoms with variables.  :func:`satisfiers` yields

@@ -1,4 +1,4 @@
-"""Plan repair (ALGORITHMS.md §2.4): re-plan only the lowest task above a failing step.
+"""Plan repair (docs/design.md §2.4): re-plan only the lowest task above a failing step.
 
 A plan that fails at action *i* when re-checked is not thrown away: the
 :class:`Repairer` walks up its decomposition record from action *i* to the

@@ -1,4 +1,4 @@
-"""Revival of removed plans (ALGORITHMS.md §2.5): a plan broken by a fact comes back with it.
+"""Revival of removed plans (docs/design.md §2.5): a plan broken by a fact comes back with it.
 
 A plan removed because a fact was false — or the plan as it was before a
 repair — is kept in a :class:`Revival` store, indexed by the precondition

@@ -3,7 +3,7 @@
 :func:`run_scenario` builds the agent chain of the scenario over the simulated
 robot, gives the goals at their triggers, applies the world events, waits
 until every goal has ended (or nothing more can happen) and returns the
-summary of CONTRACTS.md.
+summary of docs/contracts.md.
 """
 
 from __future__ import annotations

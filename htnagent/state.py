@@ -1,6 +1,6 @@
 """Beliefs: what an agent holds true, as a :class:`State` over a shared :class:`FactBase`.
 
-A belief is a set of ground facts (ALGORITHMS.md §1, "Belief").  A :class:`State`
+A belief is a set of ground facts (docs/design.md §1, "Belief").  A :class:`State`
 splits it in two: *static* facts (predicates no operator changes, such as the
 map) live in an indexed :class:`FactBase` shared by every state that grew from
 the same start, and *dynamic* facts (predicates some effect changes) in a small

@@ -4,7 +4,7 @@ Facts, tasks and actions are all :class:`Atom` values: an immutable name and a
 tuple of arguments, each argument a constant (``str``) or a nested atom
 (``resume(move(n40,n35,arc59))``).  In domain definitions a constant that starts
 with ``?`` is a variable.  This module parses and prints the text form of
-CONTRACTS.md and unifies patterns with ground atoms (SHOP-style binding).
+docs/contracts.md and unifies patterns with ground atoms (SHOP-style binding).
 
 Atoms nest at most :data:`~htnagent.limits.MAX_TERM_DEPTH` deep when parsed:
 everything that walks an atom does so recursively, and a text form typed by

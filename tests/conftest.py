@@ -31,7 +31,7 @@ StateAt = Callable[[Domain, str], State]
 
 @pytest.fixture(scope="session")
 def museum_map() -> WorldMap:
-    """The 8-area, 40-node, 59-arc museum (ALGORITHMS.md §6)."""
+    """The 8-area, 40-node, 59-arc museum (docs/design.md §6)."""
     return parse_map(yaml.safe_load(MUSEUM_MAP.read_text()), str(MUSEUM_MAP))
 
 

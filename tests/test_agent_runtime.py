@@ -1,4 +1,4 @@
-"""The agent runtime as short stories (ALGORITHMS.md §4, published Algorithms 2–4).
+"""The agent runtime as short stories (docs/design.md §4, published Algorithms 2–4).
 
 Each story builds a :class:`~htnagent.runtime.Runtime` with one agent, the
 courier, over a :class:`~executors.scripted.ScriptedExecutor` (the robot), gives

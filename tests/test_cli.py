@@ -1,4 +1,4 @@
-"""The command line: ``check`` and ``plan`` (CONTRACTS.md "Command line").
+"""The command line: ``check`` and ``plan`` (docs/contracts.md "Command line").
 
 Everything runs in-process through :func:`htnagent.cli.main`, reading what it
 printed with capsys.

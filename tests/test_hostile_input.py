@@ -2,7 +2,7 @@
 
 Each case here once gave a traceback, a hang or unbounded memory (found by
 adversarial testing); now the loader refuses it with a reason naming the file
-and the place (CONTRACTS.md "Command line").
+and the place (docs/contracts.md "Command line").
 """
 
 from __future__ import annotations

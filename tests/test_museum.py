@@ -3,7 +3,7 @@
 Each test runs a scenario on the simulated robot (virtual time, ~50 ms a run)
 and reads the trace: the goals' outcomes, the robot's path, and the ``message``
 events that carry orders and results between guide → navigator → robot
-(ALGORITHMS.md §4–§6).
+(docs/design.md §4–§6).
 """
 
 from __future__ import annotations
@@ -34,7 +34,7 @@ from tests.support import Event, events_of, summary_of
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
 
-# (start, first goal, interrupted on, emergency goal): the published table (ALGORITHMS.md §6).
+# (start, first goal, interrupted on, emergency goal): the published table (docs/design.md §6).
 PUBLISHED = [
     ("n40", "n1", "arc59", "n38"),
     ("n40", "n1", "arc59", "n28"),
@@ -487,7 +487,7 @@ def test_a_resumed_explanation_is_suspended_again_by_a_second_question() -> None
     report = run(parse_scenario(data, "two_questions.yaml", SCENARIOS))
     events = events_of(report)
     assert statuses(report) == ["success", "success", "success"]
-    # ALGORITHMS.md §4: resume(explain(statue)) can be suspended wherever explain can: bob
+    # docs/design.md §4: resume(explain(statue)) can be suspended wherever explain can: bob
     # is answered at once, then the rest of the rest is said.
     kinds = [m[2] for m in messages(report)]
     assert kinds == ["suspend", "suspended", "resume", "suspend", "suspended", "resume"]

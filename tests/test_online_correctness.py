@@ -1,4 +1,4 @@
-"""On-line replanning is never wrong where naive replanning is right (ALGORITHMS.md §2, §4, §5).
+"""On-line replanning is never wrong where naive replanning is right (docs/design.md §2, §4, §5).
 
 Each test is one defect found by running both modes on the same scenario and
 checking the outcome against the map; each fails on the code before the fix.

@@ -1,4 +1,4 @@
-"""The SHOP-style A* planner (ALGORITHMS.md §1): exact plans and costs on small domains and the museum."""
+"""The SHOP-style A* planner (docs/design.md §1): exact plans and costs on small domains and the museum."""
 
 from __future__ import annotations
 
@@ -332,7 +332,7 @@ def test_tidy_removes_an_action_and_its_undo_and_joins_rollback_and_redo() -> No
     assert [str(s) for s in tidy(d, steps("move(a,b)", "move(b,d)"))] == ["move(a,b)", "move(b,d)"]
 
 
-# -- the museum (ALGORITHMS.md §6) ---------------------------------------------------
+# -- the museum (docs/design.md §6) ---------------------------------------------------
 
 
 def test_parent_routes_goto_through_the_areas(areas: Domain, museum_map: WorldMap, state_at: StateAt) -> None:

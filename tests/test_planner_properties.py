@@ -149,7 +149,7 @@ def test_guide_plan_replays_in_the_areas_domain(trip: Trip) -> None:
 @FAST
 @given(generated_trips())
 def test_navigator_can_carry_out_the_guides_plan(trip: Trip) -> None:
-    # Stratified planning (ALGORITHMS.md §5): each parent action is a task the child can plan.
+    # Stratified planning (docs/design.md §5): each parent action is a task the child can plan.
     guide, navigator = areas_domain(trip.world), nodes_domain(trip.world)
     parent = plan(guide, guide.initial_state(trip.start), [Atom("goto", (trip.goal,))]).best
     assert parent is not None

@@ -1,4 +1,4 @@
-"""Plan maintenance (ALGORITHMS.md §2–§3): one test per rule, each failing without it."""
+"""Plan maintenance (docs/design.md §2–§3): one test per rule, each failing without it."""
 
 from __future__ import annotations
 

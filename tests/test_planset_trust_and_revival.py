@@ -1,4 +1,4 @@
-"""Plan maintenance shortcuts and bounds (ALGORITHMS.md §2.1, §2.5), each pinned by a test.
+"""Plan maintenance shortcuts and bounds (docs/design.md §2.1, §2.5), each pinned by a test.
 
 - A plan behind the undo of another goal's action is trusted without a re-check
   only when the undo gives back exactly the belief before the action (§2.1).

@@ -4,7 +4,7 @@
   :meth:`~htnagent.runtime.Runtime.events` streams the trace;
 - a scenario run is deterministic: the same events every run, whether simulated
   time runs as fast as it can or is paced against the wall clock;
-- ``python -m htnagent run`` keeps the output promises of CONTRACTS.md.
+- ``python -m htnagent run`` keeps the output promises of docs/contracts.md.
 """
 
 from __future__ import annotations
@@ -161,7 +161,7 @@ def test_run_json_prints_one_event_a_line_and_ends_with_the_summary() -> None:
     assert summary["visited"][0] == "n40" and "n28" in summary["visited"] and summary["visited"][-1] == "n1"
     assert summary["distance"] > 0
     assert set(summary["planning_ms"]) == {"guide", "navigator"}
-    # The fields CONTRACTS.md lists for the events the run must show.
+    # The fields docs/contracts.md lists for the events the run must show.
     resumed = [e for e in events if e["event"] == "goal_resumed"]
     assert resumed and all({"goal", "replanning", "replan_ms"} <= e.keys() for e in resumed)
     assert all(e["replanning"] == "online" for e in resumed)

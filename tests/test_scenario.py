@@ -2,7 +2,7 @@
 
 A broken scenario must give exit code 2 and exactly one line on stderr naming
 the file, the place in it (key path or line) and what is wrong — never a
-traceback (CONTRACTS.md "Command line").
+traceback (docs/contracts.md "Command line").
 """
 
 from __future__ import annotations

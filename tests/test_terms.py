@@ -1,4 +1,4 @@
-"""The text form ``name(arg,...)`` (CONTRACTS.md) and SHOP-style unification."""
+"""The text form ``name(arg,...)`` (docs/contracts.md) and SHOP-style unification."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Action triggers (CONTRACTS.md: ``when: {action: A, progress: p}``), exactly.
+"""Action triggers (docs/contracts.md: ``when: {action: A, progress: p}``), exactly.
 
 A goal (or a world event) with an action trigger is given once that action has
 covered the fraction ``progress`` of its duration.  For the robot's own
@@ -359,7 +359,7 @@ def test_the_robot_suspends_a_resumed_move_and_resumes_it_again() -> None:
         (3.0, Resume(action=MOVE, seq=3)),
     ]
     answers = anyio.run(robot_answers, orders, 3)
-    # ALGORITHMS.md §4: resume(A) can be suspended wherever A can; A is left suspended
+    # docs/design.md §4: resume(A) can be suspended wherever A can; A is left suspended
     # with less to do.
     assert kinds(answers) == [("Suspended", 1), ("Suspended", 2), ("Success", 3)]
     assert answers[1][0] == pytest.approx(2.5)

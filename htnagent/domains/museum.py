@@ -1,4 +1,4 @@
-"""The museum guide's two domains (ALGORITHMS.md §6), for any map in the map format.
+"""The museum guide's two domains (docs/design.md §6), for any map in the map format.
 
 ``museum.areas`` (the parent, "guide") plans over areas: ``goto(N)`` becomes
 ``move_area(A,B)`` steps and a final ``goto_node(N)``; both are executed by the
@@ -65,7 +65,7 @@ def areas_domain(world: WorldMap) -> Domain:
         suspend=Suspension(
             add=("moving(?a,?b)",),
             cleared=("moving(?a,?b)",),
-            # The rest of the way still needs an open door (ALGORITHMS.md §5: a parent must
+            # The rest of the way still needs an open door (docs/design.md §5: a parent must
             # not resume into a shut door).
             resume=Effect(
                 pre=("moving(?a,?b)", "at(?a)", "door(?a,?b,?arc)", "not closed(?arc)"),

@@ -1,4 +1,4 @@
-"""Scenario and map files (CONTRACTS.md "Scenario file"): read, checked, cross-referenced.
+"""Scenario and map files (docs/contracts.md "Scenario file"): read, checked, cross-referenced.
 
 A scenario names a map, a robot, a chain of agents (parent first, the last one
 executing on the robot), the goals they are given and the world events that

@@ -1,6 +1,6 @@
 """The map file: its schema, and the checked :class:`~htnagent.maps.WorldMap` it becomes.
 
-The format is that of ``scenarios/museum_map.yaml`` (CONTRACTS.md): ``areas``
+The format is that of ``scenarios/museum_map.yaml`` (docs/contracts.md): ``areas``
 (name → nothing or ``{col, row}``), ``nodes`` (name → ``{area, x, y}``) and
 ``arcs`` (id → ``[a, b]`` or ``{ends: [a, b], length: L}``).  An arc's length
 defaults to the Euclidean distance of its ends, in metres.  A scenario names

@@ -1,4 +1,4 @@
-"""The scenario file's schema: frozen pydantic models of what CONTRACTS.md "Scenario file" allows.
+"""The scenario file's schema: frozen pydantic models of what docs/contracts.md "Scenario file" allows.
 
 Each model checks its own values (types, bounds, one form of a trigger);
 whatever refers to something else -- a node of the map, an agent, a domain's

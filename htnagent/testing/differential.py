@@ -2,7 +2,7 @@
 
 On-line replanning keeps and modifies plans; naive replanning plans afresh
 whenever a plan is needed.  On-line must be at least as right as naive
-everywhere (ALGORITHMS.md §2.4, §2.8, §4).  :func:`scenario_data` makes a
+everywhere (docs/design.md §2.4, §2.8, §4).  :func:`scenario_data` makes a
 random scenario from a seed — a generated museum, one agent or a guide over a
 navigator, normal goals, emergencies at random times and on the progress of a
 move (often nested), doors shut and opened — and :func:`compare` runs it in

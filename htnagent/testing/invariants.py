@@ -9,12 +9,12 @@ event.  It knows nothing of how the agents work inside; it checks:
   belief about where the robot is matches the robot;
 - no robot action starts while the simulated world forbids it;
 - a ``goto(N)`` or ``goto_node(N)`` that succeeds has the robot standing at N,
-  and a ``move_area(A,B)`` that succeeds has it in area B (ALGORITHMS.md §2.8:
+  and a ``move_area(A,B)`` that succeeds has it in area B (docs/design.md §2.8:
   a goal succeeds only when it is achieved now);
 - an agent that receives an emergency (or its parent's ``suspend``) while
   pursuing a goal suspends (or finishes) that goal in the same simulated
   instant, unless the robot refused to stop its running action, and no robot
-  action starts in between (ALGORITHMS.md §4, Algorithm 3; §5);
+  action starts in between (docs/design.md §4, Algorithm 3; §5);
 - no agent crashes, and every stack is empty at the end.
 """
 
