@@ -175,11 +175,11 @@ def _markdown(
         "|---|---:|---:|---:|---:|---:|",
     ]
     for case, *_ in CASES:
-        on, nv = extra[(case, "online")], extra[(case, "naive")]
-        ratio = on["planning_ms"] / nv["planning_ms"] if nv["planning_ms"] else 0.0
+        online, naive = extra[(case, "online")], extra[(case, "naive")]
+        ratio = online["planning_ms"] / naive["planning_ms"] if naive["planning_ms"] else 0.0
         out.append(
-            f"| {case} | {on['planning_ms']:.2f} | {nv['planning_ms']:.2f} | {ratio:.2f} | "
-            f"{on['distance']:.2f} | {nv['distance']:.2f} |"
+            f"| {case} | {online['planning_ms']:.2f} | {naive['planning_ms']:.2f} | {ratio:.2f} | "
+            f"{online['distance']:.2f} | {naive['distance']:.2f} |"
         )
     out.append("")
     if failures:

@@ -31,7 +31,7 @@ from htnagent.domain import Domain, Effect, Suspension
 from htnagent.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
 from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
-from htnagent.messages import Clear
+from htnagent.messages import Clear, Execute, Resume, Suspend
 from htnagent.planset import Replanning
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.terms import Atom, atom
@@ -174,7 +174,11 @@ def scripted(rt: Runtime) -> ScriptedExecutor:
 
 def orders(rt: Runtime) -> list[str]:
     """What the robot was told, as ``"kind action"``."""
-    return [f"{o.kind} {o.action}" for o in scripted(rt).orders]
+    return [
+        f"{o.kind} {o.action}"
+        for o in scripted(rt).orders
+        if isinstance(o, Execute | Suspend | Resume | Clear)
+    ]
 
 
 async def run(

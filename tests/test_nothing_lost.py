@@ -70,7 +70,11 @@ async def test_an_agent_that_crashes_fails_its_running_stacked_and_waiting_goals
             rt.subscribe(record(events))
             running = rt.submit("worker", parse("job(a)"))
             waiting = rt.submit("worker", parse("job(c)"))
-            rt.clock.call_at(1.0, functools.partial(rt.submit, "worker", parse("job(bad)"), emergency=True))
+
+            def urgent() -> None:
+                rt.submit("worker", parse("job(bad)"), emergency=True)
+
+            rt.clock.call_at(1.0, urgent)
             outcomes = [await rt.outcome(running), await rt.outcome(waiting)]
             bad = await rt.outcome(3)
     # Expect: planning job(bad) crashes the agent with job(a) stacked and job(c) waiting;

@@ -90,7 +90,8 @@ def test_an_empty_kept_plan_counts_only_if_the_goal_decomposes_to_nothing(museum
     ps.action_succeeded(parse("goto_node(n29)"), in_area7, in_area7)  # done by another goal
     assert ps.finished
     ps.confirm_achieved(in_area7)
-    assert not ps.finished and ps.plans == []
+    assert ps.plans == []
+    assert not ps.finished
 
 
 # -- 2. §4, §5: emergencies are served at once, at every level ----------------------------------

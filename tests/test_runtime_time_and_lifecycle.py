@@ -5,6 +5,7 @@ from __future__ import annotations
 import time
 from pathlib import Path
 from types import TracebackType
+from typing import Self
 
 import anyio
 import pytest
@@ -50,7 +51,7 @@ class _Broken(Executor):
     async def execute(self, action: Atom) -> ActionOutcome:  # pragma: no cover - never reached
         return ActionOutcome.SUCCESS
 
-    async def __aenter__(self) -> Executor:
+    async def __aenter__(self) -> Self:
         raise ConnectionError("robot unreachable")
 
     async def __aexit__(

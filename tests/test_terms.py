@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from htnagent.errors import HtnAgentError, TextFormError
-from htnagent.terms import Atom, atoms, is_variable, parse, substitute, unify
+from htnagent.terms import Atom, Term, atoms, is_variable, parse, substitute, unify
 
 # -- parsing and printing ------------------------------------------------------
 
@@ -118,7 +118,7 @@ def test_repeated_variable_must_bind_the_same_value() -> None:
 
 
 def test_unify_does_not_change_the_given_bindings() -> None:
-    given_bindings = {"?x": "n1"}
+    given_bindings: dict[str, Term] = {"?x": "n1"}
     out = unify(parse("arc(?x,?y)"), parse("arc(n1,n6)"), given_bindings)
     assert out == {"?x": "n1", "?y": "n6"}
     assert given_bindings == {"?x": "n1"}
