@@ -391,3 +391,12 @@ def test_each_documented_event_has_the_fields_of_the_code(kind: str) -> None:
     assert documented == fields, (
         f"{kind}: docs/contracts.md lists {sorted(documented)}, the code gives {sorted(fields)}"
     )
+
+
+def test_the_layout_page_lists_every_module_of_the_package() -> None:
+    listed = set(re.findall(r"`(htnagent/[a-z_/]+\.py)`", (ROOT / "docs" / "layout.md").read_text()))
+    package = ROOT / "htnagent"
+    # (htnagent/executors links to the top-level executors/, listed there as one entry.)
+    modules = {str(p.relative_to(ROOT)) for p in package.rglob("*.py")}
+    modules.add("htnagent/executors/__init__.py")
+    assert listed == modules
