@@ -6,9 +6,10 @@ best-first A* over ``(state, remaining tasks)`` with ``f = g + h``: ``g`` the
 cost of the actions so far, ``h`` the domain's estimate for the first compound
 task left (see :func:`heuristic`: later tasks start elsewhere, and adding their
 estimates could over-estimate).  The planner returns up to ``alternatives`` complete plans
-in cost order; each key may be expanded that many times, and a plan never
-returns to a ``(state, tasks)`` it already passed through, so alternatives are
-genuinely different routes rather than detours with loops.
+in cost order; each key may be expanded that many times, and when more than
+one plan is asked for, a plan never returns to a ``(state, tasks)`` it already
+passed through, so alternatives are genuinely different routes rather than
+detours with loops (for the first plan alone A* needs no such check).
 
 When the state holds a half-done action (the facts a suspension left), the
 planner also tries, before the first task, every applicable ``resume`` and

@@ -208,18 +208,17 @@ class PlanSet:
             self.last_status = PlanStatus.UNSOLVABLE
             return False
         with self._timed():
-            # One plan: the alternatives are worth their search only for a goal that
-            # gets suspended (see widen).
+            # One plan: alternatives are searched for when an action fails (see widen).
             self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         """Add alternative plans (up to K) to the kept ones (§1, §4).
 
-        Called for a goal that was just suspended, off the critical path (after the
-        emergency's first action is on its way), and when an action ``failed`` left
-        no plan: the alternatives are then the plans that do not start with it
-        (§2.2).  ``state`` is the belief the kept plans are valid from.
+        Called when an action ``failed`` (§2.2): the alternatives are then the plans
+        that do not start with it.  ``state`` is the belief the kept plans are valid
+        from.  A goal's first plan is one plan; alternatives cost a search of their
+        own, so they are looked for only where they are used.
         """
         raise NotImplementedError(f"{type(self).__name__} does not implement widen")
 
