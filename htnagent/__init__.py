@@ -37,8 +37,10 @@ _WHERE = {
     "ScenarioError": "errors",
     "SettingsError": "errors",
     "TextFormError": "errors",
+    "TraceFormatError": "errors",
     "UnknownNameError": "errors",
     "EVENT_KINDS": "events",
+    "event_from_dict": "events",
     "Summary": "events",
     "TraceEvent": "events",
     "Executor": "executor",
@@ -97,7 +99,9 @@ __all__ = [
     "Suspension",
     "TextFormError",
     "TraceEvent",
+    "TraceFormatError",
     "UnknownNameError",
+    "event_from_dict",
     "load_scenario",
     "parse",
     "plan",
@@ -130,9 +134,10 @@ if TYPE_CHECKING:
         ScenarioError,
         SettingsError,
         TextFormError,
+        TraceFormatError,
         UnknownNameError,
     )
-    from htnagent.events import EVENT_KINDS, Summary, TraceEvent
+    from htnagent.events import EVENT_KINDS, Summary, TraceEvent, event_from_dict
     from htnagent.executor import ActionOutcome, Executor, ExecutorActor
     from htnagent.plan import Plan, Step
     from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan

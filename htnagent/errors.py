@@ -9,6 +9,7 @@
     ├── PlanningError        a task or action names something the domain cannot do
     ├── SettingsError        a setting out of range or at odds: planner, plan set, runtime,
     │                        clock, event stream, size limit (also a ValueError)
+    ├── TraceFormatError     a saved trace line is not an event of ``run --json`` (also a ValueError)
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     ├── RuntimeClosedError   a goal is given to a runtime that is not running
     └── UnknownNameError     an agent name or goal ticket the runtime does not have (also a KeyError)
@@ -66,6 +67,11 @@ class SettingsError(HtnAgentError, ValueError):
     """Raised when a setting is out of range or at odds: planner settings (``alternatives``
     below 1, say), a replanning mode a plan set does not implement, a runtime with no agent,
     a clock's speed, an event stream's room, a size limit."""
+
+
+class TraceFormatError(HtnAgentError, ValueError):
+    """Raised when a saved trace's line is not an event ``run --json`` writes (unknown kind,
+    missing or mistyped field)."""
 
 
 class PlotError(HtnAgentError):

@@ -15,8 +15,13 @@ optional ones only when set.
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import ClassVar, Literal
+
+from pydantic import TypeAdapter, ValidationError
+
+from htnagent.errors import TraceFormatError, shown
 
 JSONValue = str | int | float | bool | None | list["JSONValue"] | dict[str, "JSONValue"]
 """What an event's JSON form is made of."""
@@ -308,6 +313,34 @@ EVENT_KINDS: dict[str, type[TraceEvent]] = {
     )
 }
 """Every event kind by its ``event`` name."""
+
+
+def event_from_dict(data: Mapping[str, object]) -> TraceEvent:
+    """The typed event a JSON object of ``run --json`` stands for (a saved trace read back).
+
+    Raises :class:`~htnagent.errors.TraceFormatError` naming what is wrong: not an object,
+    an unknown ``event``, a missing or mistyped field.
+    """
+    if not isinstance(data, Mapping):
+        raise TraceFormatError(f"expected an event object, got {shown(data)}")
+    kind = data.get("event")
+    cls = EVENT_KINDS.get(kind) if isinstance(kind, str) else None
+    if cls is None:
+        raise TraceFormatError(f"unknown event {shown(kind)}")
+    fields = {k: v for k, v in data.items() if k != "event"}
+    adapter = _ADAPTERS.get(cls)
+    if adapter is None:
+        adapter = _ADAPTERS[cls] = TypeAdapter(cls)
+    try:
+        event: TraceEvent = adapter.validate_python(fields)
+    except ValidationError as e:
+        first = e.errors()[0]
+        where = ".".join(str(p) for p in first["loc"])
+        raise TraceFormatError(f"{cls.event}: {where}: {first['msg']}".replace(": : ", ": ")) from None
+    return event
+
+
+_ADAPTERS: dict[type[TraceEvent], TypeAdapter[TraceEvent]] = {}
 
 
 def fields_of(kind: str) -> tuple[str, ...]:
