@@ -373,6 +373,7 @@ class Agent(ExecutorActor):
                 self.belief = self.domain.clear(before, action)
                 update = functools.partial(_cleared, action, before, self.belief)
                 self._maintain(update, skip=entry.plans)
+            entry.plans.rebase(self.belief)
         else:
             ps = entry.plans
             if self.mode is Replanning.NAIVE:
@@ -507,6 +508,7 @@ class Agent(ExecutorActor):
                     fork = prepared.fork_of(ps)
                     if fork is not None:
                         ps.adopt(fork)
+                        ps.rebase(after)
                     else:
                         ps.action_succeeded(action, before, after)
             else:
@@ -663,6 +665,7 @@ class Agent(ExecutorActor):
         """The plans prepared for this order, if the belief is the one they were made for."""
         ready = self._ready.pop(action, None)
         if ready is not None and ready[0] == self.belief.key():
+            ready[1].rebase(self.belief)
             return ready[1]
         return self._planset(action)
 

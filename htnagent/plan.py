@@ -11,7 +11,7 @@ is the tidy-up of docs/design.md §2.6.
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 from htnagent.actions import ROLLBACK, rolled_back
 from htnagent.domain import Domain
@@ -58,16 +58,24 @@ class Plan:
     """A totally ordered sequence of steps and their total cost."""
 
     steps: tuple[Step, ...]
+    _cost: float | None = field(default=None, init=False, repr=False, compare=False)
+    _actions: tuple[Atom, ...] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def cost(self) -> float:
-        """The sum of the step costs."""
-        return sum(s.cost for s in self.steps)
+        """The sum of the step costs (worked out once: plans are sorted by it often)."""
+        if self._cost is None:
+            object.__setattr__(self, "_cost", sum(s.cost for s in self.steps))
+        assert self._cost is not None
+        return self._cost
 
     @property
     def actions(self) -> tuple[Atom, ...]:
-        """The actions, in order."""
-        return tuple(s.action for s in self.steps)
+        """The actions, in order (worked out once)."""
+        if self._actions is None:
+            object.__setattr__(self, "_actions", tuple(s.action for s in self.steps))
+        assert self._actions is not None
+        return self._actions
 
     def text(self) -> list[str]:
         """The actions in the text form of docs/contracts.md."""

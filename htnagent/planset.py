@@ -39,8 +39,7 @@ Pure and synchronous: the agent runtime calls it; no event loop inside.
 from __future__ import annotations
 
 import time
-from collections.abc import Callable, Iterator
-from contextlib import contextmanager
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from enum import Enum
 from typing import ClassVar, NamedTuple
@@ -189,6 +188,13 @@ class PlanSet:
         self._checked = other._checked
         self._unsolvable = other._unsolvable
 
+    def rebase(self, state: State) -> None:
+        """The kept plans were checked from a belief equal to ``state`` (made ahead, for a
+        prediction that came true): take ``state`` as that belief, so that the next
+        update knows them valid without walking them again."""
+        if self._checked is not None and self._checked is not state and self._checked.key() == state.key():
+            self._checked = state
+
     # -- making plans ---------------------------------------------------------
 
     def make(self, state: State) -> PlanResult:
@@ -293,13 +299,24 @@ class PlanSet:
         self.stats.rechecks += 1
         return _first_failure(self.domain, p, state) is None
 
-    @contextmanager
-    def _timed(self) -> Iterator[None]:
-        started = time.perf_counter()
-        try:
-            yield
-        finally:
-            self.stats.seconds += time.perf_counter() - started
+    def _timed(self) -> _Timed:
+        return _Timed(self.stats)
+
+    def _untouched(self, p: Plan, before: State, after: State) -> bool:
+        """Whether ``p``, valid from ``before``, is known valid from ``after`` without a walk.
+
+        Only preconditions decide validity, and they read facts: if no step of the
+        plan reads a predicate whose facts differ between the two beliefs, every
+        step sees what it saw before (issue #12: re-check only what a change can
+        touch).
+        """
+        if before is not self._checked:
+            return False
+        changed = _changed_predicates(before, after)
+        if not changed:
+            return True
+        compiled = self.domain.actions.compiled
+        return not any(lit.atom.name in changed for s in p.steps for lit in compiled(s.action).op.pre)
 
     # -- events ---------------------------------------------------------------
 
@@ -416,6 +433,46 @@ class NaivePlanSet(PlanSet):
 # -- on-line mode ----------------------------------------------------------------------------------
 
 
+class _Timed:
+    """Adds the wall-clock time of a ``with`` block to the statistics (a plain class:
+    it wraps every plan-set update, so it should cost next to nothing)."""
+
+    __slots__ = ("_started", "_stats")
+
+    def __init__(self, stats: PlanningStats) -> None:
+        self._stats = stats
+        self._started = 0.0
+
+    def __enter__(self) -> None:
+        self._started = time.perf_counter()
+
+    def __exit__(self, *exc: object) -> None:
+        self._stats.seconds += time.perf_counter() - self._started
+
+
+def _unique(plans: Iterable[Plan]) -> list[Plan]:
+    """The plans without repeats (the first of equal action sequences), in order."""
+    seen: set[tuple[Atom, ...]] = set()
+    out: list[Plan] = []
+    for p in plans:
+        if p.actions not in seen:
+            seen.add(p.actions)
+            out.append(p)
+    return out
+
+
+def _cost(p: Plan) -> float:
+    return p.cost
+
+
+def _changed_predicates(before: State, after: State) -> frozenset[str]:
+    """The names of the facts that differ between two beliefs."""
+    names = {f.name for f in before.dynamic ^ after.dynamic}
+    if after.static is not before.static:
+        names |= {f.name for f in before.static.facts ^ after.static.facts}
+    return frozenset(names)
+
+
 class _Kept(NamedTuple):
     """A plan going into a re-check, and whether it is known valid from the new belief."""
 
@@ -497,10 +554,7 @@ class OnlinePlanSet(PlanSet):
             # so is one behind the undo, when the undo really leads back to ``before``;
             # so is any other when the action changed nothing at all.
             trusted = before is self._checked
-            undo_restores = trusted and undo is not None and _leads_back(self.domain, undo, before, after)
-            unchanged = (
-                trusted and undo is None and after.static is before.static and after.dynamic == before.dynamic
-            )
+            restores: bool | None = None  # whether the undo leads back: worked out when needed
             kept: list[_Kept] = []
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
@@ -508,9 +562,11 @@ class OnlinePlanSet(PlanSet):
                     kept.append(_Kept(Plan(p.steps[1:]), trusted))
                 elif undo is not None:
                     # §2.1: another plan stays valid by undoing the action first.
-                    kept.append(_Kept(Plan(self._behind(undo, p.steps)), undo_restores))
+                    if restores is None:
+                        restores = trusted and _leads_back(self.domain, undo, before, after)
+                    kept.append(_Kept(Plan(self._behind(undo, p.steps)), restores))
                 else:
-                    kept.append(_Kept(p, unchanged))
+                    kept.append(_Kept(p, self._untouched(p, before, after)))
 
             # §2.5: plans kept for revival follow the same steps, so that a revived plan
             # is valid from where the robot is by then (not from where it was removed).
@@ -521,7 +577,8 @@ class OnlinePlanSet(PlanSet):
                     return Plan(self._behind(undo, p.steps))
                 return None
 
-            self.revival.rewrite(follow)
+            if self.revival:
+                self.revival.rewrite(follow)
             self._revise(before, after, kept, memo=memo)
 
     def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
@@ -581,10 +638,36 @@ class OnlinePlanSet(PlanSet):
                     return Plan((Step(rollback, actions.cost(rollback), None), *p.steps))
                 return p
 
-            self.plans = [q for q in map(suspended, self.plans) if q is not None]
+            trusted = before is self._checked
+            apply_dynamic = actions.apply_dynamic
+            # A plan valid from ``before`` stays valid when its new first step ends where the
+            # old one would have: resume(A) from ``after`` where A from ``before`` ends, or
+            # rollback(A) back at ``before`` itself.  Worked out once, when first needed.
+            resumes_alike: bool | None = None
+            rolls_back: bool | None = None
+            kept: list[_Kept] = []
+            for p in self.plans:
+                q = suspended(p)
+                if q is None:
+                    continue
+                if q is p:
+                    valid = self._untouched(p, before, after)
+                elif q.steps[0].action == resume:
+                    if resumes_alike is None:
+                        same_static = after.static is before.static
+                        ended = apply_dynamic(before, action) if trusted and same_static else None
+                        resumes_alike = ended is not None and apply_dynamic(after, resume) == ended
+                    valid = resumes_alike
+                else:
+                    if rolls_back is None:
+                        assert rollback is not None
+                        rolls_back = trusted and _leads_back(self.domain, rollback, before, after)
+                    valid = rolls_back
+                kept.append(_Kept(q, valid))
             self.revival.rewrite(suspended)
-            # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan.
-            self._revise(before, after, memo=memo)
+            # Steps 2 and 3's re-check: revive, tidy, re-check and repair every plan
+            # (a plan the suspension leaves as it was only if it reads what changed).
+            self._revise(before, after, kept, memo=memo)
 
     def suspension_cleared(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
@@ -597,14 +680,21 @@ class OnlinePlanSet(PlanSet):
         """
         with self._timed():
             whole = self._whole(action)
-            self.plans = [whole(p) for p in self.plans]
+            resume = resume_action(action)
+            kept = [
+                _Kept(p, self._untouched(p, before, after))
+                if resume not in p.actions
+                else _Kept(whole(p), False)
+                for p in self.plans
+            ]
             self.revival.rewrite(whole)
-            self._revise(before, after, memo=memo)
+            self._revise(before, after, kept, memo=memo)
 
     def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
-        """The world changed from outside (§2.3): every plan is re-checked."""
+        """The world changed from outside (§2.3): every plan that reads a changed fact is re-checked."""
         with self._timed():
-            self._revise(before, after, memo=memo)
+            kept = [_Kept(p, self._untouched(p, before, after)) for p in self.plans]
+            self._revise(before, after, kept, memo=memo)
 
     def shorten_detours(self, state: State) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
@@ -676,11 +766,27 @@ class OnlinePlanSet(PlanSet):
         self.revival.tick()
         if kept is None:
             kept = [_Kept(p, False) for p in self.plans]
+        elif not best_broke and not self.revival and all(valid for _, valid in kept):
+            # Every plan is known valid and none waits for revival: nothing to re-check.
+            if len(kept) == 1:
+                self.plans = [kept[0].plan]
+            else:
+                unique = sorted(_unique(p for p, _ in kept), key=_cost)
+                self.plans = unique[: max(self.settings.alternatives, 1)]
+            self._checked = after
+            return
         revived_from = len(kept)
         candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
-        repairer = self._repairer(memo, min(self.settings.budget, LOCAL_BUDGET))
+        made: list[Repairer] = []
+
+        def repairer() -> Repairer:
+            # Made on first need: most updates re-check nothing or find every plan valid.
+            if not made:
+                made.append(self._repairer(memo, min(self.settings.budget, LOCAL_BUDGET)))
+            return made[0]
+
         for n, (p, valid) in enumerate(candidates):
             revived = n >= revived_from
             if valid:
@@ -698,20 +804,20 @@ class OnlinePlanSet(PlanSet):
             if key not in seen:
                 seen.add(key)
                 out.append(checked)
-        out.sort(key=lambda q: q.cost)
+        out.sort(key=_cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
         if best_broke and not self.lazy:
             self._as_good_as_fresh(after, repairer)
-        if repairer.unsolvable is not None:
-            self._unsolvable = repairer.unsolvable
+        if made and made[0].unsolvable is not None:
+            self._unsolvable = made[0].unsolvable
         self._checked = after
         self.revival.expire()
 
     def _best_replaced(self, state: State) -> None:
         with self._timed():
-            self._as_good_as_fresh(state, self._repairer())
+            self._as_good_as_fresh(state, self._repairer)
 
-    def _as_good_as_fresh(self, state: State, repairer: Repairer) -> None:
+    def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> None:
         """§2.4: the best plan took the place of a broken one: it must be no worse than a
         plan made afresh from ``state`` — proven by the estimate, or else compared.
 
@@ -719,7 +825,7 @@ class OnlinePlanSet(PlanSet):
         """
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return
-        fresh = repairer.search(state, [(self.goal, None)], one_plan(self.settings))
+        fresh = repairer().search(state, [(self.goal, None)], one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1
@@ -731,7 +837,7 @@ class OnlinePlanSet(PlanSet):
         return p.cost <= heuristic(self.domain, [self.goal], state) + 1e-9
 
     def _recheck(
-        self, p: Plan, state: State, repairer: Repairer, *, allow_repair: bool, remember: bool
+        self, p: Plan, state: State, repairer: Callable[[], Repairer], *, allow_repair: bool, remember: bool
     ) -> Plan | None:
         """The plan if valid, else its repair, else None (and it is kept for revival)."""
         self.stats.rechecks += 1
@@ -745,7 +851,7 @@ class OnlinePlanSet(PlanSet):
                 self.stats.removed += 1
                 self.revival.keep(p, culprit, at_failure)
             return None
-        repaired = repairer.repair(p, index, _states(self.domain, p, state, index))
+        repaired = repairer().repair(p, index, _states(self.domain, p, state, index))
         # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.
         self.revival.keep(p, culprit, at_failure)
         if repaired is not None:
