@@ -14,6 +14,9 @@ import heapq
 import math
 from collections.abc import Iterable
 
+_TARGETS = 16
+"""How many targets' exact route tables :meth:`Landmarks.exact` keeps (the oldest goes)."""
+
 
 class Landmarks:
     """Lower bounds on the shortest route between two places of a weighted graph."""
@@ -25,6 +28,22 @@ class Landmarks:
             self._adjacent.setdefault(b, []).append((a, w))
         self._count = count
         self._tables: list[dict[str, float]] | None = None
+        self._targets: dict[str, dict[str, float]] = {}
+
+    def exact(self, a: str, b: str) -> float:
+        """The shortest route from ``a`` to ``b`` on the whole graph (0 when there is none).
+
+        The target itself is the landmark: one Dijkstra from ``b``, kept for the next
+        questions about the same target (a search asks about one target thousands of
+        times).  A lower bound on the route while some edges are shut.  Worth it where
+        searches are long next to the graph's size (a parent's few places).
+        """
+        table = self._targets.get(b)
+        if table is None:
+            if len(self._targets) >= _TARGETS:
+                self._targets.pop(next(iter(self._targets)))
+            table = self._targets[b] = self._dijkstra(b)
+        return table.get(a, 0.0)
 
     def bound(self, a: str, b: str) -> float:
         """A lower bound on the route from ``a`` to ``b`` (0 when nothing is known)."""
