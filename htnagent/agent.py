@@ -412,6 +412,8 @@ class Agent(ExecutorActor):
         if unused:
             plans.ensure(final)
             plans.shorten_detours(final)
+        if plans.best is not None:
+            plans.best.text()  # its steps keep their text: showing the plan at resumption is cheap
         entry.ready = _Ready(belief.key(), tuple(suspended), plans, unused)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:

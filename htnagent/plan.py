@@ -48,9 +48,15 @@ class Step:
     action: Atom
     cost: float
     record: Decomposition | None = None
+    _text: str | None = field(default=None, init=False, repr=False, compare=False)
 
     def __str__(self) -> str:
-        return str(self.action)
+        # Kept: the steps of a plan are shared by the plans that follow it, and a plan is
+        # shown (plan_selected) each time it changes.
+        if self._text is None:
+            object.__setattr__(self, "_text", str(self.action))
+        assert self._text is not None
+        return self._text
 
 
 @dataclass(frozen=True, slots=True)
@@ -79,7 +85,7 @@ class Plan:
 
     def text(self) -> list[str]:
         """The actions in the text form of docs/contracts.md."""
-        return [str(s.action) for s in self.steps]
+        return [str(s) for s in self.steps]
 
     def __len__(self) -> int:
         return len(self.steps)
