@@ -93,9 +93,12 @@ class GoalStatus(Enum):
     """No plan was left for the goal, an action kept failing, or the agent could not go on."""
 
 
-@dataclass
+@dataclass(eq=False)
 class GoalEntry:
-    """A goal with its plans; on the stack it also keeps its suspended action."""
+    """A goal with its plans; on the stack it also keeps its suspended action.
+
+    Entries compare by identity: the same goal may be on the stack twice.
+    """
 
     goal: Atom
     plans: PlanSet
@@ -679,12 +682,6 @@ class Agent(ExecutorActor):
                 return entry
         return None
 
-    def _entries(self) -> list[GoalEntry]:
-        entries = list(self.stack)
-        if self.current is not None and self.current not in entries:
-            entries.append(self.current)
-        return entries
-
     def _push(self, entry: GoalEntry) -> None:
         self.stack.append(entry)
         entry.plans.lazy = True  # see PlanSet.lazy: made good when it is about to run again
@@ -697,7 +694,11 @@ class Agent(ExecutorActor):
     def _plansets(self) -> list[PlanSet]:
         """The plan sets kept valid: the running goal's and the top stacked goals' (§2)."""
         deep = max(len(self.stack) - self.config.maintained_depth, 0)
-        return [e.plans for e in self._entries()[deep:]]
+        kept = self.stack[deep:]
+        current = self.current
+        if current is not None and current not in self.stack:  # by identity (eq=False)
+            kept.append(current)
+        return [e.plans for e in kept]
 
     # -- messages -------------------------------------------------------------------------------
 
