@@ -452,10 +452,12 @@ class Agent(ExecutorActor):
         self.trace.emit(ActionStarted(agent=self.name, action=str(action)))
         try:
             if self._later or self._hint is not None or self._will_resume_after(action):
-                # The order is on its way: let the executor take it, then do the plan
-                # maintenance that waited for this moment (§4, Algorithm 3), and get
-                # ready for what comes after this action while it runs.
-                await anyio.lowlevel.checkpoint()
+                # The order is on its way: let it reach the robot — one round of the event
+                # loop for each level below — then do the plan maintenance that waited for
+                # this moment (§4, Algorithm 3), and get ready for what comes after this
+                # action while it runs.
+                for _ in range(self._levels_below()):
+                    await anyio.lowlevel.checkpoint()
                 self._flush()
                 if self._prepare_resumption(action):
                     await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
@@ -584,6 +586,11 @@ class Agent(ExecutorActor):
             self._hint = None
 
     # -- getting ready for what comes next, while an action runs (§4) -----------------------------
+
+    def _levels_below(self) -> int:
+        """How many executors an order passes on its way to the robot (1: the robot itself)."""
+        below = self.executor
+        return 1 + below._levels_below() if isinstance(below, Agent) else 1
 
     def _will_resume_after(self, action: Atom) -> bool:
         """Whether the running goal ends with this action and a stacked goal resumes then."""

@@ -10,17 +10,10 @@ plan is walked — and found broken — when it may not.
 
 from __future__ import annotations
 
-from pathlib import Path
-
-import pytest
-
 from htnagent.domain import Domain, Effect, State, Suspension
 from htnagent.plan import Plan, Step
 from htnagent.planner import PlannerSettings
-from htnagent.planset import OnlinePlanSet, PlanSet
-from htnagent.runtime import Runtime
-from htnagent.scenario import load_scenario
-from htnagent.simulation import run_scenario
+from htnagent.planset import OnlinePlanSet
 from htnagent.terms import Atom, parse
 
 # -- a belief change that no step reads ---------------------------------------------------------
@@ -169,26 +162,3 @@ def test_a_plans_cached_cost_and_actions_do_not_change_equality() -> None:
     assert p.cost == 3.5 and p.actions == (parse("go(a,b)"), parse("go(b,c)"))
     assert p == q and hash(p) == hash(q)
     assert Plan(steps[:1]) != p
-
-
-# -- the agent takes a prepared resumption over without walking its plans again ---------------------
-
-SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
-
-
-async def _guide_rechecks(file: str) -> int:
-    runtimes: list[Runtime] = []
-    report = await run_scenario(
-        load_scenario(SCENARIOS / file), replanning="online", on_start=runtimes.append
-    )
-    assert report.succeeded
-    return runtimes[0].agents["guide"].stats.rechecks
-
-
-@pytest.mark.parametrize("file", ["paper_n1_n40_n13.yaml", "paper_n40_n1_n28.yaml"])
-async def test_a_resumption_made_ready_ahead_is_not_walked_again(
-    file: str, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    rebased = await _guide_rechecks(file)
-    monkeypatch.setattr(PlanSet, "rebase", lambda self, state: None)
-    assert rebased < await _guide_rechecks(file)

@@ -1,0 +1,75 @@
+"""Work kept off the critical path (docs/design.md §4; issue #12), checked on the real agents.
+
+- A resumption made ready while the emergency's last action ran is taken over as it
+  is: its plans are not walked again at the next update.
+- The suspended goals' upkeep waits until the emergency's first order has reached
+  the robot, however many agents it passes through.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from htnagent.agent import Agent
+from htnagent.events import GoalReceived, RobotMoving, TraceEvent
+from htnagent.planset import PlanSet
+from htnagent.runtime import Runtime
+from htnagent.scenario import load_scenario
+from htnagent.simulation import run_scenario
+
+# -- the agent takes a prepared resumption over without walking its plans again ---------------------
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+
+
+async def _guide_rechecks(file: str) -> int:
+    runtimes: list[Runtime] = []
+    report = await run_scenario(
+        load_scenario(SCENARIOS / file), replanning="online", on_start=runtimes.append
+    )
+    assert report.succeeded
+    return runtimes[0].agents["guide"].stats.rechecks
+
+
+@pytest.mark.parametrize("file", ["paper_n1_n40_n13.yaml", "paper_n40_n1_n28.yaml"])
+async def test_a_resumption_made_ready_ahead_is_not_walked_again(
+    file: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    rebased = await _guide_rechecks(file)
+    monkeypatch.setattr(PlanSet, "rebase", lambda self, state: None)
+    assert rebased < await _guide_rechecks(file)
+
+
+# -- the stacked goals' upkeep waits until the emergency's first move is under way (§4) --------------
+
+
+async def test_the_emergency_reaches_the_robot_before_the_stacked_plans_are_kept_up(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Two levels: the guide's order for the emergency goes through the navigator to the
+    # robot.  The guide's deferred upkeep of its suspended goal must come after the robot
+    # has started moving for the emergency, not between the navigator and the robot.
+    order: list[str] = []
+    flush = Agent._flush
+
+    def recording_flush(self: Agent) -> None:
+        if self._later:
+            order.append(f"upkeep {self.name}")
+        flush(self)
+
+    monkeypatch.setattr(Agent, "_flush", recording_flush)
+
+    def observe(event: TraceEvent) -> None:
+        if isinstance(event, GoalReceived) and event.emergency:
+            order.append("emergency")
+        elif isinstance(event, RobotMoving):
+            order.append("robot moves")
+
+    scenario = load_scenario(SCENARIOS / "paper_n40_n1_n28.yaml")
+    report = await run_scenario(scenario, replanning="online", observers=[observe])
+    assert report.succeeded
+    after = order[order.index("emergency") :]
+    assert "upkeep guide" in after
+    assert after.index("robot moves") < after.index("upkeep guide")
