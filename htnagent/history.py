@@ -532,9 +532,9 @@ class _Reader:
     def _depth_changed(self, agent: str, t: float) -> None:
         depth = sum(1 for g in self.goals if g.agent == agent and g.on_stack)
         steps = self.depth.setdefault(agent, [(0.0, 0)])
-        if steps and steps[-1][0] == t:
-            steps[-1] = (t, depth)
-        else:
+        if steps[-1][0] == t and len(steps) > 1:
+            steps.pop()  # a suspension and a resumption in one instant: one step, or none
+        if steps[-1][1] != depth:
             steps.append((t, depth))
 
     # -- the robot ------------------------------------------------------------------------------
