@@ -11,6 +11,7 @@ from __future__ import annotations
 from htnagent.domain import Domain, Effect, Suspension
 from htnagent.domains import domain_factory
 from htnagent.maps import WorldMap
+from htnagent.terms import Atom
 
 
 @domain_factory(argument_kinds={"visit": ("node",), "goto": ("node",)})
@@ -28,4 +29,6 @@ def host_domain(world: WorldMap) -> Domain:
         ),
     )
     d.method("visit(?n)", "go", do=["goto(?n)"])
+    # The tour starts where the robot stands: that node counts as visited.
+    d.world_facts = lambda start: [Atom("visited", (start,))]
     return d
