@@ -213,6 +213,10 @@ def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> str:
         f'<g class="bar {kind} {goal.status}"><title>{_e(tip)}</title>',
         f'<rect x="{x0:.1f}" y="{top:.1f}" width="{width:.1f}" height="{_BAR}" fill="{colour}"/>',
     ]
+    started = goal.plans[0].t if goal.plans else goal.received
+    if started > goal.received:  # waiting behind the running goal: paler
+        wait = (started - goal.received) * scale
+        parts.append(f'<rect class="waiting" x="{x0:.1f}" y="{top:.1f}" width="{wait:.1f}" height="{_BAR}"/>')
     for span in goal.suspended:
         stop = end if span.end is None else span.end
         if stop <= span.start:
@@ -351,7 +355,7 @@ button{font:inherit;padding:3px 12px}
 .lane{fill:#f4f4f4}.lane-name{font-size:12px;font-weight:bold;text-anchor:end}
 .bar-label{font-size:10.5px;fill:#fff;pointer-events:none}
 .bar-label.dark{fill:#111;stroke:#fff;stroke-width:3px;paint-order:stroke}
-.suspended{fill:#fff;stroke-width:1}.hatch{stroke-width:1;fill:none}
+.suspended{fill:#fff;stroke-width:1}.waiting{fill:#fff;opacity:.6}.hatch{stroke-width:1;fill:none}
 .fail{stroke:#222;stroke-width:2.2}.fail-label{font-size:10px;fill:#222}
 .depth{fill:none;stroke-width:2}.depth-key{font-size:11px}
 .tick{font-size:10px;fill:#555}.grid{stroke:#999}

@@ -3,8 +3,9 @@
 One lane per agent, parent on top.  Each goal is a bar from received to
 finished; goals that overlap in time (an emergency over the goal it suspended)
 stack in rows of the lane.  A bar is hatched while its goal is suspended on the
-stack; emergencies have their own colour; a failure is a cross at its end with
-the reason beside it.  Below the lanes, each agent's stack depth over time.
+stack and paler while it waits behind another goal for its first plan;
+emergencies have their own colour; a failure is a cross at its end with the
+reason beside it.  Below the lanes, each agent's stack depth over time.
 Emergencies arriving and doors shutting or opening are vertical lines across
 both.  Needs matplotlib (the ``plot`` extra), like :mod:`htnagent.plot`.
 """
@@ -104,12 +105,13 @@ def _draw(history: History, file: str, title: str) -> None:
         Patch(facecolor=GOAL_COLOUR, label="goal"),
         Patch(facecolor=EMERGENCY_COLOUR, label="emergency goal"),
         Patch(facecolor="white", edgecolor=GOAL_COLOUR, hatch="////", label="suspended (on the stack)"),
+        Patch(facecolor="#b7c9dc", label="waiting to start"),
         Line2D([], [], color=FAILURE_COLOUR, marker="x", linestyle="", label="failed"),
         Line2D([], [], color=EMERGENCY_COLOUR, linestyle="--", label="emergency arrives"),
         Line2D([], [], color=DOOR_COLOUR, linestyle=":", label="door shut / opened"),
     ]
     depth_ax.legend(
-        handles=legend, loc="upper center", bbox_to_anchor=(0.5, -0.32), ncol=6, fontsize=7.5, frameon=False
+        handles=legend, loc="upper center", bbox_to_anchor=(0.5, -0.32), ncol=7, fontsize=7.5, frameon=False
     )
     depth_ax.add_artist(agents_legend)
     if title:
@@ -139,6 +141,9 @@ def _bar(ax: Any, goal: GoalBar, y: float, end_of_run: float, seconds_per_inch: 
     y0 = y + (_ROW - _BAR) / 2
     width = max(end - goal.received, seconds_per_inch * 0.02)
     ax.broken_barh([(goal.received, width)], (y0, _BAR), facecolors=colour, edgecolor="white", linewidth=0.6)
+    started = goal.plans[0].t if goal.plans else goal.received
+    if started > goal.received:  # waiting behind the running goal: paler
+        ax.broken_barh([(goal.received, started - goal.received)], (y0, _BAR), facecolors="white", alpha=0.6)
     for span in goal.suspended:
         stop = end if span.end is None else span.end
         if stop > span.start:
@@ -150,27 +155,7 @@ def _bar(ax: Any, goal: GoalBar, y: float, end_of_run: float, seconds_per_inch: 
                 hatch="////",
                 linewidth=0.6,
             )
-    label = goal.goal
-    room = (end - goal.received) / seconds_per_inch  # inches
-    # The label in the bar if it fits, smaller if it must; a bar too short for it stays bare.
-    font = next((f for f in (_FONT, _FONT - 1.5) if len(label) * f * 0.55 / 72 < room - 0.05), None)
-    if font is not None:
-        # Over the part of the bar where the goal ran first, in white; across the hatching, boxed.
-        first_stop = goal.suspended[0].start if goal.suspended else end
-        room_first = (first_stop - goal.received) / seconds_per_inch
-        x = goal.received + seconds_per_inch * 0.04
-        inside = len(label) * font * 0.55 / 72 < room_first - 0.05
-        ax.text(
-            x,
-            y + _ROW / 2,
-            label,
-            va="center",
-            ha="left",
-            fontsize=font,
-            color="white" if inside else "#111111",
-            bbox=None if inside else {"facecolor": "white", "edgecolor": "none", "pad": 0.5, "alpha": 0.85},
-            clip_on=True,
-        )
+    _label(ax, goal, y, end)
     if goal.status == "failure":
         ax.plot(
             end, y + _ROW / 2, marker="x", color=FAILURE_COLOUR, markersize=8, markeredgewidth=2, zorder=5
@@ -190,6 +175,43 @@ def _bar(ax: Any, goal: GoalBar, y: float, end_of_run: float, seconds_per_inch: 
         )
     elif goal.status == "cleared":
         ax.plot(end, y + _ROW / 2, marker="|", color="#555555", markersize=9, zorder=5)
+
+
+def _label(ax: Any, goal: GoalBar, y: float, end: float) -> None:
+    """The goal's name in its bar, measured: smaller if it must, left out if the bar is too short.
+
+    White over the part where the goal ran first; dark on a white box where it
+    has to cross the hatching.
+    """
+    renderer = ax.figure.canvas.get_renderer()
+
+    def px(t: float) -> float:
+        return float(ax.transData.transform((t, 0))[0])
+
+    text = ax.annotate(
+        goal.goal,
+        (goal.received, y + _ROW / 2),
+        xytext=(3, 0),
+        textcoords="offset points",
+        va="center",
+        ha="left",
+        fontsize=_FONT,
+        color="white",
+        clip_on=True,
+    )
+    room = px(end) - px(goal.received) - 8
+    for font in (_FONT, _FONT - 1.5):
+        text.set_fontsize(font)
+        width = text.get_window_extent(renderer).width
+        if width < room:
+            break
+    else:
+        text.remove()
+        return
+    first_stop = goal.suspended[0].start if goal.suspended else end
+    if width >= px(first_stop) - px(goal.received) - 8:
+        text.set_color("#111111")
+        text.set_bbox({"facecolor": "white", "edgecolor": "none", "pad": 0.5, "alpha": 0.85})
 
 
 def _marks(history: History, ax: Any, depth_ax: Any, seconds_per_inch: float) -> int:
