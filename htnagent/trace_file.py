@@ -45,6 +45,9 @@ def read_trace(path: str | Path, max_bytes: int | None = None) -> list[TraceEven
             raise _at(file, number, str(e)) from None
         if not math.isfinite(event.t) or event.t < 0:
             raise _at(file, number, f"t: expected a time of 0 or more, got {shown(event.t)}")
+        if events and event.t < events[-1].t:
+            before = f"t: {event.t:g} is before the line above ({events[-1].t:g})"
+            raise _at(file, number, f"{before}; a trace's time never runs back")
         events.append(event)
         last = number
     if not events:

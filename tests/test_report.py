@@ -16,6 +16,7 @@ import html.parser
 import json
 import math
 import os
+import random
 import re
 import shutil
 import subprocess
@@ -28,7 +29,7 @@ import pytest
 
 from htnagent.cli import main
 from htnagent.history import History
-from tests.support import SHIPPED, shipped_run, write_trace
+from tests.support import SCENARIO_DIR, SHIPPED, shipped_run, write_trace
 
 NESTED = "nested_emergencies.yaml"
 FOUR = "four_emergencies.yaml"
@@ -340,3 +341,37 @@ def test_an_unwritable_page_is_one_line(tmp_path: Path, capsys: pytest.CaptureFi
     code = main(["report", str(trace), "--html", str(tmp_path / "no" / "such" / "o.html")])
     err = capsys.readouterr().err
     assert code == 2 and err.count("\n") == 1 and "cannot write the report" in err
+
+
+def test_time_running_backwards_is_refused_with_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    lines = _good_lines()
+    later = next(i for i, line in enumerate(lines) if json.loads(line)["t"] > 0)
+    lines.insert(later + 1, lines[0])  # an event at 0 s after one later
+    assert f"line {later + 2}: t: 0 is before the line above" in _bad(tmp_path, "\n".join(lines), capsys)
+
+
+def test_mangled_traces_give_a_page_or_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rng = random.Random(17)
+    good = _good_lines()
+    scenario = str(SCENARIO_DIR / NESTED)
+    for _ in range(60):
+        lines = list(good)
+        for _ in range(rng.randint(1, 4)):
+            j = rng.randrange(len(lines))
+            what = rng.random()
+            if what < 0.4:
+                del lines[j]
+            elif what < 0.6:
+                lines.insert(rng.randrange(len(lines)), lines[j])
+            else:
+                event = json.loads(lines[j])
+                key = rng.choice([k for k in event if k != "event"])
+                event[key] = rng.choice([None, -1, "x", [], {}, "rollback(move(n1,n2,arc1))", True, 1e308])
+                lines[j] = json.dumps(event)
+        trace = tmp_path / "m.jsonl"
+        trace.write_text("\n".join(lines) + "\n")
+        code = main(["report", str(trace), "--html", str(tmp_path / "m.html"), "--scenario", scenario])
+        err = capsys.readouterr().err
+        assert code == 0 or (code == 2 and err.count("\n") == 1), err
