@@ -120,7 +120,10 @@ def _timeline_svg(history: History) -> str:
     end = max(history.end, 1e-6)
     scale = (_TL_WIDTH - _TL_LEFT - _TL_RIGHT) / end
     out: list[str] = []
-    y = float(_TOP)
+    on_top: list[str] = []  # failures' crosses and reasons, over the bars that follow them
+    labels, tiers = _mark_labels(history, scale)
+    first = _TOP + 12 * tiers
+    y = float(first)
     for agent in history.agents:
         rows = history.goal_rows(agent)
         n = max((r for _, r in rows), default=0) + 1
@@ -132,7 +135,9 @@ def _timeline_svg(history: History) -> str:
             f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{y + height / 2 + 4:.1f}">{_e(agent)}</text>'
         )
         for goal, row in rows:
-            out.append(_goal_bar(goal, y + row * _ROW, scale, history.end))
+            bar, failure = _goal_bar(goal, y + row * _ROW, scale, history.end)
+            out.append(bar)
+            on_top.append(failure)
         y += height + _LANE_GAP
     lanes_bottom = y - _LANE_GAP + 3
     depth_top = lanes_bottom + 14
@@ -168,7 +173,7 @@ def _timeline_svg(history: History) -> str:
         x = _TL_LEFT + mark.t * scale
         cls = "emergency" if mark.kind == "emergency" else ("crash" if mark.kind == "crash" else "door")
         out.append(
-            f'<line class="mark {cls}" x1="{x:.1f}" x2="{x:.1f}" y1="{_TOP - 8}" y2="{bottom:.1f}">'
+            f'<line class="mark {cls}" x1="{x:.1f}" x2="{x:.1f}" y1="{first - 8}" y2="{bottom:.1f}">'
             f"<title>{_e(mark.label)} at {mark.t:.2f} s</title></line>"
         )
     step = _tick_step(end)
@@ -181,12 +186,36 @@ def _timeline_svg(history: History) -> str:
         )
         k += 1
     total = bottom + 22
-    out.append(f'<line id="tl-cursor" x1="{_TL_LEFT}" x2="{_TL_LEFT}" y1="{_TOP - 12}" y2="{bottom:.1f}"/>')
+    out += on_top
+    out += labels
+    out.append(f'<line id="tl-cursor" x1="{_TL_LEFT}" x2="{_TL_LEFT}" y1="{first - 12}" y2="{bottom:.1f}"/>')
     return (
         f'<svg id="timeline" viewBox="0 0 {_TL_WIDTH} {total:.0f}" width="100%" '
         f'data-left="{_TL_LEFT}" data-scale="{scale:.9g}" role="img" '
         f'aria-label="timeline of goals and stacks">{"".join(out)}</svg>'
     )
+
+
+def _mark_labels(history: History, scale: float) -> tuple[list[str], int]:
+    """The marks' labels above the lanes, in as many tiers as keep them apart; and how many."""
+    ends: list[float] = []  # where each tier's last label ends, in pixels
+    out = []
+    for mark in history.marks:
+        x = _TL_LEFT + mark.t * scale
+        text = mark.label if len(mark.label) <= 50 else mark.label[:47] + "..."
+        tier = next((i for i, e in enumerate(ends) if e < x), len(ends))
+        if tier == len(ends):
+            ends.append(0.0)
+        ends[tier] = x + 6.0 * len(text) + 8
+        cls = "emergency" if mark.kind == "emergency" else ("crash" if mark.kind == "crash" else "door")
+        out.append((tier, x, cls, text))
+    tiers = len(ends)
+    labels = [
+        f'<text class="mark-label {cls}" x="{x + 3:.1f}" y="{_TOP + 12 * (tiers - tier) - 10:.1f}">'
+        f"{_e(text)}</text>"
+        for tier, x, cls, text in out
+    ]
+    return labels, tiers
 
 
 def _depth_y(d: int, top: float, height: float, most: int, i: int) -> float:
@@ -199,7 +228,8 @@ def _tick_step(end: float) -> float:
     return next((base * m for m in (1, 2, 5, 10) if base * m >= raw), base * 10)
 
 
-def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> str:
+def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> tuple[str, str]:
+    """The goal's bar, and what is drawn over everything: its failure, if it failed."""
     end = end_of_run if goal.end is None else goal.end
     x0 = _TL_LEFT + goal.received * scale
     width = max((end - goal.received) * scale, 1.5)
@@ -235,17 +265,18 @@ def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> str:
         inside = label_width < (first_stop - goal.received) * scale - 6
         cls = "bar-label" if inside else "bar-label dark"
         parts.append(f'<text class="{cls}" x="{x0 + 3:.1f}" y="{top + 12:.1f}">{_e(goal.goal)}</text>')
+    parts.append("</g>")
+    failure = ""
     if goal.status == "failure":
         x1 = x0 + width
         cy = top + _BAR / 2
-        parts.append(
+        failure = (
             f'<path class="fail" d="M{x1 - 5:.1f},{cy - 5:.1f}L{x1 + 5:.1f},{cy + 5:.1f}'
             f'M{x1 - 5:.1f},{cy + 5:.1f}L{x1 + 5:.1f},{cy - 5:.1f}"/>'
             f'<text class="fail-label" x="{x1 + 8:.1f}" y="{cy + 4:.1f}">'
             f"failed: {_e(goal.reason[:60])}</text>"
         )
-    parts.append("</g>")
-    return "".join(parts)
+    return "".join(parts), failure
 
 
 def _hatch(x0: float, x1: float, y0: float, y1: float, step: float = 6.0) -> str:
@@ -356,7 +387,9 @@ button{font:inherit;padding:3px 12px}
 .bar-label{font-size:10.5px;fill:#fff;pointer-events:none}
 .bar-label.dark{fill:#111;stroke:#fff;stroke-width:3px;paint-order:stroke}
 .suspended{fill:#fff;stroke-width:1}.waiting{fill:#fff;opacity:.6}.hatch{stroke-width:1;fill:none}
-.fail{stroke:#222;stroke-width:2.2}.fail-label{font-size:10px;fill:#222}
+.fail{stroke:#222;stroke-width:2.2}
+.fail-label{font-size:10px;fill:#222;stroke:#fff3c4;stroke-width:4px;paint-order:stroke}
+.mark-label{font-size:10px}.mark-label.emergency{fill:#c62828}.mark-label.door{fill:#666}
 .depth{fill:none;stroke-width:2}.depth-key{font-size:11px}
 .tick{font-size:10px;fill:#555}.grid{stroke:#999}
 .mark{stroke-width:1.2}.mark.emergency{stroke:#e45756;stroke-dasharray:5 3}
