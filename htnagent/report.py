@@ -39,6 +39,8 @@ _BAR = 16
 _LANE_GAP = 14
 _TOP = 30
 _MAP_WIDTH = 560
+_MAX_TIERS = 6
+"""Rows of mark labels above the timeline, at most."""
 
 
 def write_report(history: History, file: str, *, scenario: Scenario | None = None, source: str = "") -> None:
@@ -162,7 +164,7 @@ def _timeline_svg(history: History) -> str:
             f'<text class="depth-key" fill="{colour}" x="{_TL_WIDTH - _TL_RIGHT - 90 * (i + 1) + 90}" '
             f'y="{depth_top - 3:.1f}" text-anchor="end">{_e(agent)}</text>'
         )
-    for k in range(most + 1):
+    for k in sorted({0, most // 2, most}):
         out.append(
             f'<text class="tick" x="{_TL_LEFT - 4}" '
             f'y="{_depth_y(k, depth_top, depth_height, most, 0) + 3:.1f}" '
@@ -204,6 +206,8 @@ def _mark_labels(history: History, scale: float) -> tuple[list[str], int]:
         x = _TL_LEFT + mark.t * scale
         text = mark.label if len(mark.label) <= 50 else mark.label[:47] + "..."
         tier = next((i for i, e in enumerate(ends) if e < x), len(ends))
+        if tier == _MAX_TIERS:
+            continue  # a crowd of marks: the lines stay (with their tooltips), the labels would overlap
         if tier == len(ends):
             ends.append(0.0)
         ends[tier] = x + 6.0 * len(text) + 8

@@ -29,6 +29,9 @@ _GAP = 0.7
 """Between two lanes, in rows."""
 _WIDTH_IN = 13.0
 _FONT = 7.5
+_MAX_HEIGHT_IN = 40.0
+_MAX_TIERS = 6
+"""Rows of mark labels above the lanes, at most."""
 
 
 def draw_timeline(history: History, file: str, title: str = "") -> None:
@@ -48,10 +51,12 @@ def _draw(history: History, file: str, title: str) -> None:
     import matplotlib.pyplot as plt
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
+    from matplotlib.ticker import MaxNLocator
 
     lanes = _lanes(history)
     total_rows = sum(rows for _, _, rows in lanes) + _GAP * max(0, len(lanes) - 1)
-    lane_height = max(1.6, 0.42 * total_rows + 0.6)
+    # Rows of 0.42 in, the whole at most _MAX_HEIGHT_IN (a storm of nested goals still draws).
+    lane_height = min(max(1.6, 0.42 * total_rows + 0.6), _MAX_HEIGHT_IN)
     fig, (ax, depth_ax) = plt.subplots(
         2,
         1,
@@ -92,7 +97,7 @@ def _draw(history: History, file: str, title: str) -> None:
         )
     most = max((d for steps in history.depth.values() for _, d in steps), default=0)
     depth_ax.set_ylim(-0.3, most + 0.6)
-    depth_ax.set_yticks(range(most + 1))
+    depth_ax.yaxis.set_major_locator(MaxNLocator(nbins=5, integer=True))
     depth_ax.set_ylabel("stack depth", fontsize=8)
     depth_ax.set_xlabel("simulated time (s)", fontsize=8)
     agents_legend = depth_ax.legend(loc="upper right", fontsize=7, ncol=len(history.agents), frameon=False)
@@ -232,6 +237,8 @@ def _marks(history: History, ax: Any, depth_ax: Any, seconds_per_inch: float) ->
             axis.axvline(mark.t, color=colour, linestyle=style, linewidth=1.0, alpha=0.8, zorder=1)
         width = len(text) * 7 * 0.55 / 72 * seconds_per_inch
         tier = next((i for i, last in enumerate(tiers) if last < mark.t), len(tiers))
+        if tier == _MAX_TIERS:
+            continue  # a crowd of marks: the lines stay, the labels would only cover each other
         if tier == len(tiers):
             tiers.append(0.0)
         tiers[tier] = mark.t + width + seconds_per_inch * 0.1
