@@ -1,4 +1,4 @@
-"""The command line: ``python -m htnagent run|plan|check SCENARIO`` (docs/contracts.md).
+"""The command line: ``python -m htnagent run|plan|check SCENARIO``, ``report TRACE`` (docs/contracts.md).
 
 The CLI owns the console.  Exit codes: 0 success, 1 no plan / a goal failed,
 2 invalid input or usage, 130 interrupted.  Every error of kind 2 is exactly one
@@ -32,14 +32,18 @@ from rich.console import Console
 
 from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
+from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, plan
 from htnagent.plot import check_plot_target, draw_run
+from htnagent.report import write_report
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.simulation import RunReport, run_scenario
 from htnagent.terms import parse
+from htnagent.timeline import draw_timeline
 from htnagent.trace import Observer
+from htnagent.trace_file import read_trace
 
 PROG = "htnagent"
 
@@ -80,7 +84,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="On-line HTN planning agents that handle emergency goals.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check}", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,report}", required=True)
 
     run = sub.add_parser("run", help="execute the scenario to the end")
     run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
@@ -95,6 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
         help="simulated seconds per real second (default: as fast as possible)",
     )
     run.add_argument("--plot", metavar="FILE", help="draw the robot's path into FILE")
+    run.add_argument(
+        "--timeline", metavar="FILE", help="draw goals, suspensions and the stack depth over time into FILE"
+    )
 
     pl = sub.add_parser("plan", help="print the plan an agent would make, without executing it")
     pl.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
@@ -104,6 +111,15 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="validate the scenario; print ok")
     check.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+
+    report = sub.add_parser("report", help="a saved trace (run --json) as one self-contained HTML page")
+    report.add_argument("trace", metavar="TRACE", help="the output of run --json (JSON Lines)")
+    report.add_argument("--html", required=True, metavar="FILE", help="the HTML page to write")
+    report.add_argument(
+        "--scenario",
+        metavar="SCENARIO",
+        help="the scenario the trace ran (for the map and the agents' order)",
+    )
     return parser
 
 
@@ -126,6 +142,8 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
             return _check(args)
         if args.command == "plan":
             return _plan(args)
+        if args.command == "report":
+            return _report(args)
         return _run(args, restore_signals=not owns_process)
     except HtnAgentError as e:
         return _fail(str(e))
@@ -196,6 +214,15 @@ def _plan(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _report(args: argparse.Namespace) -> int:
+    events = read_trace(args.trace)
+    scenario = load_scenario(args.scenario) if args.scenario else None
+    agents = scenario.agent_names if scenario is not None else ()
+    history = History.from_events(events, agents)
+    write_report(history, args.html, scenario=scenario, source=args.trace)
+    return EXIT_OK
+
+
 def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan]) -> None:
     best = found[0]
     domain = scenario.domain_for(agent).name
@@ -213,6 +240,8 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     scenario = load_scenario(args.scenario)
     if args.plot:
         check_plot_target(args.plot)
+    if args.timeline:
+        check_plot_target(args.timeline, "--timeline")
     with _RunSignals(restore=restore_signals) as signals:
         observers: list[Observer] = []
         console = Console(highlight=False)
@@ -228,7 +257,7 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             replanning=args.replanning,
             speed=args.speed,
             observers=observers,
-            keep_events=bool(args.plot),
+            keep_events=bool(args.plot or args.timeline),
         )
         report = anyio.run(_until_interrupted, run, signals)
         if not args.json:
@@ -242,6 +271,15 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             else:
                 if not args.json:
                     console.print(f"picture saved to {args.plot}")
+        if args.timeline:
+            try:
+                history = History.from_events(report.events, scenario.agent_names)
+                draw_timeline(history, args.timeline, scenario.name)
+            except HtnAgentError as e:
+                print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
+            else:
+                if not args.json:
+                    console.print(f"timeline saved to {args.timeline}")
         if report.interrupted or signals.received:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED

@@ -18,19 +18,20 @@ from htnagent.events import GoalFinished, GoalReceived, RobotMoving, TraceEvent
 from htnagent.scenario import Scenario
 
 
-def check_plot_target(file: str) -> None:
+def check_plot_target(file: str, option: str = "--plot") -> None:
     """Fail early, before the run, if the picture could not be saved.
 
     The file is opened for writing as the picture will be: an existing file
     without truncating it, a new one by creating it and removing it again.
+    ``option`` names the command-line option in the messages (``--plot``, ``--timeline``).
     """
     try:
         import matplotlib  # noqa: F401
     except ImportError:
-        raise PlotError(f"{file}: --plot needs matplotlib: pip install 'htnagent[plot]'") from None
+        raise PlotError(f"{file}: {option} needs matplotlib: pip install 'htnagent[plot]'") from None
     path = Path(file)
     if path.suffix.lower() != ".png":
-        raise PlotError(f"{file}: --plot writes PNG; give a file name ending in .png")
+        raise PlotError(f"{file}: {option} writes PNG; give a file name ending in .png")
     try:
         try:
             info: os.stat_result | None = os.stat(file)

@@ -1,4 +1,5 @@
-"""What several test files share: trace events in their JSON form (``run --json``'s objects).
+"""What several test files share: trace events in their JSON form (``run --json``'s objects),
+and the shipped scenarios' runs.
 
 Tests compare events as the dicts users script against; the library hands out typed
 events (:mod:`htnagent.events`).
@@ -6,11 +7,17 @@ events (:mod:`htnagent.events`).
 
 from __future__ import annotations
 
+import functools
+import json
 from collections.abc import Callable, Iterable
+from pathlib import Path
 from typing import Any
 
+import anyio
+
 from htnagent.events import TraceEvent
-from htnagent.simulation import RunReport
+from htnagent.scenario import Scenario, load_scenario
+from htnagent.simulation import RunReport, run_scenario
 
 Event = dict[str, Any]
 """A trace event's JSON object."""
@@ -34,3 +41,23 @@ def events_of(report: RunReport) -> list[Event]:
 def summary_of(report: RunReport) -> Event:
     """A run's summary event as its JSON object."""
     return report.summary.as_dict()
+
+
+SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
+
+SHIPPED = tuple(sorted(p.name for p in SCENARIO_DIR.glob("*.yaml") if p.name != "museum_map.yaml"))
+"""Every scenario shipped in ``scenarios/`` (the map file aside)."""
+
+
+@functools.cache
+def shipped_run(name: str) -> tuple[Scenario, tuple[TraceEvent, ...]]:
+    """A shipped scenario and its run's events (run once per test session; do not change them)."""
+    scenario = load_scenario(SCENARIO_DIR / name)
+    report = anyio.run(functools.partial(run_scenario, scenario, keep_events=True))
+    return scenario, tuple(report.events)
+
+
+def write_trace(events: Iterable[TraceEvent], path: Path) -> Path:
+    """``events`` as ``run --json`` writes them, into ``path``."""
+    path.write_text("".join(json.dumps(e.as_dict(), separators=(",", ":")) + "\n" for e in events))
+    return path

@@ -1,0 +1,377 @@
+"""``report TRACE --html OUT``: one self-contained page, its data the history's, its logic the model's.
+
+- The page is made for every shipped scenario and refers to nothing outside itself.
+- Its embedded JSON is exactly :meth:`History.as_json` of the trace.
+- Its logic script, run under Node on that JSON, gives the state :meth:`History.at`
+  gives, at several times including the emergencies (skipped without ``node``).
+- Headless Chromium opened at ``#t=<emergency>`` shows the trace's stack
+  (skipped without ``/usr/bin/chromium``).
+- A bad trace is one line on stderr and exit 2.
+"""
+
+from __future__ import annotations
+
+import html
+import html.parser
+import json
+import math
+import os
+import random
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from htnagent.cli import main
+from htnagent.history import History
+from tests.support import SCENARIO_DIR, SHIPPED, shipped_run, write_trace
+
+NESTED = "nested_emergencies.yaml"
+FOUR = "four_emergencies.yaml"
+CHROMIUM = "/usr/bin/chromium"
+
+
+def report_of(name: str, tmp: Path, *, with_map: bool = True) -> tuple[str, History]:
+    """Write the shipped scenario's trace and its page; the page's text and the trace's history."""
+    scenario, events = shipped_run(name)
+    trace = write_trace(events, tmp / f"{Path(name).stem}.jsonl")
+    out = tmp / f"{Path(name).stem}.html"
+    args = ["report", str(trace), "--html", str(out)]
+    if with_map:
+        args += ["--scenario", str(scenario.file)]
+    assert main(args) == 0
+    return out.read_text(encoding="utf-8"), History.from_events(events, scenario.agent_names)
+
+
+class _Scripts(html.parser.HTMLParser):
+    """The page's script blocks by id, and every attribute value that could load something."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.scripts: dict[str, str] = {}
+        self.links: list[tuple[str, str, str]] = []
+        self._in: str | None = None
+
+    def handle_starttag(self, tag: str, attrs: list[tuple[str, str | None]]) -> None:
+        for name, value in attrs:
+            if name in ("src", "href", "xlink:href", "action", "data", "poster", "srcset"):
+                self.links.append((tag, name, value or ""))
+        if tag == "script":
+            self._in = dict(attrs).get("id") or ""
+            self.scripts[self._in] = ""
+
+    def handle_endtag(self, tag: str) -> None:
+        if tag == "script":
+            self._in = None
+
+    def handle_data(self, data: str) -> None:
+        if self._in is not None:
+            self.scripts[self._in] += data
+
+
+def parsed(page: str) -> _Scripts:
+    p = _Scripts()
+    p.feed(page)
+    return p
+
+
+def embedded(page: str) -> dict[str, Any]:
+    data: dict[str, Any] = json.loads(parsed(page).scripts["htn-data"])
+    return data
+
+
+def as_json(value: object) -> Any:
+    return json.loads(json.dumps(value))
+
+
+# -- every scenario ----------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("name", SHIPPED)
+def test_the_page_is_made_self_contained_with_the_historys_data(name: str, tmp_path: Path) -> None:
+    page, history = report_of(name, tmp_path)
+    found = parsed(page)
+    assert found.links == [], f"the page loads {found.links}"
+    assert not re.search(r"""(?:src|href)\s*=\s*["']?\s*(?:https?:|file:|//|\.|/)""", page, re.I)
+    assert "@import" not in page
+    assert all(u.startswith("data:") for u in re.findall(r"url\(\s*['\"]?([^)'\"]*)", page))
+    assert "<link" not in page and "<iframe" not in page
+    assert set(found.scripts) == {"htn-data", "htn-logic", "htn-ui"}
+    data = embedded(page)
+    assert data["history"] == as_json(history.as_json())
+    assert data["map"] is not None and set(data["map"]["nodes"])
+
+
+def test_without_the_scenario_the_page_has_no_map_but_the_same_history(tmp_path: Path) -> None:
+    page, history = report_of(NESTED, tmp_path, with_map=False)
+    data = embedded(page)
+    assert data["map"] is None
+    assert data["history"] == as_json(history.as_json())
+    assert 'id="map"' not in page and "--scenario" in page
+
+
+def test_text_from_the_trace_cannot_close_the_script(tmp_path: Path) -> None:
+    _, events = shipped_run(NESTED)
+    hostile = [e.as_dict() for e in events]
+    hostile[0]["goal"] = "</script><script>alert(1)</script>"
+    trace = tmp_path / "t.jsonl"
+    trace.write_text("".join(json.dumps(e) + "\n" for e in hostile))
+    assert main(["report", str(trace), "--html", str(tmp_path / "t.html")]) == 0
+    page = (tmp_path / "t.html").read_text()
+    assert page.count("<script") == 3
+    assert embedded(page)["history"]["goals"][0]["goal"] == hostile[0]["goal"]
+
+
+# -- the page's logic under Node ----------------------------------------------------------------------------
+
+NODE = shutil.which("node")
+
+
+def _times(history: History) -> list[float]:
+    """The emergencies' moments, a little after each, the middle of every third motion, the end."""
+    times = [0.0, history.end]
+    for mark in history.marks:
+        times += [mark.t, mark.t + 0.5]
+    times += [(m.start + m.end) / 2 for m in history.motions[::3]]
+    times += [g.received for g in history.goals[::2]]
+    return sorted(set(times))
+
+
+def _close(a: Any, b: Any) -> bool:
+    if isinstance(a, float | int) and isinstance(b, float | int) and not isinstance(a, bool):
+        return math.isclose(a, b, abs_tol=2e-6)
+    if isinstance(a, dict) and isinstance(b, dict):
+        return a.keys() == b.keys() and all(_close(a[k], b[k]) for k in a)
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(_close(x, y) for x, y in zip(a, b, strict=True))
+    return bool(a == b)
+
+
+@pytest.mark.skipif(NODE is None, reason="node is not installed")
+@pytest.mark.parametrize("name", [NESTED, FOUR, "explain_question.yaml", "door_shut.yaml"])
+def test_the_pages_state_at_a_time_is_the_models(name: str, tmp_path: Path) -> None:
+    assert NODE is not None
+    page, history = report_of(name, tmp_path)
+    scripts = parsed(page).scripts
+    times = _times(history)
+    (tmp_path / "data.json").write_text(scripts["htn-data"])
+    program = tmp_path / "check.js"
+    program.write_text(
+        scripts["htn-logic"]
+        + "\nconst fs = require('fs');\n"
+        + f"const data = JSON.parse(fs.readFileSync({json.dumps(str(tmp_path / 'data.json'))}, 'utf8'));\n"
+        + f"const times = {json.dumps(times)};\n"
+        + "console.log(JSON.stringify(times.map(t => stateAt(data.history, t))));\n"
+    )
+    done = subprocess.run([NODE, str(program)], capture_output=True, text=True, timeout=30, check=False)
+    assert done.returncode == 0, done.stderr
+    from_js = json.loads(done.stdout)
+    for t, got in zip(times, from_js, strict=True):
+        want = as_json(history.at(t).as_json())
+        assert _close(got, want), f"at {t}: the page says {got}, the model {want}"
+
+
+# -- the page in a browser --------------------------------------------------------------------------------
+
+
+def _chromium(url: str, *extra: str) -> str:
+    with tempfile.TemporaryDirectory() as profile:
+        done = subprocess.run(
+            [
+                CHROMIUM,
+                "--headless",
+                "--no-sandbox",
+                "--disable-gpu",
+                "--disable-quic",
+                "--no-first-run",
+                "--disable-background-networking",
+                "--disable-component-update",
+                "--disable-sync",
+                f"--user-data-dir={profile}",
+                "--virtual-time-budget=2000",
+                *extra,
+                url,
+            ],
+            capture_output=True,
+            text=True,
+            timeout=90,
+            check=False,
+            env={**os.environ, "HOME": profile},
+        )
+    assert done.returncode == 0, done.stderr[-2000:]
+    return done.stdout
+
+
+def _list_items(dom: str, element_id: str) -> list[str]:
+    m = re.search(rf'<ol[^>]*id="{re.escape(element_id)}"[^>]*>(.*?)</ol>', dom, re.S)
+    assert m is not None, f"no #{element_id} in the page"
+    return [html.unescape(li) for li in re.findall(r"<li[^>]*>(.*?)</li>", m.group(1), re.S)]
+
+
+def _text_of(dom: str, element_id: str) -> str:
+    m = re.search(rf'<span[^>]*id="{re.escape(element_id)}"[^>]*>(.*?)</span>', dom, re.S)
+    assert m is not None, f"no #{element_id} in the page"
+    return html.unescape(m.group(1))
+
+
+NO_CHROMIUM = f"{CHROMIUM} is not installed (apt-get install chromium)"
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=NO_CHROMIUM)
+@pytest.mark.parametrize(("name", "which"), [(NESTED, -1), (FOUR, -1)])
+def test_a_browser_opened_at_the_last_emergency_shows_the_traces_stack(
+    name: str, which: int, tmp_path: Path
+) -> None:
+    _, history = report_of(name, tmp_path)
+    emergency = [m for m in history.marks if m.kind == "emergency"][which]
+    page = tmp_path / f"{Path(name).stem}.html"
+    dom = _chromium(f"{page.as_uri()}#t={emergency.t}", "--dump-dom")
+    now = history.at(emergency.t)
+    for i, agent in enumerate(history.agents):
+        want = now.agents[agent]
+        # The page lists a stack top first.
+        assert _list_items(dom, f"agent-{i}-stack")[::-1] == list(want.stack), agent
+        shown = _text_of(dom, f"agent-{i}-goal")
+        assert shown.startswith(want.goal or "—"), (agent, shown)
+    assert f"{emergency.t:.2f} s" in dom
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=NO_CHROMIUM)
+def test_a_browser_draws_the_page(tmp_path: Path) -> None:
+    report_of(NESTED, tmp_path)
+    shot = tmp_path / "shot.png"
+    _chromium((tmp_path / "nested_emergencies.html").as_uri() + "#t=12", f"--screenshot={shot}")
+    assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# -- bad input ----------------------------------------------------------------------------------------------
+
+
+def _bad(tmp_path: Path, content: str | None, capsys: pytest.CaptureFixture[str]) -> str:
+    trace = tmp_path / "trace.jsonl"
+    if content is not None:
+        trace.write_text(content)
+    code = main(["report", str(trace), "--html", str(tmp_path / "out.html")])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("htnagent: error: ") and "Traceback" not in err
+    assert not (tmp_path / "out.html").exists()
+    return err
+
+
+def _good_lines() -> list[str]:
+    _, events = shipped_run(NESTED)
+    return [json.dumps(e.as_dict()) for e in events]
+
+
+def test_a_trace_that_is_not_json_lines_is_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    lines = _good_lines()
+    lines[3] = "this is no JSON"
+    err = _bad(tmp_path, "\n".join(lines), capsys)
+    assert "trace.jsonl: line 4: not JSON" in err
+
+
+def test_a_trace_without_a_summary_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    lines = _good_lines()[:-1]
+    err = _bad(tmp_path, "\n".join(lines), capsys)
+    assert f"line {len(lines)}: the trace ends without a summary event" in err
+
+
+def test_an_unknown_event_kind_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    lines = _good_lines()
+    lines[1] = '{"t": 0.0, "agent": "guide", "event": "teleported"}'
+    err = _bad(tmp_path, "\n".join(lines), capsys)
+    assert "line 2: unknown event 'teleported'" in err
+
+
+@pytest.mark.parametrize(
+    ("content", "reason"),
+    [
+        ("", "the file is empty"),
+        ("\n\n", "the file is empty"),
+        ("[1, 2]\n", "line 1: expected an event object"),
+        ('{"t": NaN, "agent": "a", "event": "summary"}\n', "line 1: not JSON"),
+        ('{"t": 1e999, "agent": "a", "event": "arc_closed", "arc": "x"}\n', "line 1: t: expected a time"),
+        ('{"t": 0, "agent": "guide", "event": "goal_received"}\n', "line 1: goal_received: goal"),
+        (b"\xff\xfe\x00bad".decode("latin-1"), "line 1"),
+    ],
+)
+def test_malformed_traces_are_one_line(
+    content: str, reason: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert reason in _bad(tmp_path, content, capsys)
+
+
+def test_a_directory_or_missing_file_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert "no such file" in _bad(tmp_path, None, capsys)
+    (tmp_path / "trace.jsonl").mkdir()
+    assert "is a directory" in _bad(tmp_path, None, capsys)
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_a_fifo_is_refused_at_once(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    os.mkfifo(tmp_path / "trace.jsonl")
+    assert "FIFO" in _bad(tmp_path, None, capsys)
+
+
+def test_a_bad_trace_in_a_new_process_has_no_traceback(tmp_path: Path) -> None:
+    trace = tmp_path / "t.jsonl"
+    trace.write_text('{"t": 0, "agent": "x", "event": "nope"}\n')
+    done = subprocess.run(
+        [sys.executable, "-m", "htnagent", "report", str(trace), "--html", str(tmp_path / "o.html")],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert done.stdout == ""
+
+
+def test_an_unwritable_page_is_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    trace = write_trace(shipped_run(NESTED)[1], tmp_path / "t.jsonl")
+    code = main(["report", str(trace), "--html", str(tmp_path / "no" / "such" / "o.html")])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and "cannot write the report" in err
+
+
+def test_time_running_backwards_is_refused_with_its_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    lines = _good_lines()
+    later = next(i for i, line in enumerate(lines) if json.loads(line)["t"] > 0)
+    lines.insert(later + 1, lines[0])  # an event at 0 s after one later
+    assert f"line {later + 2}: t: 0 is before the line above" in _bad(tmp_path, "\n".join(lines), capsys)
+
+
+def test_mangled_traces_give_a_page_or_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    rng = random.Random(17)
+    good = _good_lines()
+    scenario = str(SCENARIO_DIR / NESTED)
+    for _ in range(60):
+        lines = list(good)
+        for _ in range(rng.randint(1, 4)):
+            j = rng.randrange(len(lines))
+            what = rng.random()
+            if what < 0.4:
+                del lines[j]
+            elif what < 0.6:
+                lines.insert(rng.randrange(len(lines)), lines[j])
+            else:
+                event = json.loads(lines[j])
+                key = rng.choice([k for k in event if k != "event"])
+                event[key] = rng.choice([None, -1, "x", [], {}, "rollback(move(n1,n2,arc1))", True, 1e308])
+                lines[j] = json.dumps(event)
+        trace = tmp_path / "m.jsonl"
+        trace.write_text("\n".join(lines) + "\n")
+        code = main(["report", str(trace), "--html", str(tmp_path / "m.html"), "--scenario", scenario])
+        err = capsys.readouterr().err
+        assert code == 0 or (code == 2 and err.count("\n") == 1), err
