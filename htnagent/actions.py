@@ -29,7 +29,7 @@ to the domain; they are the only mutable part, and never change an answer.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Final
 
 from htnagent.errors import PlanningError
@@ -75,13 +75,23 @@ def rolled_back(action: Atom) -> Atom | None:
     return half_done(action) if action.name == ROLLBACK else None
 
 
+_Way = tuple[tuple[tuple[Atom, bool], ...], frozenset[Atom], frozenset[Atom]]
+"""One way a ground action can run: its ground dynamic checks, delete and add effects."""
+
+_STATIC_BASES = 4
+"""How many static fact bases an action keeps its ways for (they change rarely)."""
+
+
 @dataclass(frozen=True, slots=True)
 class CompiledAction:
     """A ground action's operator, bindings, ground precondition and effects, and cost.
 
-    ``checks`` is None when the precondition binds variables the head does not:
-    then the precondition is matched against each state (and ``add``/``delete``
-    are unused).
+    ``checks`` is None when the precondition binds variables the head does not.
+    When only static facts bind them (``move_area(A,B)`` finds its door's arc in
+    the map), the ways the action can run are worked out once per static fact
+    base: each a binding of those variables, in the order SHOP tries them, with
+    the dynamic literals and the effects made ground.  Otherwise the precondition
+    is matched against each state (and ``add``/``delete`` are unused).
     """
 
     op: Operator
@@ -90,6 +100,9 @@ class CompiledAction:
     delete: frozenset[Atom]
     add: frozenset[Atom]
     cost: float
+    static_bound: bool = False
+    """Only static literals bind the variables the head leaves free (see above)."""
+    _ways: dict[int, tuple[object, tuple[_Way, ...]]] = field(default_factory=dict, repr=False, compare=False)
 
     def apply_dynamic(self, state: State) -> frozenset[Atom] | None:
         """The dynamic facts after the action, or None when its precondition is false.
@@ -97,6 +110,8 @@ class CompiledAction:
         Returns ``state.dynamic`` itself when the action changes nothing.
         """
         if self.checks is None:
+            if self.static_bound:
+                return self._apply_ways(state)
             full = self.op.applicable(state, self.bindings)
             return None if full is None else self.op.effects_on(state.dynamic, full)
         for fact, positive in self.checks:
@@ -105,6 +120,45 @@ class CompiledAction:
         if not self.delete and not self.add:
             return state.dynamic
         return (state.dynamic - self.delete) | self.add
+
+    def _apply_ways(self, state: State) -> frozenset[Atom] | None:
+        dynamic = state.dynamic
+        for checks, delete, add in self._ways_in(state):
+            if all((fact in dynamic) == positive for fact, positive in checks):
+                return (dynamic - delete) | add if delete or add else dynamic
+        return None
+
+    def _ways_in(self, state: State) -> tuple[_Way, ...]:
+        """The ways the action can run on ``state``'s static facts (kept per fact base)."""
+        static = state.static
+        kept = self._ways.get(id(static))
+        if kept is not None and kept[0] is static:  # the entry holds the base: its id is not reused
+            return kept[1]
+        op, dyn = self.op, state.dynamic_predicates
+        fixed = [lit for lit in op.pre if lit.atom.name not in dyn]
+        ways = []
+        for b in satisfiers(fixed, state, self.bindings):
+            checks = tuple((substitute(lit.atom, b), lit.positive) for lit in op.pre if lit.atom.name in dyn)
+            delete = frozenset(substitute(a, b) for a in op.delete)
+            add = frozenset(substitute(a, b) for a in op.add)
+            ways.append((checks, delete, add))
+        if len(self._ways) >= _STATIC_BASES:
+            self._ways.pop(next(iter(self._ways)))
+        self._ways[id(static)] = (static, tuple(ways))
+        return tuple(ways)
+
+
+def _static_bound(op: Operator, bindings: Bindings, dynamic: frozenset[str]) -> bool:
+    """Whether only static literals bind the precondition's variables the head leaves free:
+    every dynamic literal is ground where it stands (so, a check that binds nothing)."""
+    bound = set(bindings)
+    for lit in op.pre:
+        if lit.atom.name in dynamic:
+            if not lit.variables <= bound:
+                return False
+        elif lit.positive:
+            bound |= lit.variables
+    return True
 
 
 _MISSING: object = object()
@@ -159,11 +213,14 @@ class Actions:
             checks: tuple[tuple[Atom, bool], ...] | None = None
             delete: frozenset[Atom] = frozenset()
             add: frozenset[Atom] = frozenset()
+            static_bound = False
             if all(lit.variables <= b.keys() for lit in op.pre):
                 checks = tuple((substitute(lit.atom, b), lit.positive) for lit in op.pre)
                 delete = frozenset(substitute(a, b) for a in op.delete)
                 add = frozenset(substitute(a, b) for a in op.add)
-            found = CompiledAction(op, b, checks, delete, add, op.action_cost(action))
+            else:
+                static_bound = _static_bound(op, b, self._domain.dynamic_predicates)
+            found = CompiledAction(op, b, checks, delete, add, op.action_cost(action), static_bound)
             self._compiled[action] = found
         return found
 
