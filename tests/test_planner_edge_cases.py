@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import gc
 import math
 
 from htnagent.domain import Domain, State
@@ -64,3 +65,29 @@ def test_a_task_no_operator_head_matches_is_a_dead_end_not_an_error() -> None:
     d.method("enter", "by_door2", do=["open(door2)"])
     result = plan(d, d.initial_state(), [parse("enter")])
     assert result.status is PlanStatus.UNSOLVABLE
+
+
+def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
+    seen: list[bool] = []
+    d = Domain("gc")
+    d.operator("step(?x,?y)", pre=["at(?x)", "link(?x,?y)"], add=["at(?y)"], delete=["at(?x)"])
+    d.method("reach(?n)", "here", when=["at(?n)"], do=[])
+    d.method(
+        "reach(?n)", "walk", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"]
+    )
+    def estimate(task: Atom, state: State) -> float:
+        seen.append(gc.isenabled())
+        return 0.0
+
+    d.estimate("reach", estimate)
+    state = State.from_facts([parse("at(a)"), parse("link(a,b)")], d)
+    assert gc.isenabled()
+    assert plan(d, state, [parse("reach(b)")]).best is not None
+    assert seen and not any(seen)  # paused while searching
+    assert gc.isenabled()  # and back on after
+    gc.disable()
+    try:
+        plan(d, state, [parse("reach(b)")])
+        assert not gc.isenabled()  # a caller's own choice is left as it was
+    finally:
+        gc.enable()
