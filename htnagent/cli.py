@@ -31,7 +31,7 @@ import anyio
 from rich.console import Console
 
 from htnagent.console import JsonLines, LiveTrace, print_summary
-from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
+from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
 from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
@@ -263,27 +263,32 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
         if not args.json:
             print_summary(console, report.summary)
         if args.plot:
-            try:
-                draw_run(scenario, report.events, args.plot)
-            except PlotError as e:
-                # Checked before the run, yet it failed after: say so, but the run's result stands.
-                print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
-            else:
-                if not args.json:
-                    console.print(f"picture saved to {args.plot}")
+            _save(
+                "picture", args.plot, lambda: draw_run(scenario, report.events, args.plot), console, args.json
+            )
         if args.timeline:
-            try:
+
+            def timeline() -> None:
                 history = History.from_events(report.events, scenario.agent_names)
                 draw_timeline(history, args.timeline, scenario.name)
-            except HtnAgentError as e:
-                print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
-            else:
-                if not args.json:
-                    console.print(f"timeline saved to {args.timeline}")
+
+            _save("timeline", args.timeline, timeline, console, args.json)
         if report.interrupted or signals.received:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
+
+
+def _save(what: str, file: str, draw: Callable[[], None], console: Console, quiet: bool) -> None:
+    """Draw a picture of the run that has ended.  The file was checked before the run; if
+    drawing fails after all, say so in one line — the run's result stands."""
+    try:
+        draw()
+    except HtnAgentError as e:
+        print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
+    else:
+        if not quiet:
+            console.print(f"{what} saved to {file}")
 
 
 class _RunSignals:

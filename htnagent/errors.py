@@ -27,6 +27,8 @@ agents run (an executor that raises, hangs or crashes) become failed actions and
 from __future__ import annotations
 
 import reprlib
+from collections.abc import Iterator
+from contextlib import contextmanager
 from typing import Any
 
 
@@ -76,6 +78,18 @@ class TraceFormatError(HtnAgentError, ValueError):
 
 class PlotError(HtnAgentError):
     """Raised when the picture of a run cannot be drawn (no matplotlib, unwritable file)."""
+
+
+@contextmanager
+def drawing(file: str, what: str) -> Iterator[None]:
+    """Turn whatever drawing ``what`` into ``file`` raises into a :class:`PlotError` naming
+    the file: matplotlib may fail in ways of its own, and a run's result must survive it."""
+    try:
+        yield
+    except PlotError:
+        raise
+    except Exception as e:
+        raise PlotError(f"{file}: drawing {what} failed: {type(e).__name__}: {e}") from None
 
 
 class _Short(reprlib.Repr):

@@ -13,7 +13,7 @@ import os
 import stat
 from pathlib import Path
 
-from htnagent.errors import PlotError
+from htnagent.errors import PlotError, drawing
 from htnagent.events import GoalFinished, GoalReceived, RobotMoving, TraceEvent
 from htnagent.scenario import Scenario
 
@@ -62,12 +62,8 @@ _NONBLOCK = getattr(os, "O_NONBLOCK", 0)
 
 def draw_run(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
     """Draw the map and the path the robot travelled, emergency legs in red; PlotError if it cannot."""
-    try:
+    with drawing(file, "the picture"):
         _draw(scenario, events, file)
-    except PlotError:
-        raise
-    except Exception as e:  # matplotlib may fail in ways of its own; the run's result must survive it
-        raise PlotError(f"{file}: drawing the picture failed: {type(e).__name__}: {e}") from None
 
 
 def _draw(scenario: Scenario, events: list[TraceEvent], file: str) -> None:

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from htnagent.errors import PlotError
+from htnagent.errors import PlotError, drawing
 from htnagent.history import GoalBar, History
 
 GOAL_COLOUR = "#4c78a8"
@@ -36,12 +36,8 @@ _MAX_TIERS = 6
 
 def draw_timeline(history: History, file: str, title: str = "") -> None:
     """Draw ``history`` as a timeline PNG into ``file``; PlotError if it cannot."""
-    try:
+    with drawing(file, "the timeline"):
         _draw(history, file, title)
-    except PlotError:
-        raise
-    except Exception as e:  # matplotlib may fail in ways of its own; the run's result must survive it
-        raise PlotError(f"{file}: drawing the timeline failed: {type(e).__name__}: {e}") from None
 
 
 def _draw(history: History, file: str, title: str) -> None:
