@@ -359,14 +359,14 @@ def _apply_task(
 
 def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[Atom, ...]]]:
     """The ways to decompose a compound task: (method name, subtasks), without repeats."""
+    found = [(m, ways) for m in domain.methods.get(task.name, ()) if (ways := m.subtasks_in(task, st))]
+    if len(found) == 1 and found[0][0].distinct:
+        m, ways = found[0]  # one method, whose ways all differ: nothing to remove
+        return [(m.name, subtasks) for subtasks in ways]
     out: list[tuple[str, tuple[Atom, ...]]] = []
     seen: set[tuple[Atom, ...]] = set()
-    for m in domain.methods.get(task.name, ()):
-        hb = _unify_head(m.head, task)
-        if hb is None:
-            continue
-        for b in all_satisfiers(m.pre, st, hb):
-            subtasks = tuple(substitute(s, b) for s in m.subtasks)
+    for m, ways in found:
+        for subtasks in ways:
             if subtasks not in seen:
                 seen.add(subtasks)
                 out.append((m.name, subtasks))

@@ -10,11 +10,15 @@ planner calls at every search step.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
+from operator import itemgetter
+from typing import Any
 
 from htnagent.state import State
 from htnagent.terms import Atom, Bindings, Term, atom, substitute
+
+_new_atom = tuple.__new__
 
 
 @dataclass(frozen=True, slots=True)
@@ -163,4 +167,194 @@ def bound_by(pre: Sequence[Literal]) -> set[str]:
     return out
 
 
-__all__ = ["Literal", "all_satisfiers", "bound_by", "literals", "satisfiers"]
+
+
+# -- compiled conjunctions ---------------------------------------------------------------
+#
+# The search matches the same few method preconditions at every step (docs/design.md §1).
+# Which of a literal's variables are already bound when it is reached, and whether its
+# predicate is static or dynamic, do not change from one call to the next: worked out once,
+# each literal becomes a small function that looks its facts up directly (a static literal
+# with a bound argument through the fact base's index) and writes what it binds into a list
+# of slots, with no dictionary of bindings copied per fact and no generic unification.  The
+# answers, and their order, are those of :func:`all_satisfiers`.
+
+Slots = list[Term]
+"""The values of a compiled conjunction's variables (and constants), by slot number."""
+Emit = Callable[[Slots, State, list[Any]], None]
+"""What a compiled conjunction does with each satisfier: gets the slots, the state, an output list."""
+
+
+def atom_builder(pattern: Atom, slot_of: Mapping[str, int]) -> Callable[[Slots], Atom]:
+    """A function making the pattern ground from the slots (every argument has a slot)."""
+    args = pattern.args
+    name = pattern.name
+    if not args:
+        return lambda slots: pattern
+    if all(isinstance(a, str) for a in args):
+        index = [slot_of[a] for a in args]  # type: ignore[index]
+        if len(index) == 1:
+            i = index[0]
+            return lambda slots: _new_atom(Atom, (name, (slots[i],)))
+        get = itemgetter(*index)
+        return lambda slots: _new_atom(Atom, (name, get(slots)))
+    parts = [itemgetter(slot_of[a]) if isinstance(a, str) else atom_builder(a, slot_of) for a in args]
+    return lambda slots: _new_atom(Atom, (name, tuple([p(slots) for p in parts])))
+
+
+def compile_conjunction(
+    pre: Sequence[Literal],
+    bound: Iterable[str],
+    slot_of: Mapping[str, int],
+    dynamic_predicates: frozenset[str],
+    emit: Emit,
+) -> Emit:
+    """The conjunction as a function of the slots: for every satisfier, in the order of
+    :func:`all_satisfiers`, ``emit`` is called with the slots holding it.
+
+    ``bound`` are the variables whose slots hold values on entry; ``slot_of`` gives every
+    variable and every constant of ``pre`` a slot (constants hold their own value).
+    """
+    known = set(bound)
+    stages: list[tuple[Literal, frozenset[str]]] = []
+    for lit in pre:
+        stages.append((lit, frozenset(known)))
+        if lit.positive:
+            known |= lit.variables
+    run = emit
+    for lit, before in reversed(stages):
+        run = _compile_literal(lit, before, slot_of, dynamic_predicates, run)
+    return run
+
+
+def _compile_literal(
+    lit: Literal, bound: frozenset[str], slot_of: Mapping[str, int], dyn: frozenset[str], then: Emit
+) -> Emit:
+    pattern = lit.atom
+    name = pattern.name
+    dynamic = name in dyn
+    positive = lit.positive
+    if lit.variables <= bound:
+        # A plain look-up.
+        build = atom_builder(pattern, slot_of)
+
+        def check(slots: Slots, st: State, out: list[Any]) -> None:
+            fact = build(slots)
+            if (fact in (st.dynamic if dynamic else st.static.facts)) == positive:
+                then(slots, st, out)
+
+        return check
+    if not all(isinstance(a, str) for a in pattern.args):
+        return _compile_nested(lit, bound, slot_of, then)
+    # Flat pattern: each argument is a constant or a bound variable (wanted), or free.
+    arity = len(pattern.args)
+    wanted: list[tuple[int, int]] = []
+    free: list[tuple[int, int]] = []
+    same: list[tuple[int, int]] = []  # a free variable met twice: both positions must agree
+    first_at: dict[str, int] = {}
+    for k, a in enumerate(pattern.args):
+        assert isinstance(a, str)
+        if a[:1] == "?" and a not in bound:
+            if a in first_at:
+                same.append((k, first_at[a]))
+            else:
+                first_at[a] = k
+                free.append((k, slot_of[a]))
+        else:
+            wanted.append((k, slot_of[a]))
+    position: int | None = None
+    value_slot = 0
+    if wanted and not dynamic:
+        # The fact base's index gives the facts whose first wanted argument fits.
+        (position, value_slot), *rest = wanted
+    else:
+        rest = wanted
+
+    def facts_of(slots: Slots, st: State) -> Iterable[Atom]:
+        if dynamic:
+            found = [f for f in st.dynamic if f.name == name]
+            if len(found) > 1:
+                found.sort(key=str)  # a frozenset's order changes with the hash seed
+            return found
+        if position is None:
+            return st.static.candidates(name, None, "")
+        return st.static.candidates(name, position, slots[value_slot])
+
+    if not positive:
+
+        def none_matches(slots: Slots, st: State, out: list[Any]) -> None:
+            for f in facts_of(slots, st):
+                fargs = f.args
+                if (
+                    len(fargs) == arity
+                    and all(fargs[k] == slots[s] for k, s in rest)
+                    and all(fargs[k] == fargs[j] for k, j in same)
+                ):
+                    return
+            then(slots, st, out)
+
+        return none_matches
+    if not rest and not same:
+
+        def each_match(slots: Slots, st: State, out: list[Any]) -> None:
+            for f in facts_of(slots, st):
+                fargs = f.args
+                if len(fargs) == arity:
+                    for k, s in free:
+                        slots[s] = fargs[k]
+                    then(slots, st, out)
+
+        return each_match
+
+    def each_checked_match(slots: Slots, st: State, out: list[Any]) -> None:
+        for f in facts_of(slots, st):
+            fargs = f.args
+            if (
+                len(fargs) == arity
+                and all(fargs[k] == slots[s] for k, s in rest)
+                and all(fargs[k] == fargs[j] for k, j in same)
+            ):
+                for k, s in free:
+                    slots[s] = fargs[k]
+                then(slots, st, out)
+
+    return each_checked_match
+
+
+def _compile_nested(lit: Literal, bound: frozenset[str], slot_of: Mapping[str, int], then: Emit) -> Emit:
+    """A pattern with nested atoms: matched by :meth:`State.match` (rare in preconditions)."""
+    pattern = lit.atom
+    given = sorted(lit.variables & bound)
+    binds = sorted(lit.variables - bound)
+
+    def bindings_of(slots: Slots) -> Bindings:
+        return {v: slots[slot_of[v]] for v in given}
+
+    if not lit.positive:
+
+        def none_matches(slots: Slots, st: State, out: list[Any]) -> None:
+            if next(st.match(pattern, bindings_of(slots)), None) is None:
+                then(slots, st, out)
+
+        return none_matches
+
+    def each_match(slots: Slots, st: State, out: list[Any]) -> None:
+        for b in st.match(pattern, bindings_of(slots)):
+            for v in binds:
+                slots[slot_of[v]] = b[v]
+            then(slots, st, out)
+
+    return each_match
+
+
+__all__ = [
+    "Emit",
+    "Literal",
+    "Slots",
+    "all_satisfiers",
+    "atom_builder",
+    "bound_by",
+    "compile_conjunction",
+    "literals",
+    "satisfiers",
+]
