@@ -27,7 +27,7 @@ from dataclasses import dataclass, field
 from enum import Enum
 
 from htnagent.actions import ROLLBACK, Actions
-from htnagent.domain import Domain
+from htnagent.domain import Domain, Estimate
 from htnagent.errors import PlanningError, SettingsError
 from htnagent.plan import Decomposition, Plan, Step, tidy
 from htnagent.preconditions import all_satisfiers, satisfiers
@@ -92,54 +92,40 @@ class PlanResult:
         return self.plans[0] if self.plans else None
 
 
-class _Key:
-    """A search node's (state, task list), hashed once: atoms are tuples, whose hash
-    Python works out again at every look-up."""
+_Key = tuple[frozenset[Atom], tuple[Atom, ...]]
+"""A search node's (state, task list).  A plain tuple: hashed and compared in C, which
+costs less than hashing once in Python and comparing in Python."""
 
-    __slots__ = ("dynamic", "hash", "tasks")
 
-    def __init__(self, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) -> None:
+class _Node:
+    """A search node: the cost so far, the state's dynamic facts, the tasks left with their
+    records, the step that led here (made into a :class:`Step` when a plan is read off) and
+    the parent."""
+
+    __slots__ = ("dynamic", "g", "parent", "records", "step", "tasks")
+
+    def __init__(
+        self,
+        g: float,
+        dynamic: frozenset[Atom],
+        tasks: tuple[Atom, ...],
+        records: tuple[Decomposition | None, ...],
+        step: Step | tuple[Atom, float, Decomposition | None] | None,
+        parent: _Node | None,
+    ) -> None:
+        self.g = g
         self.dynamic = dynamic
         self.tasks = tasks
-        self.hash = hash((dynamic, tasks))
-
-    def __hash__(self) -> int:
-        return self.hash
-
-    def __eq__(self, other: object) -> bool:
-        return (
-            isinstance(other, _Key)
-            and self.hash == other.hash
-            and self.tasks == other.tasks
-            and self.dynamic == other.dynamic
-        )
-
-
-@dataclass(slots=True, eq=False)
-class _Node:
-    g: float
-    dynamic: frozenset[Atom]
-    tasks: tuple[Atom, ...]
-    records: tuple[Decomposition | None, ...]
-    step: Step | None
-    parent: _Node | None
-    _key: _Key | None = field(default=None, init=False)
-
-    @property
-    def key(self) -> _Key:
-        """The node's (state, task list), hashed when first asked for: most nodes pushed
-        are never taken off the open list."""
-        key = self._key
-        if key is None:
-            key = self._key = _Key(self.dynamic, self.tasks)
-        return key
+        self.records = records
+        self.step = step
+        self.parent = parent
 
     def revisits(self) -> bool:
         """Whether an ancestor had the same state and task list (a loop)."""
         node = self.parent
-        key = self.key
+        dynamic, tasks = self.dynamic, self.tasks
         while node is not None:
-            if node.key == key:
+            if node.dynamic == dynamic and node.tasks == tasks:
                 return True
             node = node.parent
         return False
@@ -148,8 +134,12 @@ class _Node:
         steps: list[Step] = []
         node: _Node | None = self
         while node is not None:
-            if node.step is not None:
-                steps.append(node.step)
+            step = node.step
+            if step is not None:
+                if not isinstance(step, Step):
+                    # Made once per node: plans that share the node share the step.
+                    step = node.step = Step(*step)
+                steps.append(step)
             node = node.parent
         steps.reverse()
         return steps
@@ -207,31 +197,38 @@ def _search(
     root = _Node(0.0, state.dynamic, tuple(t for t, _ in entries), tuple(r for _, r in entries), None, None)
     counter = itertools.count()
     heap: list[tuple[float, float, int, _Node]] = []
+    heappush, heappop = heapq.heappush, heapq.heappop
     k = settings.alternatives
     check_loops = k > 1
+    # With K = 1 a key is expanded at most once: nothing to gain from caching its successors.
+    reuse = k > 1
 
     estimates = domain.estimates
     methods = domain.methods
+    operators = domain.operators
+    # What each task name means to h (heuristic below): its estimate, None for a compound
+    # task without one (h is 0), absent for a primitive task (h looks further).
+    h_role: dict[str, Estimate | None] = {name: None for name in methods}
+    h_role.update(estimates)
     h_cache: dict[tuple[frozenset[Atom], Atom], float] = {}
 
-    def push(node: _Node, st: State) -> None:
-        # h is the first compound task's estimate (heuristic below); the children of one node
-        # mostly share their state and that task, so it is worked out once for them.
-        h = 0.0
-        for t in node.tasks:
-            fn = estimates.get(t.name)
-            if fn is not None:
-                key = (node.dynamic, t)
+    def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
+        # The first compound task's estimate; the children of one node mostly share their
+        # state and that task, so it is worked out once for them.
+        for t in tasks:
+            name = t.name
+            if name in h_role:
+                fn = h_role[name]
+                if fn is None:
+                    return 0.0
+                key = (dynamic, t)
                 cached = h_cache.get(key)
                 if cached is None:
-                    cached = h_cache[key] = fn(t, st)
-                h = cached
-                break
-            if t.name in methods:
-                break
-        heapq.heappush(heap, (node.g + h, -node.g, next(counter), node))
+                    cached = h_cache[key] = fn(t, st if st is not None else State(static, dynamic, dyn_preds))
+                return cached
+        return 0.0
 
-    push(root, state)
+    heappush(heap, (h_of(root.tasks, root.dynamic, state), -0.0, next(counter), root))
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
@@ -249,7 +246,8 @@ def _search(
                     Step(action, op.action_cost(action), None),
                     root,
                 )
-                push(child, state.with_dynamic(child.dynamic))
+                h = h_of(child.tasks, child.dynamic, None)
+                heappush(heap, (child.g + h, -child.g, next(counter), child))
 
     ground_actions = domain.actions
     popped: dict[_Key, int] = {}
@@ -266,8 +264,9 @@ def _search(
             found.sort(key=lambda p: p.cost)
             status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
-        _, _, _, node = heapq.heappop(heap)
-        if not node.tasks:
+        node = heappop(heap)[3]
+        node_tasks = node.tasks
+        if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
             # by their actions, so a repeat never takes an alternative's place.
             steps = tidy(domain, node.plan())
@@ -279,46 +278,50 @@ def _search(
                     extra = max(int(expansions * settings.alternatives_effort), _MIN_EXTRA)
                     limit = min(settings.budget, expansions + extra)
             continue
-        count = popped.get(node.key, 0)
+        dynamic = node.dynamic
+        node_key = (dynamic, node_tasks)
+        count = popped.get(node_key, 0)
         if count >= k:
             continue
-        popped[node.key] = count + 1
+        popped[node_key] = count + 1
         expansions += 1
-        st = State(static, node.dynamic, dyn_preds)
-        task = node.tasks[0]
+        g = node.g
+        st = State(static, dynamic, dyn_preds)
+        task = node_tasks[0]
         record = node.records[0]
-        rest_t = node.tasks[1:]
+        rest_t = node_tasks[1:]
         rest_r = node.records[1:]
         # A key may be expanded up to K times: its successors are worked out once.
-        cache_key = (node.dynamic, task)
-        if domain.is_primitive(task):
-            applied = primitive_cache.get(cache_key)
-            if applied is None:
+        if task.name in operators:
+            if reuse:
+                cache_key = (dynamic, task)
+                applied = primitive_cache.get(cache_key)
+                if applied is None:
+                    applied = primitive_cache[cache_key] = _apply_task(domain, ground_actions, st, task)
+            else:
                 applied = _apply_task(domain, ground_actions, st, task)
-                primitive_cache[cache_key] = applied
             for action, c, dyn in applied:
-                if avoid and action in avoid and node.dynamic == state.dynamic:
+                if avoid and action in avoid and dynamic == state.dynamic:
                     continue
-                child = _Node(node.g + c, dyn, rest_t, rest_r, Step(action, c, record), node)
+                child = _Node(g + c, dyn, rest_t, rest_r, (action, c, record), node)
                 if check_loops and child.revisits():
                     continue
-                push(child, st.with_dynamic(dyn))
+                h = h_of(rest_t, dyn, None)
+                heappush(heap, (child.g + h, -child.g, next(counter), child))
             continue
-        decompositions = compound_cache.get(cache_key)
-        if decompositions is None:
+        if reuse:
+            cache_key = (dynamic, task)
+            decompositions = compound_cache.get(cache_key)
+            if decompositions is None:
+                decompositions = compound_cache[cache_key] = _decompose(domain, st, task)
+        else:
             decompositions = _decompose(domain, st, task)
-            compound_cache[cache_key] = decompositions
         for method_name, subtasks in decompositions:
             rec = Decomposition(task, method_name, record)
-            child = _Node(
-                node.g,
-                node.dynamic,
-                subtasks + rest_t,
-                (rec,) * len(subtasks) + rest_r,
-                None,
-                node,
-            )
-            push(child, st)
+            child_tasks = subtasks + rest_t
+            child = _Node(g, dynamic, child_tasks, (rec,) * len(subtasks) + rest_r, None, node)
+            h = h_of(child_tasks, dynamic, st)
+            heappush(heap, (g + h, -g, next(counter), child))
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)
     if found:
