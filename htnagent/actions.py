@@ -114,12 +114,15 @@ class CompiledAction:
                 return self._apply_ways(state)
             full = self.op.applicable(state, self.bindings)
             return None if full is None else self.op.effects_on(state.dynamic, full)
-        for fact, positive in self.checks:
-            if state.holds(fact) != positive:
+        dynamic = state.dynamic
+        dynamic_predicates = state.dynamic_predicates
+        static = state.static
+        for fact, positive in self.checks:  # State.holds, inlined: the search's every action
+            if (fact in (dynamic if fact.name in dynamic_predicates else static)) != positive:
                 return None
         if not self.delete and not self.add:
-            return state.dynamic
-        return (state.dynamic - self.delete) | self.add
+            return dynamic
+        return (dynamic - self.delete) | self.add
 
     def _apply_ways(self, state: State) -> frozenset[Atom] | None:
         dynamic = state.dynamic

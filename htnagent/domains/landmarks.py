@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import operator
 from collections.abc import Iterable
 
 _TARGETS = 16
@@ -28,6 +29,7 @@ class Landmarks:
             self._adjacent.setdefault(b, []).append((a, w))
         self._count = count
         self._tables: list[dict[str, float]] | None = None
+        self._rows: dict[str, tuple[float, ...]] | None = None
         self._targets: dict[str, dict[str, float]] = {}
 
     def exact(self, a: str, b: str) -> float:
@@ -47,6 +49,11 @@ class Landmarks:
 
     def bound(self, a: str, b: str) -> float:
         """A lower bound on the route from ``a`` to ``b`` (0 when nothing is known)."""
+        rows = self._rows if self._rows is not None else self._make_rows()
+        ra, rb = rows.get(a), rows.get(b)
+        if ra is not None and rb is not None:
+            # Both places measured from every landmark: the same largest gap, worked out in C.
+            return max(map(abs, map(operator.sub, ra, rb)), default=0.0)
         tables = self._tables if self._tables is not None else self._build()
         best = 0.0
         for table in tables:
@@ -56,6 +63,17 @@ class Landmarks:
                 if gap > best:
                     best = gap
         return best
+
+    def _make_rows(self) -> dict[str, tuple[float, ...]]:
+        """Each place's distances from the landmarks in order, for the places every
+        landmark reaches (a search asks for thousands of bounds)."""
+        tables = self._tables if self._tables is not None else self._build()
+        rows: dict[str, tuple[float, ...]] = {}
+        for place in self._adjacent:
+            if all(place in table for table in tables):
+                rows[place] = tuple(table[place] for table in tables)
+        self._rows = rows
+        return rows
 
     def _build(self) -> list[dict[str, float]]:
         """Pick landmarks far apart (farthest-point) and measure every place from each."""
