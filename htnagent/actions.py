@@ -116,7 +116,7 @@ class CompiledAction:
             return None if full is None else self.op.effects_on(state.dynamic, full)
         dynamic = state.dynamic
         dynamic_predicates = state.dynamic_predicates
-        static = state.static
+        static = state.static.facts
         for fact, positive in self.checks:  # State.holds, inlined: the search's every action
             if (fact in (dynamic if fact.name in dynamic_predicates else static)) != positive:
                 return None
@@ -133,7 +133,7 @@ class CompiledAction:
 
     def _ways_in(self, state: State) -> tuple[_Way, ...]:
         """The ways the action can run on ``state``'s static facts (kept per fact base)."""
-        static = state.static
+        static = state.static.facts
         kept = self._ways.get(id(static))
         if kept is not None and kept[0] is static:  # the entry holds the base: its id is not reused
             return kept[1]

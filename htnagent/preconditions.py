@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from operator import itemgetter
 from typing import Any
 
-from htnagent.state import State
+from htnagent.state import FactBase, State
 from htnagent.terms import Atom, Bindings, Term, atom, substitute
 
 _new_atom = tuple.__new__
@@ -240,7 +240,7 @@ def _compile_literal(
 
         def check(slots: Slots, st: State, out: list[Any]) -> None:
             fact = build(slots)
-            if (fact in (st.dynamic if dynamic else st.static.facts)) == positive:
+            if (fact in (st.dynamic if dynamic else st.static.facts)) is positive:
                 then(slots, st, out)
 
         return check
@@ -270,15 +270,33 @@ def _compile_literal(
     else:
         rest = wanted
 
-    def facts_of(slots: Slots, st: State) -> Iterable[Atom]:
-        if dynamic:
+    facts_of: Callable[[Slots, State], Sequence[Atom]]
+    if dynamic:
+
+        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
             found = [f for f in st.dynamic if f.name == name]
             if len(found) > 1:
                 found.sort(key=str)  # a frozenset's order changes with the hash seed
             return found
-        if position is None:
-            return st.static.candidates(name, None, "")
-        return st.static.candidates(name, position, slots[value_slot])
+
+    elif position is None:
+
+        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
+            return st.static.named(name)
+
+    else:
+        # The index of the last fact base met, kept as one pair (replaced whole, never
+        # half): a search asks it thousands of times about the same base.
+        last: list[tuple[FactBase | None, dict[Term, list[Atom]]]] = [(None, {})]
+        at = position
+
+        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
+            base, index = last[0]
+            if base is not st.static:
+                base = st.static
+                index = base.index(name, at)
+                last[0] = (base, index)
+            return index.get(slots[value_slot], ())
 
     if not positive:
 

@@ -32,49 +32,54 @@ class FactBase:
     between equal-cost plans are broken the same way in every run.
     """
 
-    __slots__ = ("_by_arg", "_by_name", "_facts", "_indexed", "_order")
+    __slots__ = ("_by_name", "_index", "_order", "facts")
 
     def __init__(self, facts: Iterable[Atom] = ()) -> None:
         self._order: tuple[Atom, ...] = tuple(dict.fromkeys(facts))
-        self._facts: frozenset[Atom] = frozenset(self._order)
+        self.facts: frozenset[Atom] = frozenset(self._order)
+        """The facts as a frozenset (read only)."""
         self._by_name: dict[str, list[Atom]] | None = None
-        self._by_arg: dict[tuple[str, int, Term], list[Atom]] = {}
-        self._indexed: set[tuple[str, int]] = set()
+        self._index: dict[tuple[str, int], dict[Term, list[Atom]]] = {}
 
     def __contains__(self, fact: object) -> bool:
-        return fact in self._facts
+        return fact in self.facts
 
     def __iter__(self) -> Iterator[Atom]:
         return iter(self._order)
 
     def __len__(self) -> int:
-        return len(self._facts)
-
-    @property
-    def facts(self) -> frozenset[Atom]:
-        """The facts as a frozenset."""
-        return self._facts
+        return len(self.facts)
 
     def with_changes(self, add: Iterable[Atom] = (), delete: Iterable[Atom] = ()) -> FactBase:
         """A new fact base with ``delete`` removed and ``add`` added."""
         gone = frozenset(delete)
         return FactBase(itertools.chain((f for f in self._order if f not in gone), add))
 
-    def candidates(self, name: str, position: int | None, value: Term) -> list[Atom]:
-        """Facts named ``name`` (whose argument ``position`` is ``value``, if given)."""
+    def named(self, name: str) -> list[Atom]:
+        """The facts named ``name``, in order."""
         if self._by_name is None:
             by_name: dict[str, list[Atom]] = defaultdict(list)
             for f in self._order:
                 by_name[f.name].append(f)
             self._by_name = dict(by_name)
-        if position is None:
-            return self._by_name.get(name, [])
-        if (name, position) not in self._indexed:
-            self._indexed.add((name, position))
-            for f in self._by_name.get(name, []):
+        return self._by_name.get(name, [])
+
+    def index(self, name: str, position: int) -> dict[Term, list[Atom]]:
+        """The facts named ``name`` by their argument ``position``, each list in order (built
+        on first use; the compiled preconditions keep it for the look-ups of a search)."""
+        found = self._index.get((name, position))
+        if found is None:
+            found = self._index[(name, position)] = {}
+            for f in self.named(name):
                 if position < len(f.args):
-                    self._by_arg.setdefault((name, position, f.args[position]), []).append(f)
-        return self._by_arg.get((name, position, value), [])
+                    found.setdefault(f.args[position], []).append(f)
+        return found
+
+    def candidates(self, name: str, position: int | None, value: Term) -> list[Atom]:
+        """Facts named ``name`` (whose argument ``position`` is ``value``, if given)."""
+        if position is None:
+            return self.named(name)
+        return self.index(name, position).get(value, [])
 
 
 class State:
@@ -109,7 +114,7 @@ class State:
         """Whether the ground fact is true in this state."""
         if fact.name in self.dynamic_predicates:
             return fact in self.dynamic
-        return fact in self.static
+        return fact in self.static.facts
 
     def with_dynamic(self, dynamic: frozenset[Atom]) -> State:
         """The same static facts with other dynamic facts."""
