@@ -133,7 +133,7 @@ class CompiledAction:
 
     def _ways_in(self, state: State) -> tuple[_Way, ...]:
         """The ways the action can run on ``state``'s static facts (kept per fact base)."""
-        static = state.static.facts
+        static = state.static
         kept = self._ways.get(id(static))
         if kept is not None and kept[0] is static:  # the entry holds the base: its id is not reused
             return kept[1]
