@@ -32,23 +32,20 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
-from typing import Any
 
 from htnagent.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
 from htnagent.errors import DomainError
 from htnagent.preconditions import (
-    Emit,
+    Decomposer,
     Literal,
-    Slots,
     all_satisfiers,
-    atom_builder,
     bound_by,
-    compile_conjunction,
+    compile_method,
     literals,
     satisfiers,
 )
 from htnagent.state import FactBase, State
-from htnagent.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
+from htnagent.terms import Atom, Bindings, atom, is_variable, substitute
 
 CostSpec = float | int | Callable[[Atom], float]
 """An operator's cost: a number, or a function of the ground action."""
@@ -182,7 +179,7 @@ class Method:
     distinct: bool = field(init=False, repr=False, compare=False)
     """Two ways the precondition holds never give the same subtasks: every variable it
     binds appears in them (so :meth:`subtasks_in` has no repeats to remove)."""
-    _compiled: dict[frozenset[str], _Decomposer] = field(
+    _compiled: dict[frozenset[str], Decomposer] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
 
@@ -208,105 +205,15 @@ class Method:
         """
         run = self._compiled.get(state.dynamic_predicates)
         if run is None:
-            run = self._compiled[state.dynamic_predicates] = _compile_method(self, state.dynamic_predicates)
+            run = self._compiled[state.dynamic_predicates] = compile_method(
+                self.head, self.pre, self.subtasks, state.dynamic_predicates
+            )
         return run(task, state)
 
     def __str__(self) -> str:
         return f"{self.name}: when {', '.join(map(str, self.pre)) or 'always'} do " + (
             ", ".join(map(str, self.subtasks)) or "nothing"
         )
-
-
-_Decomposer = Callable[[Atom, State], list[tuple[Atom, ...]]]
-
-
-def _compile_method(m: Method, dynamic_predicates: frozenset[str]) -> _Decomposer:
-    """:meth:`Method.subtasks_in` for states with these dynamic predicates: the head matched
-    argument by argument, the precondition compiled (:func:`compile_conjunction`), the
-    subtasks made ground straight from the slots."""
-    slot_of: dict[str, int] = {}
-
-    def give_slots(term: Term) -> None:
-        if isinstance(term, str):
-            slot_of.setdefault(term, len(slot_of))
-        else:
-            for a in term.args:
-                give_slots(a)
-
-    for t in (m.head, *(lit.atom for lit in m.pre), *m.subtasks):
-        give_slots(t)
-    initial: list[Term] = [""] * len(slot_of)
-    for term, i in slot_of.items():
-        if not is_variable(term):
-            initial[i] = term  # a constant's slot holds the constant
-    builders = [atom_builder(t, slot_of) for t in m.subtasks]
-    emit: Emit
-    if not builders:
-
-        def emit(slots: Slots, st: State, out: list[Any]) -> None:
-            out.append(())
-
-    elif len(builders) == 2:
-        first, second = builders
-
-        def emit(slots: Slots, st: State, out: list[Any]) -> None:
-            out.append((first(slots), second(slots)))
-
-    else:
-
-        def emit(slots: Slots, st: State, out: list[Any]) -> None:
-            out.append(tuple([b(slots) for b in builders]))
-
-    head = m.head
-    body = compile_conjunction(m.pre, head.variables(), slot_of, dynamic_predicates, emit)
-    name, arity = head.name, len(head.args)
-    if not all(isinstance(a, str) for a in head.args):
-        head_vars = sorted(head.variables())
-
-        def run_nested(task: Atom, state: State) -> list[tuple[Atom, ...]]:
-            b = unify(head, task, {})
-            if b is None:
-                return []
-            slots = initial.copy()
-            for v in head_vars:
-                slots[slot_of[v]] = b[v]
-            out: list[tuple[Atom, ...]] = []
-            body(slots, state, out)
-            return out
-
-        return run_nested
-    constants: list[tuple[int, Term]] = []
-    binds: list[tuple[int, int]] = []
-    same: list[tuple[int, int]] = []
-    first_at: dict[str, int] = {}
-    for k, a in enumerate(head.args):
-        assert isinstance(a, str)
-        if not is_variable(a):
-            constants.append((k, a))
-        elif a in first_at:
-            same.append((k, first_at[a]))
-        else:
-            first_at[a] = k
-            binds.append((k, slot_of[a]))
-
-    def run(task: Atom, state: State) -> list[tuple[Atom, ...]]:
-        args = task.args
-        if task.name != name or len(args) != arity:
-            return []
-        for k, c in constants:
-            if args[k] != c:
-                return []
-        for k, j in same:
-            if args[k] != args[j]:
-                return []
-        slots = initial.copy()
-        for k, s in binds:
-            slots[s] = args[k]
-        out: list[tuple[Atom, ...]] = []
-        body(slots, state, out)
-        return out
-
-    return run
 
 
 @dataclass(slots=True)

@@ -23,14 +23,14 @@ import heapq
 import itertools
 import time
 from collections.abc import Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from enum import Enum
 
 from htnagent.actions import ROLLBACK, Actions
 from htnagent.domain import Domain, Estimate
 from htnagent.errors import PlanningError, SettingsError
 from htnagent.plan import Decomposition, Plan, Step, tidy
-from htnagent.preconditions import all_satisfiers, satisfiers
+from htnagent.preconditions import satisfiers
 from htnagent.state import State
 from htnagent.terms import Atom, Bindings, substitute, unify
 

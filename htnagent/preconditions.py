@@ -10,15 +10,11 @@ planner calls at every search step.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
-from operator import itemgetter
-from typing import Any
 
 from htnagent.state import FactBase, State
-from htnagent.terms import Atom, Bindings, Term, atom, substitute
-
-_new_atom = tuple.__new__
+from htnagent.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
 
 
 @dataclass(frozen=True, slots=True)
@@ -169,210 +165,208 @@ def bound_by(pre: Sequence[Literal]) -> set[str]:
 
 
 
-# -- compiled conjunctions ---------------------------------------------------------------
+# -- compiled methods ---------------------------------------------------------------------
 #
-# The search matches the same few method preconditions at every step (docs/design.md §1).
-# Which of a literal's variables are already bound when it is reached, and whether its
-# predicate is static or dynamic, do not change from one call to the next: worked out once,
-# each literal becomes a small function that looks its facts up directly (a static literal
-# with a bound argument through the fact base's index) and writes what it binds into a list
-# of slots, with no dictionary of bindings copied per fact and no generic unification.  The
-# answers, and their order, are those of :func:`all_satisfiers`.
+# The search decomposes with the same few methods at every step (docs/design.md §1).  Which
+# of a literal's variables are already bound when it is reached, and whether its predicate
+# is static or dynamic, do not change from one call to the next: worked out once, a method
+# becomes one Python function, nested loops over exactly the facts each literal can match (a
+# static literal with a bound argument through the fact base's index), with its variables in
+# local names: no dictionary of bindings copied per fact, no generic unification, no call per
+# literal.  The answers, and their order, are those of :func:`all_satisfiers`.
+#
+# The function's text is made from this module's own names and numbers only: every name,
+# constant and pattern of the domain reaches it as a value in its namespace (``k0``, ``k1``
+# ...), never as text, so no domain can put code into it.
 
-Slots = list[Term]
-"""The values of a compiled conjunction's variables (and constants), by slot number."""
-Emit = Callable[[Slots, State, list[Any]], None]
-"""What a compiled conjunction does with each satisfier: gets the slots, the state, an output list."""
-
-
-def atom_builder(pattern: Atom, slot_of: Mapping[str, int]) -> Callable[[Slots], Atom]:
-    """A function making the pattern ground from the slots (every argument has a slot)."""
-    args = pattern.args
-    name = pattern.name
-    if not args:
-        return lambda slots: pattern
-    if all(isinstance(a, str) for a in args):
-        index = [slot_of[a] for a in args]  # type: ignore[index]
-        if len(index) == 1:
-            i = index[0]
-            return lambda slots: _new_atom(Atom, (name, (slots[i],)))
-        get = itemgetter(*index)
-        return lambda slots: _new_atom(Atom, (name, get(slots)))
-    parts = [itemgetter(slot_of[a]) if isinstance(a, str) else atom_builder(a, slot_of) for a in args]
-    return lambda slots: _new_atom(Atom, (name, tuple([p(slots) for p in parts])))
+Decomposer = Callable[[Atom, State], list[tuple[Atom, ...]]]
+"""A compiled method: the subtask lists of a task in a state (none if the head does not match)."""
 
 
-def compile_conjunction(
-    pre: Sequence[Literal],
-    bound: Iterable[str],
-    slot_of: Mapping[str, int],
-    dynamic_predicates: frozenset[str],
-    emit: Emit,
-) -> Emit:
-    """The conjunction as a function of the slots: for every satisfier, in the order of
-    :func:`all_satisfiers`, ``emit`` is called with the slots holding it.
+def _dynamic_named(dynamic: frozenset[Atom], name: str) -> list[Atom]:
+    found = [f for f in dynamic if f.name == name]
+    if len(found) > 1:
+        found.sort(key=str)  # a frozenset's order changes with the hash seed
+    return found
 
-    ``bound`` are the variables whose slots hold values on entry; ``slot_of`` gives every
-    variable and every constant of ``pre`` a slot (constants hold their own value).
-    """
-    known = set(bound)
-    stages: list[tuple[Literal, frozenset[str]]] = []
-    for lit in pre:
-        stages.append((lit, frozenset(known)))
+
+def _indexer(name: str, position: int) -> Callable[[FactBase], dict[Term, list[Atom]]]:
+    """The index of ``name`` facts by argument ``position`` in a fact base, kept for the last
+    base met as one pair (replaced whole, never half): a search asks about one base."""
+    last: list[tuple[FactBase | None, dict[Term, list[Atom]]]] = [(None, {})]
+
+    def index(base: FactBase) -> dict[Term, list[Atom]]:
+        kept, found = last[0]
+        if kept is not base:
+            found = base.index(name, position)
+            last[0] = (base, found)
+        return found
+
+    return index
+
+
+class _Source:
+    """The text of a compiled method being written, and the values it names."""
+
+    def __init__(self) -> None:
+        self.lines: list[str] = []
+        self.values: dict[str, object] = {}
+        self.slot_of: dict[str, str] = {}  # variable -> local name
+
+    def value(self, v: object) -> str:
+        name = f"k{len(self.values)}"
+        self.values[name] = v
+        return name
+
+    def line(self, depth: int, text: str) -> None:
+        self.lines.append("    " * depth + text)
+
+    def term(self, t: Term) -> str:
+        """An expression for a term whose variables are all bound."""
+        if isinstance(t, str):
+            return self.slot_of[t] if is_variable(t) else self.value(t)
+        return self.ground(t)
+
+    def ground(self, pattern: Atom) -> str:
+        """An expression making the pattern ground from the bound variables."""
+        if not pattern.variables():
+            return self.value(pattern)
+        args = ", ".join(self.term(a) for a in pattern.args)
+        return f"new(Atom, ({self.value(pattern.name)}, ({args},)))"
+
+
+def compile_method(
+    head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom], dynamic_predicates: frozenset[str]
+) -> Decomposer:
+    """The method ``head`` / ``pre`` / ``subtasks`` as one function, for states with these
+    dynamic predicates: for every satisfier of ``pre`` after the head is matched with the
+    task, in the order of :func:`all_satisfiers`, the subtasks made ground."""
+    src = _Source()
+    src.line(0, "def decompose(task, st):")
+    src.line(1, "args = task.args")
+    bound: set[str] = set()
+    if all(isinstance(a, str) for a in head.args):
+        checks = [f"task.name != {src.value(head.name)}", f"len(args) != {len(head.args)}"]
+        binds: list[str] = []
+        for i, a in enumerate(head.args):
+            assert isinstance(a, str)
+            if not is_variable(a):
+                checks.append(f"args[{i}] != {src.value(a)}")
+            elif a in src.slot_of:
+                checks.append(f"args[{i}] != {src.slot_of[a]}")
+            else:
+                src.slot_of[a] = f"s{len(src.slot_of)}"
+                binds.append(f"{src.slot_of[a]} = args[{i}]")
+                bound.add(a)
+        # Conditions in order: a later one may read a variable bound by an earlier one's line.
+        src.line(1, f"if {checks[0]} or {checks[1]}:")
+        src.line(2, "return []")
+        for text in binds:
+            src.line(1, text)
+        for text in checks[2:]:
+            src.line(1, f"if {text}:")
+            src.line(2, "return []")
+    else:
+        src.line(1, f"b = unify({src.value(head)}, task, {{}})")
+        src.line(1, "if b is None:")
+        src.line(2, "return []")
+        for v in sorted(head.variables()):
+            src.slot_of[v] = f"s{len(src.slot_of)}"
+            src.line(1, f"{src.slot_of[v]} = b[{src.value(v)}]")
+            bound.add(v)
+    src.line(1, "dynamic = st.dynamic")
+    src.line(1, "static = st.static")
+    src.line(1, "facts = static.facts")
+    src.line(1, "out = []")
+    depth = 1
+    for n, lit in enumerate(pre):
+        depth = _literal(src, n, lit, bound, dynamic_predicates, depth)
         if lit.positive:
-            known |= lit.variables
-    run = emit
-    for lit, before in reversed(stages):
-        run = _compile_literal(lit, before, slot_of, dynamic_predicates, run)
-    return run
+            bound |= lit.variables
+    made = ", ".join(src.ground(t) for t in subtasks)
+    src.line(depth, f"out.append(({made}{',' if len(subtasks) == 1 else ''}))")
+    src.line(1, "return out")
+    namespace: dict[str, object] = {
+        "Atom": Atom,
+        "new": tuple.__new__,
+        "unify": unify,
+        "dynamic_named": _dynamic_named,
+        **src.values,
+    }
+    exec(compile("\n".join(src.lines), f"<method {head}>", "exec"), namespace)  # text of our own: see above
+    return namespace["decompose"]  # type: ignore[return-value]
 
 
-def _compile_literal(
-    lit: Literal, bound: frozenset[str], slot_of: Mapping[str, int], dyn: frozenset[str], then: Emit
-) -> Emit:
+def _literal(src: _Source, n: int, lit: Literal, bound: set[str], dyn: frozenset[str], depth: int) -> int:
+    """Write the test of literal ``n`` at ``depth``; the depth its continuation is written at."""
     pattern = lit.atom
-    name = pattern.name
-    dynamic = name in dyn
-    positive = lit.positive
+    facts = "dynamic" if pattern.name in dyn else "facts"
     if lit.variables <= bound:
         # A plain look-up.
-        build = atom_builder(pattern, slot_of)
-
-        def check(slots: Slots, st: State, out: list[Any]) -> None:
-            fact = build(slots)
-            if (fact in (st.dynamic if dynamic else st.static.facts)) is positive:
-                then(slots, st, out)
-
-        return check
+        src.line(depth, f"if {src.ground(pattern)} {'in' if lit.positive else 'not in'} {facts}:")
+        return depth + 1
     if not all(isinstance(a, str) for a in pattern.args):
-        return _compile_nested(lit, bound, slot_of, then)
+        return _nested(src, n, lit, bound, depth)
     # Flat pattern: each argument is a constant or a bound variable (wanted), or free.
-    arity = len(pattern.args)
-    wanted: list[tuple[int, int]] = []
-    free: list[tuple[int, int]] = []
+    wanted: list[tuple[int, str]] = []
+    free: list[tuple[int, str]] = []
     same: list[tuple[int, int]] = []  # a free variable met twice: both positions must agree
     first_at: dict[str, int] = {}
     for k, a in enumerate(pattern.args):
         assert isinstance(a, str)
-        if a[:1] == "?" and a not in bound:
+        if is_variable(a) and a not in bound:
             if a in first_at:
                 same.append((k, first_at[a]))
             else:
                 first_at[a] = k
-                free.append((k, slot_of[a]))
+                free.append((k, a))
         else:
-            wanted.append((k, slot_of[a]))
-    position: int | None = None
-    value_slot = 0
-    if wanted and not dynamic:
-        # The fact base's index gives the facts whose first wanted argument fits.
-        (position, value_slot), *rest = wanted
+            wanted.append((k, src.term(a)))
+    name = src.value(pattern.name)
+    if facts == "dynamic":
+        source, rest = f"dynamic_named(dynamic, {name})", wanted
+    elif wanted:
+        (position, value), *rest = wanted  # the index gives the facts whose argument fits
+        source = f"{src.value(_indexer(pattern.name, position))}(static).get({value}, ())"
     else:
-        rest = wanted
-
-    facts_of: Callable[[Slots, State], Sequence[Atom]]
-    if dynamic:
-
-        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
-            found = [f for f in st.dynamic if f.name == name]
-            if len(found) > 1:
-                found.sort(key=str)  # a frozenset's order changes with the hash seed
-            return found
-
-    elif position is None:
-
-        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
-            return st.static.named(name)
-
-    else:
-        # The index of the last fact base met, kept as one pair (replaced whole, never
-        # half): a search asks it thousands of times about the same base.
-        last: list[tuple[FactBase | None, dict[Term, list[Atom]]]] = [(None, {})]
-        at = position
-
-        def facts_of(slots: Slots, st: State) -> Sequence[Atom]:
-            base, index = last[0]
-            if base is not st.static:
-                base = st.static
-                index = base.index(name, at)
-                last[0] = (base, index)
-            return index.get(slots[value_slot], ())
-
-    if not positive:
-
-        def none_matches(slots: Slots, st: State, out: list[Any]) -> None:
-            for f in facts_of(slots, st):
-                fargs = f.args
-                if (
-                    len(fargs) == arity
-                    and all(fargs[k] == slots[s] for k, s in rest)
-                    and all(fargs[k] == fargs[j] for k, j in same)
-                ):
-                    return
-            then(slots, st, out)
-
-        return none_matches
-    if not rest and not same:
-
-        def each_match(slots: Slots, st: State, out: list[Any]) -> None:
-            for f in facts_of(slots, st):
-                fargs = f.args
-                if len(fargs) == arity:
-                    for k, s in free:
-                        slots[s] = fargs[k]
-                    then(slots, st, out)
-
-        return each_match
-
-    def each_checked_match(slots: Slots, st: State, out: list[Any]) -> None:
-        for f in facts_of(slots, st):
-            fargs = f.args
-            if (
-                len(fargs) == arity
-                and all(fargs[k] == slots[s] for k, s in rest)
-                and all(fargs[k] == fargs[j] for k, j in same)
-            ):
-                for k, s in free:
-                    slots[s] = fargs[k]
-                then(slots, st, out)
-
-    return each_checked_match
-
-
-def _compile_nested(lit: Literal, bound: frozenset[str], slot_of: Mapping[str, int], then: Emit) -> Emit:
-    """A pattern with nested atoms: matched by :meth:`State.match` (rare in preconditions)."""
-    pattern = lit.atom
-    given = sorted(lit.variables & bound)
-    binds = sorted(lit.variables - bound)
-
-    def bindings_of(slots: Slots) -> Bindings:
-        return {v: slots[slot_of[v]] for v in given}
-
+        source, rest = f"static.named({name})", wanted
+    f, a = f"f{n}", f"a{n}"
+    fits = [f"len({a}) == {len(pattern.args)}"]
+    fits += [f"{a}[{k}] == {value}" for k, value in rest]
+    fits += [f"{a}[{k}] == {a}[{j}]" for k, j in same]
+    src.line(depth, f"for {f} in {source}:")
+    src.line(depth + 1, f"{a} = {f}.args")
     if not lit.positive:
+        src.line(depth + 1, f"if {' and '.join(fits)}:")
+        src.line(depth + 2, "break")
+        src.line(depth, "else:")  # no fact matches
+        return depth + 1
+    src.line(depth + 1, f"if {' and '.join(fits)}:")
+    for k, var in free:
+        src.slot_of[var] = src.slot_of.get(var) or f"s{len(src.slot_of)}"
+        src.line(depth + 2, f"{src.slot_of[var]} = {a}[{k}]")
+    return depth + 2
 
-        def none_matches(slots: Slots, st: State, out: list[Any]) -> None:
-            if next(st.match(pattern, bindings_of(slots)), None) is None:
-                then(slots, st, out)
 
-        return none_matches
-
-    def each_match(slots: Slots, st: State, out: list[Any]) -> None:
-        for b in st.match(pattern, bindings_of(slots)):
-            for v in binds:
-                slots[slot_of[v]] = b[v]
-            then(slots, st, out)
-
-    return each_match
-
+def _nested(src: _Source, n: int, lit: Literal, bound: set[str], depth: int) -> int:
+    """A pattern with nested atoms: matched by :meth:`State.match` (rare in preconditions)."""
+    given = ", ".join(f"{src.value(v)}: {src.slot_of[v]}" for v in sorted(lit.variables & bound))
+    call = f"st.match({src.value(lit.atom)}, {{{given}}})"
+    if not lit.positive:
+        src.line(depth, f"if next({call}, None) is None:")
+        return depth + 1
+    src.line(depth, f"for b{n} in {call}:")
+    for v in sorted(lit.variables - bound):
+        src.slot_of[v] = src.slot_of.get(v) or f"s{len(src.slot_of)}"
+        src.line(depth + 1, f"{src.slot_of[v]} = b{n}[{src.value(v)}]")
+    return depth + 1
 
 __all__ = [
-    "Emit",
+    "Decomposer",
     "Literal",
-    "Slots",
     "all_satisfiers",
-    "atom_builder",
     "bound_by",
-    "compile_conjunction",
+    "compile_method",
     "literals",
     "satisfiers",
 ]
