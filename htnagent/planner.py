@@ -25,6 +25,7 @@ import time
 from collections.abc import Sequence
 from dataclasses import dataclass
 from enum import Enum
+from typing import NamedTuple
 
 from htnagent.actions import ROLLBACK, Actions
 from htnagent.domain import Domain, Estimate
@@ -97,52 +98,49 @@ _Key = tuple[frozenset[Atom], tuple[Atom, ...]]
 costs less than hashing once in Python and comparing in Python."""
 
 
-class _Node:
-    """A search node: the cost so far, the state's dynamic facts, the tasks left with their
-    records, the step that led here (made into a :class:`Step` when a plan is read off) and
-    the parent."""
+class _Node(NamedTuple):
+    """A search node, and its own entry on the open list (A*: the lowest ``f = g + h``
+    first, then the larger ``g``, then the first pushed; ``seq`` is never the same twice,
+    so the fields after it are never compared).  A tuple: made and ordered in C."""
 
-    __slots__ = ("dynamic", "g", "parent", "records", "step", "tasks")
+    f: float
+    neg_g: float
+    seq: int
+    dynamic: frozenset[Atom]
+    tasks: tuple[Atom, ...]
+    records: tuple[Decomposition | None, ...]
+    step: tuple[Atom, float, Decomposition | None] | None
+    """The action that led here, its cost and record (a :class:`Step` once a plan is read off)."""
+    parent: _Node | None
 
-    def __init__(
-        self,
-        g: float,
-        dynamic: frozenset[Atom],
-        tasks: tuple[Atom, ...],
-        records: tuple[Decomposition | None, ...],
-        step: Step | tuple[Atom, float, Decomposition | None] | None,
-        parent: _Node | None,
-    ) -> None:
-        self.g = g
-        self.dynamic = dynamic
-        self.tasks = tasks
-        self.records = records
-        self.step = step
-        self.parent = parent
 
-    def revisits(self) -> bool:
-        """Whether an ancestor had the same state and task list (a loop)."""
-        node = self.parent
-        dynamic, tasks = self.dynamic, self.tasks
-        while node is not None:
-            if node.dynamic == dynamic and node.tasks == tasks:
-                return True
-            node = node.parent
-        return False
+_new_node = tuple.__new__
 
-    def plan(self) -> list[Step]:
-        steps: list[Step] = []
-        node: _Node | None = self
-        while node is not None:
-            step = node.step
-            if step is not None:
-                if not isinstance(step, Step):
-                    # Made once per node: plans that share the node share the step.
-                    step = node.step = Step(*step)
-                steps.append(step)
-            node = node.parent
-        steps.reverse()
-        return steps
+
+def _revisits(parent: _Node, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) -> bool:
+    """Whether ``parent`` or an ancestor has the same state and task list (a loop)."""
+    node: _Node | None = parent
+    while node is not None:
+        if node.dynamic == dynamic and node.tasks == tasks:
+            return True
+        node = node.parent
+    return False
+
+
+def _steps(end: _Node, made: dict[int, tuple[_Node, Step]]) -> list[Step]:
+    """The steps that led to ``end``.  A node's step is made once (``made``, which keeps the
+    node so that its id is not reused): plans that share the node share the step."""
+    steps: list[Step] = []
+    node: _Node | None = end
+    while node is not None:
+        if node.step is not None:
+            known = made.get(id(node))
+            if known is None:
+                known = made[id(node)] = (node, Step(*node.step))
+            steps.append(known[1])
+        node = node.parent
+    steps.reverse()
+    return steps
 
 
 def plan(
@@ -194,9 +192,8 @@ def _search(
             raise PlanningError(f"domain {domain.name} has no operator or method for {t}")
     static = state.static
     dyn_preds = state.dynamic_predicates
-    root = _Node(0.0, state.dynamic, tuple(t for t, _ in entries), tuple(r for _, r in entries), None, None)
     counter = itertools.count()
-    heap: list[tuple[float, float, int, _Node]] = []
+    heap: list[_Node] = []
     heappush, heappop = heapq.heappush, heapq.heappop
     k = settings.alternatives
     check_loops = k > 1
@@ -228,7 +225,21 @@ def _search(
                 return cached
         return 0.0
 
-    heappush(heap, (h_of(root.tasks, root.dynamic, state), -0.0, next(counter), root))
+    root_tasks = tuple(t for t, _ in entries)
+    root = _new_node(
+        _Node,
+        (
+            h_of(root_tasks, state.dynamic, state),
+            -0.0,
+            next(counter),
+            state.dynamic,
+            root_tasks,
+            tuple(r for _, r in entries),
+            None,
+            None,
+        ),
+    )
+    heappush(heap, root)
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
@@ -238,16 +249,17 @@ def _search(
                 action = substitute(op.head, b)
                 if not action.is_ground or action in avoid:
                     continue
-                child = _Node(
-                    op.action_cost(action),
-                    op.effects_on(state.dynamic, b),
-                    root.tasks,
-                    root.records,
-                    Step(action, op.action_cost(action), None),
-                    root,
+                cost = op.action_cost(action)
+                dynamic = op.effects_on(state.dynamic, b)
+                h = h_of(root.tasks, dynamic, None)
+                first: tuple[Atom, float, Decomposition | None] = (action, cost, None)
+                heappush(
+                    heap,
+                    _new_node(
+                        _Node,
+                        (cost + h, -cost, next(counter), dynamic, root.tasks, root.records, first, root),
+                    ),
                 )
-                h = h_of(child.tasks, child.dynamic, None)
-                heappush(heap, (child.g + h, -child.g, next(counter), child))
 
     ground_actions = domain.actions
     popped: dict[_Key, int] = {}
@@ -255,6 +267,7 @@ def _search(
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
     found: list[Plan] = []
     seen_plans: set[tuple[Atom, ...]] = set()
+    made: dict[int, tuple[_Node, Step]] = {}
     expansions = 0
     limit = settings.budget
     while heap and len(found) < k:
@@ -264,12 +277,12 @@ def _search(
             found.sort(key=lambda p: p.cost)
             status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
-        node = heappop(heap)[3]
+        node = heappop(heap)
         node_tasks = node.tasks
         if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
             # by their actions, so a repeat never takes an alternative's place.
-            steps = tidy(domain, node.plan())
+            steps = tidy(domain, _steps(node, made))
             actions = tuple(s.action for s in steps)
             if actions not in seen_plans:
                 seen_plans.add(actions)
@@ -285,7 +298,7 @@ def _search(
             continue
         popped[node_key] = count + 1
         expansions += 1
-        g = node.g
+        g = -node.neg_g
         st = State(static, dynamic, dyn_preds)
         task = node_tasks[0]
         record = node.records[0]
@@ -303,11 +316,15 @@ def _search(
             for action, c, dyn in applied:
                 if avoid and action in avoid and dynamic == state.dynamic:
                     continue
-                child = _Node(g + c, dyn, rest_t, rest_r, (action, c, record), node)
-                if check_loops and child.revisits():
+                if check_loops and _revisits(node, dyn, rest_t):
                     continue
+                child_g = g + c
                 h = h_of(rest_t, dyn, None)
-                heappush(heap, (child.g + h, -child.g, next(counter), child))
+                step = (action, c, record)
+                heappush(
+                    heap,
+                    _new_node(_Node, (child_g + h, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
+                )
             continue
         if reuse:
             cache_key = (dynamic, task)
@@ -319,9 +336,12 @@ def _search(
         for method_name, subtasks in decompositions:
             rec = Decomposition(task, method_name, record)
             child_tasks = subtasks + rest_t
-            child = _Node(g, dynamic, child_tasks, (rec,) * len(subtasks) + rest_r, None, node)
             h = h_of(child_tasks, dynamic, st)
-            heappush(heap, (g + h, -g, next(counter), child))
+            child_records = (rec,) * len(subtasks) + rest_r
+            heappush(
+                heap,
+                _new_node(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+            )
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)
     if found:
