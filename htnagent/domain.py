@@ -203,12 +203,21 @@ class Method:
         The head and precondition are compiled once per set of dynamic predicates
         (docs/design.md §1: the planner decomposes at every search step).
         """
-        run = self._compiled.get(state.dynamic_predicates)
+        return self.compiled(state.dynamic_predicates)(task, state)
+
+    def compiled(self, dynamic_predicates: frozenset[str]) -> Decomposer:
+        """:meth:`subtasks_in` for states with these dynamic predicates, as one function
+        (made once; see :func:`~htnagent.preconditions.compile_method`)."""
+        run = self._compiled.get(dynamic_predicates)
         if run is None:
-            run = self._compiled[state.dynamic_predicates] = compile_method(
-                self.head, self.pre, self.subtasks, state.dynamic_predicates
+            run = self._compiled[dynamic_predicates] = compile_method(
+                self.head,
+                self.pre,
+                self.subtasks,
+                dynamic_predicates,
+                label=f"method {self.name} of {self.head}",
             )
-        return run(task, state)
+        return run
 
     def __str__(self) -> str:
         return f"{self.name}: when {', '.join(map(str, self.pre)) or 'always'} do " + (

@@ -31,7 +31,7 @@ from htnagent.actions import ROLLBACK, Actions
 from htnagent.domain import Domain, Estimate
 from htnagent.errors import PlanningError, SettingsError
 from htnagent.plan import Decomposition, Plan, Step, tidy
-from htnagent.preconditions import satisfiers
+from htnagent.preconditions import Decomposer, satisfiers
 from htnagent.state import State
 from htnagent.terms import Atom, Bindings, substitute, unify
 
@@ -262,6 +262,9 @@ def _search(
                 )
 
     ground_actions = domain.actions
+    known = ground_actions.known
+    single = {name for name, ops in operators.items() if len(ops) == 1}
+    compiled: _Compiled = {}
     popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
@@ -312,7 +315,13 @@ def _search(
                 if applied is None:
                     applied = primitive_cache[cache_key] = _apply_task(domain, ground_actions, st, task)
             else:
-                applied = _apply_task(domain, ground_actions, st, task)
+                # The usual case inline: a ground action met before, of a one-operator task.
+                action_of = known(task) if task.name in single else None
+                if action_of is not None:
+                    after = action_of.apply_dynamic(st)
+                    applied = [] if after is None else [(task, action_of.cost, after)]
+                else:
+                    applied = _apply_task(domain, ground_actions, st, task)
             for action, c, dyn in applied:
                 if avoid and action in avoid and dynamic == state.dynamic:
                     continue
@@ -330,9 +339,9 @@ def _search(
             cache_key = (dynamic, task)
             decompositions = compound_cache.get(cache_key)
             if decompositions is None:
-                decompositions = compound_cache[cache_key] = _decompose(domain, st, task)
+                decompositions = compound_cache[cache_key] = _decompose(domain, st, task, compiled)
         else:
-            decompositions = _decompose(domain, st, task)
+            decompositions = _decompose(domain, st, task, compiled)
         for method_name, subtasks in decompositions:
             rec = Decomposition(task, method_name, record)
             child_tasks = subtasks + rest_t
@@ -380,19 +389,35 @@ def _apply_task(
     return out
 
 
-def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[Atom, ...]]]:
-    """The ways to decompose a compound task: (method name, subtasks), without repeats."""
-    found = [(m, ways) for m in domain.methods.get(task.name, ()) if (ways := m.subtasks_in(task, st))]
-    if len(found) == 1 and found[0][0].distinct:
-        m, ways = found[0]  # one method, whose ways all differ: nothing to remove
-        return [(m.name, subtasks) for subtasks in ways]
+_Compiled = dict[str, list[tuple[str, bool, Decomposer]]]
+"""A search's compiled methods by task name: name, whether its ways all differ, function."""
+
+
+def _decompose(
+    domain: Domain, st: State, task: Atom, compiled: _Compiled | None = None
+) -> list[tuple[str, tuple[Atom, ...]]]:
+    """The ways to decompose a compound task: (method name, subtasks), without repeats.
+
+    ``compiled`` keeps the task's compiled methods for the next call (one search: the
+    same dynamic predicates throughout).
+    """
+    methods = compiled.get(task.name) if compiled is not None else None
+    if methods is None:
+        dyn = st.dynamic_predicates
+        methods = [(m.name, m.distinct, m.compiled(dyn)) for m in domain.methods.get(task.name, ())]
+        if compiled is not None:
+            compiled[task.name] = methods
+    found = [(name, distinct, ways) for name, distinct, run in methods if (ways := run(task, st))]
+    if len(found) == 1 and found[0][1]:
+        name, _, ways = found[0]  # one method, whose ways all differ: nothing to remove
+        return [(name, subtasks) for subtasks in ways]
     out: list[tuple[str, tuple[Atom, ...]]] = []
     seen: set[tuple[Atom, ...]] = set()
-    for m, ways in found:
+    for name, _, ways in found:
         for subtasks in ways:
             if subtasks not in seen:
                 seen.add(subtasks)
-                out.append((m.name, subtasks))
+                out.append((name, subtasks))
     return out
 
 

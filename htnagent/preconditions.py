@@ -163,8 +163,6 @@ def bound_by(pre: Sequence[Literal]) -> set[str]:
     return out
 
 
-
-
 # -- compiled methods ---------------------------------------------------------------------
 #
 # The search decomposes with the same few methods at every step (docs/design.md §1).  Which
@@ -236,11 +234,17 @@ class _Source:
 
 
 def compile_method(
-    head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom], dynamic_predicates: frozenset[str]
+    head: Atom,
+    pre: Sequence[Literal],
+    subtasks: Sequence[Atom],
+    dynamic_predicates: frozenset[str],
+    *,
+    label: str = "",
 ) -> Decomposer:
     """The method ``head`` / ``pre`` / ``subtasks`` as one function, for states with these
     dynamic predicates: for every satisfier of ``pre`` after the head is matched with the
-    task, in the order of :func:`all_satisfiers`, the subtasks made ground."""
+    task, in the order of :func:`all_satisfiers`, the subtasks made ground.  ``label`` names
+    the function in tracebacks and profiles."""
     src = _Source()
     src.line(0, "def decompose(task, st):")
     src.line(1, "args = task.args")
@@ -293,7 +297,7 @@ def compile_method(
         "dynamic_named": _dynamic_named,
         **src.values,
     }
-    exec(compile("\n".join(src.lines), f"<method {head}>", "exec"), namespace)  # text of our own: see above
+    exec(compile("\n".join(src.lines), f"<{label or head}>", "exec"), namespace)  # text of our own: see above
     return namespace["decompose"]  # type: ignore[return-value]
 
 
@@ -360,6 +364,7 @@ def _nested(src: _Source, n: int, lit: Literal, bound: set[str], depth: int) -> 
         src.slot_of[v] = src.slot_of.get(v) or f"s{len(src.slot_of)}"
         src.line(depth + 1, f"{src.slot_of[v]} = b{n}[{src.value(v)}]")
     return depth + 1
+
 
 __all__ = [
     "Decomposer",
