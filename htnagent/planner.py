@@ -108,13 +108,26 @@ class _Node(NamedTuple):
     seq: int
     dynamic: frozenset[Atom]
     tasks: tuple[Atom, ...]
-    records: tuple[Decomposition | None, ...]
-    step: tuple[Atom, float, Decomposition | None] | None
+    records: tuple[_Record, ...]
+    step: tuple[Atom, float, _Record] | None
     """The action that led here, its cost and record (a :class:`Step` once a plan is read off)."""
     parent: _Node | None
 
 
-_new_node = tuple.__new__
+class _Pending(NamedTuple):
+    """A decomposition record not made yet: most search nodes never reach a plan.  Every
+    node below the decomposition holds this same tuple, so it becomes one record
+    (:func:`_steps`), shared as a :class:`Decomposition` made at once would be."""
+
+    task: Atom
+    method: str
+    parent: _Record
+
+
+_Record = Decomposition | _Pending | None
+
+
+_new = tuple.__new__
 
 
 def _revisits(parent: _Node, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) -> bool:
@@ -127,20 +140,34 @@ def _revisits(parent: _Node, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) 
     return False
 
 
-def _steps(end: _Node, made: dict[int, tuple[_Node, Step]]) -> list[Step]:
-    """The steps that led to ``end``.  A node's step is made once (``made``, which keeps the
-    node so that its id is not reused): plans that share the node share the step."""
+def _steps(end: _Node, made: dict[int, tuple[object, object]]) -> list[Step]:
+    """The steps that led to ``end``.  A node's step and a pending record are made once
+    (``made``, by id, keeps what they were made from so that the id is not reused): plans
+    that share the node or the decomposition share the step or the record."""
     steps: list[Step] = []
     node: _Node | None = end
     while node is not None:
         if node.step is not None:
             known = made.get(id(node))
             if known is None:
-                known = made[id(node)] = (node, Step(*node.step))
+                action, cost, record = node.step
+                known = made[id(node)] = (node, Step(action, cost, _record(record, made)))
+            assert isinstance(known[1], Step)
             steps.append(known[1])
         node = node.parent
     steps.reverse()
     return steps
+
+
+def _record(record: _Record, made: dict[int, tuple[object, object]]) -> Decomposition | None:
+    if not isinstance(record, _Pending):
+        return record
+    known = made.get(id(record))
+    if known is None:
+        done = Decomposition(record.task, record.method, _record(record.parent, made))
+        known = made[id(record)] = (record, done)
+    assert isinstance(known[1], Decomposition)
+    return known[1]
 
 
 def plan(
@@ -226,7 +253,7 @@ def _search(
         return 0.0
 
     root_tasks = tuple(t for t, _ in entries)
-    root = _new_node(
+    root = _new(
         _Node,
         (
             h_of(root_tasks, state.dynamic, state),
@@ -252,10 +279,10 @@ def _search(
                 cost = op.action_cost(action)
                 dynamic = op.effects_on(state.dynamic, b)
                 h = h_of(root.tasks, dynamic, None)
-                first: tuple[Atom, float, Decomposition | None] = (action, cost, None)
+                first: tuple[Atom, float, _Record] = (action, cost, None)
                 heappush(
                     heap,
-                    _new_node(
+                    _new(
                         _Node,
                         (cost + h, -cost, next(counter), dynamic, root.tasks, root.records, first, root),
                     ),
@@ -270,7 +297,7 @@ def _search(
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
     found: list[Plan] = []
     seen_plans: set[tuple[Atom, ...]] = set()
-    made: dict[int, tuple[_Node, Step]] = {}
+    made: dict[int, tuple[object, object]] = {}
     expansions = 0
     limit = settings.budget
     while heap and len(found) < k:
@@ -332,7 +359,7 @@ def _search(
                 step = (action, c, record)
                 heappush(
                     heap,
-                    _new_node(_Node, (child_g + h, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
+                    _new(_Node, (child_g + h, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
                 )
             continue
         if reuse:
@@ -343,13 +370,13 @@ def _search(
         else:
             decompositions = _decompose(domain, st, task, compiled)
         for method_name, subtasks in decompositions:
-            rec = Decomposition(task, method_name, record)
+            rec = _new(_Pending, (task, method_name, record))
             child_tasks = subtasks + rest_t
             h = h_of(child_tasks, dynamic, st)
             child_records = (rec,) * len(subtasks) + rest_r
             heappush(
                 heap,
-                _new_node(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+                _new(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
             )
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)
