@@ -114,10 +114,15 @@ class CompiledAction:
                 return self._apply_ways(state)
             full = self.op.applicable(state, self.bindings)
             return None if full is None else self.op.effects_on(state.dynamic, full)
-        dynamic = state.dynamic
-        dynamic_predicates = state.dynamic_predicates
-        static = state.static.facts
-        for fact, positive in self.checks:  # State.holds, inlined: the search's every action
+        return self.after(state.dynamic, state.static.facts, state.dynamic_predicates)
+
+    def after(
+        self, dynamic: frozenset[Atom], static: frozenset[Atom], dynamic_predicates: frozenset[str]
+    ) -> frozenset[Atom] | None:
+        """:meth:`apply_dynamic` on a state given by its parts (the search's every action,
+        with no :class:`State` made); only for an action whose ``checks`` are not None."""
+        assert self.checks is not None
+        for fact, positive in self.checks:  # State.holds, inlined
             if (fact in (dynamic if fact.name in dynamic_predicates else static)) != positive:
                 return None
         if not self.delete and not self.add:

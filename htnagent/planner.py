@@ -218,6 +218,7 @@ def _search(
         if not domain.knows(t):
             raise PlanningError(f"domain {domain.name} has no operator or method for {t}")
     static = state.static
+    static_facts = static.facts
     dyn_preds = state.dynamic_predicates
     counter = itertools.count()
     heap: list[_Node] = []
@@ -329,7 +330,6 @@ def _search(
         popped[node_key] = count + 1
         expansions += 1
         g = -node.neg_g
-        st = State(static, dynamic, dyn_preds)
         task = node_tasks[0]
         record = node.records[0]
         rest_t = node_tasks[1:]
@@ -340,15 +340,17 @@ def _search(
                 cache_key = (dynamic, task)
                 applied = primitive_cache.get(cache_key)
                 if applied is None:
+                    st = State(static, dynamic, dyn_preds)
                     applied = primitive_cache[cache_key] = _apply_task(domain, ground_actions, st, task)
             else:
-                # The usual case inline: a ground action met before, of a one-operator task.
+                # The usual case inline: a ground action met before, of a one-operator task,
+                # its precondition made ground (no State made).
                 action_of = known(task) if task.name in single else None
-                if action_of is not None:
-                    after = action_of.apply_dynamic(st)
+                if action_of is not None and action_of.checks is not None:
+                    after = action_of.after(dynamic, static_facts, dyn_preds)
                     applied = [] if after is None else [(task, action_of.cost, after)]
                 else:
-                    applied = _apply_task(domain, ground_actions, st, task)
+                    applied = _apply_task(domain, ground_actions, State(static, dynamic, dyn_preds), task)
             for action, c, dyn in applied:
                 if avoid and action in avoid and dynamic == state.dynamic:
                     continue
@@ -362,6 +364,7 @@ def _search(
                     _new(_Node, (child_g + h, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
                 )
             continue
+        st = State(static, dynamic, dyn_preds)
         if reuse:
             cache_key = (dynamic, task)
             decompositions = compound_cache.get(cache_key)

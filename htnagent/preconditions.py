@@ -287,7 +287,9 @@ def compile_method(
         depth = _literal(src, n, lit, bound, dynamic_predicates, depth)
         if lit.positive:
             bound |= lit.variables
-    made = ", ".join(src.ground(t) for t in subtasks)
+    # A subtask that is the head again (goto(?n) ... goto(?n)) is the task itself: equal to it
+    # once the head matched, and not made anew.
+    made = ", ".join("task" if t == head else src.ground(t) for t in subtasks)
     src.line(depth, f"out.append(({made}{',' if len(subtasks) == 1 else ''}))")
     src.line(1, "return out")
     namespace: dict[str, object] = {
