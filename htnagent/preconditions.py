@@ -4,8 +4,10 @@ An operator's or method's precondition is a conjunction of :class:`Literal`
 values, positive or negated atoms with variables.  :func:`satisfiers` yields
 every binding of the variables under which the conjunction holds in a
 :class:`~htnagent.state.State`, binding left to right by matching facts (SHOP
-unification); :func:`all_satisfiers` is its fast, list-returning form, which the
-planner calls at every search step.
+unification); :func:`all_satisfiers` is its list-returning form.  The planner
+decomposes at every search step with :func:`compile_method`: a method made once
+into one function that gives, for a task and a state, the subtasks of every
+satisfier in that same order.
 """
 
 from __future__ import annotations
