@@ -301,8 +301,26 @@ def compile_method(
         "dynamic_named": _dynamic_named,
         **src.values,
     }
-    exec(compile("\n".join(src.lines), f"<{label or head}>", "exec"), namespace)  # text of our own: see above
+    try:
+        code = compile("\n".join(src.lines), f"<{label or head}>", "exec")
+    except (SyntaxError, RecursionError, MemoryError):
+        # Python nests at most 20 loops (and 100 indents) in one function: a precondition
+        # that long is matched the generic way.
+        return _generic(head, pre, subtasks)
+    exec(code, namespace)  # text of our own: see above
     return namespace["decompose"]  # type: ignore[return-value]
+
+
+def _generic(head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom]) -> Decomposer:
+    """:func:`compile_method`'s answers by :func:`all_satisfiers` and substitution."""
+
+    def decompose(task: Atom, st: State) -> list[tuple[Atom, ...]]:
+        b = unify(head, task, {})
+        if b is None:
+            return []
+        return [tuple(substitute(t, found) for t in subtasks) for found in all_satisfiers(pre, st, b)]
+
+    return decompose
 
 
 def _literal(src: _Source, n: int, lit: Literal, bound: set[str], dyn: frozenset[str], depth: int) -> int:

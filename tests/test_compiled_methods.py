@@ -107,3 +107,14 @@ def test_a_compiled_method_is_made_of_its_own_text_only() -> None:
     run = compile_method(head, pre, subtasks, frozenset())
     assert run(Atom("t", ("a",)), state) == [(Atom(sneaky, (sneaky, "a")),)]
     assert run(Atom("t", ("b",)), state) == []
+
+
+def test_a_precondition_too_long_for_one_python_function_is_matched_the_generic_way() -> None:
+    """Python nests at most 20 loops in a function: 30 literals that each bind a variable
+    still give their answer."""
+    pre = tuple(Literal(Atom("next", (f"?v{i}", f"?v{i + 1}"))) for i in range(30))
+    chain = FactBase(Atom("next", (f"c{i}", f"c{i + 1}")) for i in range(40))
+    state = State(chain, frozenset(), frozenset())
+    run = compile_method(Atom("t", ("?v0",)), pre, (Atom("end", ("?v30",)),), frozenset())
+    assert run(Atom("t", ("c2",)), state) == [(Atom("end", ("c32",)),)]
+    assert run(Atom("t", ("c20",)), state) == []
