@@ -237,19 +237,25 @@ def _search(
     h_role.update(estimates)
     h_cache: dict[tuple[frozenset[Atom], Atom], float] = {}
 
+    last: tuple[object, object, float] = (None, None, 0.0)  # the last look-up, by identity
+
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         # The first compound task's estimate; the children of one node mostly share their
-        # state and that task, so it is worked out once for them.
+        # state and that task (often the very same objects), so it is worked out once for them.
+        nonlocal last
         for t in tasks:
             name = t.name
             if name in h_role:
                 fn = h_role[name]
                 if fn is None:
                     return 0.0
+                if t is last[1] and dynamic is last[0]:
+                    return last[2]
                 key = (dynamic, t)
                 cached = h_cache.get(key)
                 if cached is None:
                     cached = h_cache[key] = fn(t, st if st is not None else State(static, dynamic, dyn_preds))
+                last = (dynamic, t, cached)
                 return cached
         return 0.0
 
@@ -295,7 +301,7 @@ def _search(
     compiled: _Compiled = {}
     popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
-    compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, tuple[Atom, ...]]]] = {}
+    compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, list[tuple[Atom, ...]]]]] = {}
     found: list[Plan] = []
     seen_plans: set[tuple[Atom, ...]] = set()
     made: dict[int, tuple[object, object]] = {}
@@ -369,18 +375,19 @@ def _search(
             cache_key = (dynamic, task)
             decompositions = compound_cache.get(cache_key)
             if decompositions is None:
-                decompositions = compound_cache[cache_key] = _decompose(domain, st, task, compiled)
+                decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled)
         else:
-            decompositions = _decompose(domain, st, task, compiled)
-        for method_name, subtasks in decompositions:
-            rec = _new(_Pending, (task, method_name, record))
-            child_tasks = subtasks + rest_t
-            h = h_of(child_tasks, dynamic, st)
-            child_records = (rec,) * len(subtasks) + rest_r
-            heappush(
-                heap,
-                _new(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
-            )
+            decompositions = _methods_ways(domain, st, task, compiled)
+        for method_name, ways in decompositions:
+            for subtasks in ways:
+                rec = _new(_Pending, (task, method_name, record))
+                child_tasks = subtasks + rest_t
+                h = h_of(child_tasks, dynamic, st)
+                child_records = (rec,) * len(subtasks) + rest_r
+                heappush(
+                    heap,
+                    _new(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+                )
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)
     if found:
@@ -423,10 +430,15 @@ _Compiled = dict[str, list[tuple[str, bool, Decomposer]]]
 """A search's compiled methods by task name: name, whether its ways all differ, function."""
 
 
-def _decompose(
+def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[Atom, ...]]]:
+    """The ways to decompose a compound task: (method name, subtasks), without repeats."""
+    return [(name, subtasks) for name, ways in _methods_ways(domain, st, task) for subtasks in ways]
+
+
+def _methods_ways(
     domain: Domain, st: State, task: Atom, compiled: _Compiled | None = None
-) -> list[tuple[str, tuple[Atom, ...]]]:
-    """The ways to decompose a compound task: (method name, subtasks), without repeats.
+) -> list[tuple[str, list[tuple[Atom, ...]]]]:
+    """:func:`_decompose`, by method: each method's name and its subtask lists, in order.
 
     ``compiled`` keeps the task's compiled methods for the next call (one search: the
     same dynamic predicates throughout).
@@ -440,14 +452,17 @@ def _decompose(
     found = [(name, distinct, ways) for name, distinct, run in methods if (ways := run(task, st))]
     if len(found) == 1 and found[0][1]:
         name, _, ways = found[0]  # one method, whose ways all differ: nothing to remove
-        return [(name, subtasks) for subtasks in ways]
-    out: list[tuple[str, tuple[Atom, ...]]] = []
+        return [(name, ways)]
+    out: list[tuple[str, list[tuple[Atom, ...]]]] = []
     seen: set[tuple[Atom, ...]] = set()
     for name, _, ways in found:
+        kept = []
         for subtasks in ways:
             if subtasks not in seen:
                 seen.add(subtasks)
-                out.append((name, subtasks))
+                kept.append(subtasks)
+        if kept:
+            out.append((name, kept))
     return out
 
 
