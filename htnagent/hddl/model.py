@@ -26,7 +26,6 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from types import MappingProxyType
-from typing import Union
 
 from htnagent.errors import HddlError
 from htnagent.terms import Atom
@@ -153,7 +152,7 @@ class Exists:
     at: int = field(default=0, compare=False, repr=False)
 
 
-Formula = Union[Pred, Equals, SortOf, Not, And, Or, Imply, Forall, Exists]
+Formula = Pred | Equals | SortOf | Not | And | Or | Imply | Forall | Exists
 """A goal description: precondition, goal or method constraint."""
 
 TRUE: Formula = And()
@@ -198,7 +197,7 @@ class When:
     at: int = field(default=0, compare=False, repr=False)
 
 
-Effect = Union[Literal, AndEffect, ForallEffect, When]
+Effect = Literal | AndEffect | ForallEffect | When
 """An action's effect."""
 
 NO_EFFECT: Effect = AndEffect()

@@ -61,7 +61,7 @@ from htnagent.hddl.sexpr import SExpr, SList, parse, text_of
 from htnagent.scenario.reading import gc_paused, read_text
 from htnagent.terms import Atom
 
-__all__ = ["parse_domain", "parse_problem", "read_domain", "read_problem"]
+__all__ = ["parse_domain", "parse_problem", "read_domain", "read_file", "read_problem"]
 
 _NAME = re.compile(r"[a-z][a-z0-9_\-]*")
 _VARIABLE = re.compile(r"\?[a-z][a-z0-9_\-]*")
@@ -69,12 +69,12 @@ _VARIABLE = re.compile(r"\?[a-z][a-z0-9_\-]*")
 
 def read_domain(path: str | Path, max_bytes: int | None = None) -> Domain:
     """The checked domain in the HDDL file at ``path``."""
-    return parse_domain(_read(path, "HDDL domain", max_bytes), str(path))
+    return parse_domain(read_file(path, "HDDL domain", max_bytes), str(path))
 
 
 def read_problem(path: str | Path, domain: Domain, max_bytes: int | None = None) -> Problem:
     """The problem in the HDDL file at ``path``, checked against ``domain``."""
-    return parse_problem(_read(path, "HDDL problem", max_bytes), domain, str(path))
+    return parse_problem(read_file(path, "HDDL problem", max_bytes), domain, str(path))
 
 
 def parse_domain(text: str, file: str = "<domain>") -> Domain:
@@ -99,7 +99,8 @@ def parse_problem(text: str, domain: Domain, file: str = "<problem>") -> Problem
     return problem
 
 
-def _read(path: str | Path, what: str, max_bytes: int | None) -> str:
+def read_file(path: str | Path, what: str, max_bytes: int | None = None) -> str:
+    """The text of a file a user names (a regular file, within the size bound), or HddlError."""
     try:
         return read_text(path, what, max_bytes)
     except ScenarioError as e:  # the reading of scenario files, said the HDDL way
@@ -140,8 +141,10 @@ class _Reader:
         if isinstance(item, SList):
             raise self.error(item.at, f"expected {what}, got a list {text_of(item)}")
         if _NAME.fullmatch(item) is None:
-            raise self.error(node.ats[i], f"expected {what}, got {shown(item)} (a name is a letter, "
-                             "then letters, digits, '-' or '_')")
+            raise self.error(
+                node.ats[i],
+                f"expected {what}, got {shown(item)} (a name is a letter, then letters, digits, '-' or '_')",
+            )
         return item
 
     def term(self, node: SList, i: int) -> str:
@@ -171,8 +174,9 @@ class _Reader:
             key = items[i]
             at = node.ats[i]
             if isinstance(key, SList) or not key.startswith(":"):
-                raise self.error(at, f"expected a keyword of {what} ({', '.join(sorted(allowed))}), "
-                                 f"got {text_of(key)}")
+                raise self.error(
+                    at, f"expected a keyword of {what} ({', '.join(sorted(allowed))}), got {text_of(key)}"
+                )
             if key not in allowed:
                 raise self.error(at, f"{what} has no {key} (expected one of {', '.join(sorted(allowed))})")
             if key in found:
@@ -244,8 +248,9 @@ class _Reader:
             return And((), item.at)
         head = items[0]
         if isinstance(head, SList):
-            raise self.error(head.at, f"expected a predicate or and, or, not, ..., got a list {text_of(head)}")
-        n = len(items) - 1
+            raise self.error(
+                head.at, f"expected a predicate or and, or, not, ..., got a list {text_of(head)}"
+            )
         if head == "and":
             return And(tuple(self.formula(x, a, constraints) for x, a in self.rest(item)), item.at)
         if head == "or":
@@ -292,7 +297,9 @@ class _Reader:
             return AndEffect((), item.at)
         head = items[0]
         if isinstance(head, SList):
-            raise self.error(head.at, f"expected a predicate or and, not, forall, when, got a list {text_of(head)}")
+            raise self.error(
+                head.at, f"expected a predicate or and, not, forall, when, got a list {text_of(head)}"
+            )
         if head == "and":
             return AndEffect(tuple(self.effect(x, a) for x, a in self.rest(item)), item.at)
         if head == "not":
@@ -331,7 +338,9 @@ class _Reader:
         ids: dict[str, int] = {}
         for part, part_at in parts:
             if isinstance(part, str):
-                raise self.error(part_at, f"expected a subtask (name args) or (id (name args)), got {shown(part)}")
+                raise self.error(
+                    part_at, f"expected a subtask (name args) or (id (name args)), got {shown(part)}"
+                )
             if len(part.items) == 2 and isinstance(part.items[1], SList):
                 ident = self.name(part, 0, "a subtask id")
                 if ident in ids:
@@ -344,15 +353,15 @@ class _Reader:
                 out.append(Subtask(self.call(part, "a task name"), None, part.at))
         return tuple(out)
 
-    def network(
-        self, keys: dict[str, tuple[SExpr, int]], what: str, at: int
-    ) -> tuple[Subtask, ...]:
+    def network(self, keys: dict[str, tuple[SExpr, int]], what: str, at: int) -> tuple[Subtask, ...]:
         """The subtasks of a method or of ``:htn``, in their total order."""
         ordered = [k for k in (":ordered-subtasks", ":ordered-tasks") if k in keys]
         unordered = [k for k in (":subtasks", ":tasks") if k in keys]
         given = ordered + unordered
         if len(given) > 1:
-            raise self.error(keys[given[1]][1], f"{what} gives its subtasks twice ({given[0]} and {given[1]})")
+            raise self.error(
+                keys[given[1]][1], f"{what} gives its subtasks twice ({given[0]} and {given[1]})"
+            )
         if not given:
             if ":ordering" in keys:
                 raise self.error(keys[":ordering"][1], f"{what} has an :ordering but no :subtasks")
@@ -360,7 +369,9 @@ class _Reader:
         tasks = self.subtasks(*keys[given[0]])
         if ordered:
             if ":ordering" in keys:
-                raise self.error(keys[":ordering"][1], f"{what} has :ordered-subtasks; an :ordering is not needed")
+                raise self.error(
+                    keys[":ordering"][1], f"{what} has :ordered-subtasks; an :ordering is not needed"
+                )
             return tasks
         constraints = self.ordering(*keys[":ordering"]) if ":ordering" in keys else []
         return self.total_order(tasks, constraints, what, at)
@@ -390,8 +401,9 @@ class _Reader:
         by_id: dict[str, int] = {}
         for i, t in enumerate(tasks):
             if t.id is None:
-                raise self.error(t.at, f"{what}: a subtask of :subtasks with several subtasks needs an id "
-                                 "for :ordering")
+                raise self.error(
+                    t.at, f"{what}: a subtask of :subtasks with several subtasks needs an id for :ordering"
+                )
             by_id[t.id] = i
         after: list[set[int]] = [set() for _ in tasks]
         before_count = [0] * len(tasks)
@@ -445,9 +457,7 @@ class _Reader:
             if key not in allowed:
                 if key in _NUMERIC_SECTIONS:
                     raise self.error(section.at, f"{key} (numeric fluents, action costs) is not supported")
-                raise self.error(
-                    section.at, f"a {kind} has no {key} section (expected {', '.join(allowed)})"
-                )
+                raise self.error(section.at, f"a {kind} has no {key} section (expected {', '.join(allowed)})")
             if not allowed[key] and key in seen:
                 line, col = self.source.where(seen[key])
                 raise self.error(section.at, f"a second {key} section (the first is at {line}:{col})")
@@ -498,8 +508,8 @@ class _Reader:
                 if method.name in methods:
                     raise self.twice(section.at, "method", method.name, methods[method.name].at)
                 methods[method.name] = method
-        for t in list(types.values()):  # a supertype named only after '-' is declared by naming it
-            for parent in t:
+        for parents in list(types.values()):  # a supertype named only after '-' is declared by naming it
+            for parent in parents:
                 types.setdefault(parent, (OBJECT,) if parent != OBJECT else ())
         types.setdefault(OBJECT, ())
         self.no_cycle(types, type_at)
@@ -542,7 +552,9 @@ class _Reader:
         for j in range(1, len(section.items)):
             item = section.items[j]
             if isinstance(item, SList) or not item.startswith(":") or _NAME.fullmatch(item[1:]) is None:
-                raise self.error(section.ats[j], f"expected a requirement such as :typing, got {text_of(item)}")
+                raise self.error(
+                    section.ats[j], f"expected a requirement such as :typing, got {text_of(item)}"
+                )
             out.append(item)
         return out
 
@@ -577,7 +589,9 @@ class _Reader:
             raise self.error(task_at, f"{what}: expected :task (name args), got {text_of(task_item)}")
         task = self.call(task_item, "a task name")
         pre = self.formula(*keys[":precondition"]) if ":precondition" in keys else TRUE
-        constraints = self.formula(*keys[":constraints"], constraints=True) if ":constraints" in keys else TRUE
+        constraints = (
+            self.formula(*keys[":constraints"], constraints=True) if ":constraints" in keys else TRUE
+        )
         subtasks = self.network(keys, what, section.at)
         return Method(name, self.parameters(keys), task, pre, subtasks, constraints, section.at)
 
@@ -634,8 +648,9 @@ class _Reader:
         for j in range(1, len(items)):
             fact = items[j]
             if isinstance(fact, str) or not fact.items:
-                raise self.error(section.ats[j], f"expected an initial fact (predicate object ...), got "
-                                 f"{text_of(fact)}")
+                raise self.error(
+                    section.ats[j], f"expected an initial fact (predicate object ...), got {text_of(fact)}"
+                )
             head = fact.items[0]
             if head in ("=", "not") or isinstance(head, SList):
                 what = "numeric fluents are" if head == "=" else "only facts are"
@@ -643,7 +658,9 @@ class _Reader:
             args = fact.items[1:]
             for k, arg in enumerate(args, start=1):
                 if isinstance(arg, SList) or _NAME.fullmatch(arg) is None:
-                    raise self.error(fact.ats[k], f"expected an object in an initial fact, got {text_of(arg)}")
+                    raise self.error(
+                        fact.ats[k], f"expected an object in an initial fact, got {text_of(arg)}"
+                    )
             name = self.name(fact, 0, "a predicate name")
             into.append(Atom(name, tuple(args)))  # type: ignore[arg-type]  # all names, checked above
             ats.append(fact.at)

@@ -45,7 +45,7 @@ from htnagent.hddl.model import (
     Typed,
     When,
 )
-from htnagent.terms import Atom
+from htnagent.terms import Atom, Term
 
 __all__ = ["check_domain", "check_problem"]
 
@@ -124,8 +124,9 @@ class _Checker:
                 at, f"{what}: {kind} {call.name} takes {n} argument{'s' * (n != 1)}, given {len(call.args)}"
             )
 
-    def terms(self, args: Iterable[str], scope: frozenset[str], at: int, what: str) -> None:
+    def terms(self, args: Iterable[Term], scope: frozenset[str], at: int, what: str) -> None:
         for a in args:
+            assert isinstance(a, str)  # the reader makes no nested atoms
             if a[0] == "?":
                 if a not in scope:
                     raise self.error(at, f"{what}: variable {a} is not declared")

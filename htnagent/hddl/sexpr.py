@@ -13,7 +13,6 @@ a 4 MB problem to about a second.
 from __future__ import annotations
 
 import re
-from typing import Union
 
 from htnagent.errors import shown
 from htnagent.hddl.model import Source
@@ -44,7 +43,7 @@ class SList:
         return f"SList({self.items!r})"
 
 
-SExpr = Union[str, SList]
+SExpr = str | SList
 """A name (any run of characters other than white space, parentheses and ``;``) or a list."""
 
 
