@@ -29,7 +29,10 @@ def main() -> int:
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     parser.add_argument(
-        "--suite", type=Path, default=None, help="hddl-read: the folder of HDDL domains (default ../shared/data/ipc)"
+        "--suite",
+        type=Path,
+        default=None,
+        help="hddl-read: the folder of HDDL domains (default ../shared/data/ipc)",
     )
     args = parser.parse_args()
     if args.study == "hddl-read":

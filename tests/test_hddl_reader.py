@@ -176,42 +176,130 @@ DOMAIN_ERRORS = [
     ("(define (domain d) (:types a))) (", "d.hddl:1:31: this ')' closes no '('"),
     ("hello", "d.hddl:1:1: expected (define (domain NAME) ...), got 'hello'"),
     ("(define (problem d))", "d.hddl:1:9: expected (domain NAME), got '(problem d)'"),
-    ("(define (domain d)) (define (domain e))", "d.hddl:1:21: unexpected '(define (domain e))' after the end of the domain definition"),
+    (
+        "(define (domain d)) (define (domain e))",
+        "d.hddl:1:21: unexpected '(define (domain e))' after the end of the domain definition",
+    ),
     ("(define (domain d) (:types t) (:constants c - u))", "d.hddl:1:43: c: unknown type u"),
     (_domain("(:task go :parameters (?x - u))"), "d.hddl:2:24: ?x: unknown type u"),
-    (_domain("(:action a :parameters (?x - t) :precondition (q ?x))"), "d.hddl:2:47: action a: unknown predicate q"),
-    (_domain("(:action a :parameters (?x - t) :effect (p ?x ?x))"), "d.hddl:2:41: action a: predicate p takes 1 argument, given 2"),
-    (_domain("(:action a :parameters (?x - t) :precondition (p ?y))"), "d.hddl:2:47: action a: variable ?y is not declared"),
-    (_domain("(:action a :parameters () :precondition (p c))"), "d.hddl:2:41: action a: c is no declared constant"),
-    (_domain("(:method m :parameters () :task (go))"), "d.hddl:2:1: method m decomposes go, which is no declared task"),
-    (_domain("(:action go) (:method m :task (go))"), "d.hddl:2:14: method m decomposes go, which is an action, not a compound task"),
-    (_domain("(:task go) (:method m :task (go) :ordered-subtasks (come))"), "d.hddl:2:52: method m: no task or action is named come"),
-    (_domain("(:task go) (:method m :task (go) :ordered-subtasks (go x))"), "d.hddl:2:52: method m: task go takes 0 arguments, given 1"),
-    (_domain("(:task go :parameters (?x - t)) (:method m :task (go ?y))"), "d.hddl:2:33: method m: variable ?y is not declared"),
+    (
+        _domain("(:action a :parameters (?x - t) :precondition (q ?x))"),
+        "d.hddl:2:47: action a: unknown predicate q",
+    ),
+    (
+        _domain("(:action a :parameters (?x - t) :effect (p ?x ?x))"),
+        "d.hddl:2:41: action a: predicate p takes 1 argument, given 2",
+    ),
+    (
+        _domain("(:action a :parameters (?x - t) :precondition (p ?y))"),
+        "d.hddl:2:47: action a: variable ?y is not declared",
+    ),
+    (
+        _domain("(:action a :parameters () :precondition (p c))"),
+        "d.hddl:2:41: action a: c is no declared constant",
+    ),
+    (
+        _domain("(:method m :parameters () :task (go))"),
+        "d.hddl:2:1: method m decomposes go, which is no declared task",
+    ),
+    (
+        _domain("(:action go) (:method m :task (go))"),
+        "d.hddl:2:14: method m decomposes go, which is an action, not a compound task",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :ordered-subtasks (come))"),
+        "d.hddl:2:52: method m: no task or action is named come",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :ordered-subtasks (go x))"),
+        "d.hddl:2:52: method m: task go takes 0 arguments, given 1",
+    ),
+    (
+        _domain("(:task go :parameters (?x - t)) (:method m :task (go ?y))"),
+        "d.hddl:2:33: method m: variable ?y is not declared",
+    ),
     (_domain("(:predicates (p))"), "d.hddl:2:14: predicate p is declared twice (first at 1:44)"),
     (_domain("(:task go) (:action go)"), "d.hddl:2:12: task or action go is declared twice (first at 2:1)"),
-    (_domain("(:task go) (:method m :task (go)) (:method m :task (go))"), "d.hddl:2:35: method m is declared twice (first at 2:12)"),
-    (_domain("(:task go :parameters (?x ?x - t))"), "d.hddl:2:27: ?x is declared twice in this list (first at 2:24)"),
+    (
+        _domain("(:task go) (:method m :task (go)) (:method m :task (go))"),
+        "d.hddl:2:35: method m is declared twice (first at 2:12)",
+    ),
+    (
+        _domain("(:task go :parameters (?x ?x - t))"),
+        "d.hddl:2:27: ?x is declared twice in this list (first at 2:24)",
+    ),
     ("(define (domain d) (:types a b) (:types a))", "d.hddl:1:41: type a is declared twice (first at 1:28)"),
     ("(define (domain d) (:types a - b b - a))", "d.hddl:1:28: type a is its own supertype (a cycle)"),
-    (_domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))))"), "d.hddl:2:12: method m: its subtasks are only partially ordered (x and y may come in either order); only total-order HDDL is read"),
-    (_domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))) :ordering (and (< x y) (< y x)))"), "d.hddl:2:12: method m: the ordering has a cycle (through x)"),
-    (_domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))) :ordering (< x z))"), "d.hddl:2:78: method m: the ordering names z, which is no subtask id"),
-    (_domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (x (go))))"), "d.hddl:2:58: subtask id x is used twice (first at 2:49)"),
-    (_domain("(:task go) (:method m :task (go) :ordered-subtasks (go) :subtasks (go))"), "d.hddl:2:67: method m gives its subtasks twice (:ordered-subtasks and :subtasks)"),
-    (_domain("(:task go) (:method m :task (go) :effect ())"), "d.hddl:2:34: method m has no :effect (expected one of :constraints, :ordered-subtasks, :ordered-tasks, :ordering, :parameters, :precondition, :subtasks, :task, :tasks)"),
-    (_domain("(:task go) (:method m :task (go) :task (go))"), "d.hddl:2:34: :task is given twice in method m"),
-    (_domain("(:action a :effect (increase (total-cost) 1))"), "d.hddl:2:20: numeric effects (increase ...) and action costs are not supported"),
-    (_domain("(:functions (total-cost) - number)"), "d.hddl:2:1: :functions (numeric fluents, action costs) is not supported"),
+    (
+        _domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))))"),
+        "d.hddl:2:12: method m: its subtasks are only partially ordered (x and y may come in either "
+        "order); only total-order HDDL is read",
+    ),
+    (
+        _domain(
+            "(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))) :ordering (and (< x y) (< "
+            "y x)))"
+        ),
+        "d.hddl:2:12: method m: the ordering has a cycle (through x)",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (y (go))) :ordering (< x z))"),
+        "d.hddl:2:78: method m: the ordering names z, which is no subtask id",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :subtasks (and (x (go)) (x (go))))"),
+        "d.hddl:2:58: subtask id x is used twice (first at 2:49)",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :ordered-subtasks (go) :subtasks (go))"),
+        "d.hddl:2:67: method m gives its subtasks twice (:ordered-subtasks and :subtasks)",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :effect ())"),
+        "d.hddl:2:34: method m has no :effect (expected one of :constraints, :ordered-subtasks, "
+        ":ordered-tasks, :ordering, :parameters, :precondition, :subtasks, :task, :tasks)",
+    ),
+    (
+        _domain("(:task go) (:method m :task (go) :task (go))"),
+        "d.hddl:2:34: :task is given twice in method m",
+    ),
+    (
+        _domain("(:action a :effect (increase (total-cost) 1))"),
+        "d.hddl:2:20: numeric effects (increase ...) and action costs are not supported",
+    ),
+    (
+        _domain("(:functions (total-cost) - number)"),
+        "d.hddl:2:1: :functions (numeric fluents, action costs) is not supported",
+    ),
     (_domain("(:action a :precondition (not (p ?x) (p ?x)))"), "d.hddl:2:26: (not ...) takes 1 part, got 2"),
-    (_domain("(:action a :precondition (when (p ?x) (p ?x)))"), "d.hddl:2:26: (when ...) is an effect, not a condition"),
-    (_domain("(:action a :effect (not (and)))"), "d.hddl:2:25: (not ...) in an effect deletes a fact; got '(and)'"),
-    (_domain("(:action a :parameters (?x - t) :precondition (p ?x!))"), "d.hddl:2:50: expected a variable or a constant, got '?x!'"),
-    (_domain("(:action 9a)"), "d.hddl:2:10: expected the action's name, got '9a' (a name is a letter, then letters, digits, '-' or '_')"),
-    (_domain("(:action a :parameters (x - t))"), "d.hddl:2:25: expected a parameter (a variable such as ?x), got 'x'"),
+    (
+        _domain("(:action a :precondition (when (p ?x) (p ?x)))"),
+        "d.hddl:2:26: (when ...) is an effect, not a condition",
+    ),
+    (
+        _domain("(:action a :effect (not (and)))"),
+        "d.hddl:2:25: (not ...) in an effect deletes a fact; got '(and)'",
+    ),
+    (
+        _domain("(:action a :parameters (?x - t) :precondition (p ?x!))"),
+        "d.hddl:2:50: expected a variable or a constant, got '?x!'",
+    ),
+    (
+        _domain("(:action 9a)"),
+        "d.hddl:2:10: expected the action's name, got '9a' (a name is a letter, then letters, digits, '-' "
+        "or '_')",
+    ),
+    (
+        _domain("(:action a :parameters (x - t))"),
+        "d.hddl:2:25: expected a parameter (a variable such as ?x), got 'x'",
+    ),
     (_domain("(:action a :parameters (?x -))"), "d.hddl:2:28: '-' with no type after it"),
     (_domain("(:action a :parameters (?x - t) :precondition)"), "d.hddl:2:33: :precondition has no value"),
-    (_domain("(:hello)"), "d.hddl:2:1: a domain has no :hello section (expected :requirements, :types, :constants, :predicates, :task, :method, :action)"),
+    (
+        _domain("(:hello)"),
+        "d.hddl:2:1: a domain has no :hello section (expected :requirements, :types, :constants, "
+        ":predicates, :task, :method, :action)",
+    ),
 ]
 
 
@@ -224,18 +312,48 @@ def test_each_invalid_domain_is_one_line_at_its_place(text: str, message: str) -
 
 
 PROBLEM_ERRORS = [
-    ("(define (problem q) (:domain other))", "q.hddl: the problem is for domain other, but the domain is every"),
-    ("(define (problem q) (:domain every) (:init (at r9 hall)))", "q.hddl:1:44: :init: r9 is no declared object or constant"),
+    (
+        "(define (problem q) (:domain other))",
+        "q.hddl: the problem is for domain other, but the domain is every",
+    ),
+    (
+        "(define (problem q) (:domain every) (:init (at r9 hall)))",
+        "q.hddl:1:44: :init: r9 is no declared object or constant",
+    ),
     ("(define (problem q) (:domain every) (:init (on hall)))", "q.hddl:1:44: :init: unknown predicate on"),
-    ("(define (problem q) (:domain every) (:init (lit)))", "q.hddl:1:44: :init: predicate lit takes 1 argument, given 0"),
-    ("(define (problem q) (:domain every) (:init (lit ?x)))", "q.hddl:1:49: expected an object in an initial fact, got '?x'"),
-    ("(define (problem q) (:domain every) (:init (= (cost) 1)))", "q.hddl:1:44: '(= (cost) 1)' in :init: numeric fluents are not supported"),
-    ("(define (problem q) (:domain every) (:init) (:init))", "q.hddl:1:45: a second :init section (the first is at 1:37)"),
+    (
+        "(define (problem q) (:domain every) (:init (lit)))",
+        "q.hddl:1:44: :init: predicate lit takes 1 argument, given 0",
+    ),
+    (
+        "(define (problem q) (:domain every) (:init (lit ?x)))",
+        "q.hddl:1:49: expected an object in an initial fact, got '?x'",
+    ),
+    (
+        "(define (problem q) (:domain every) (:init (= (cost) 1)))",
+        "q.hddl:1:44: '(= (cost) 1)' in :init: numeric fluents are not supported",
+    ),
+    (
+        "(define (problem q) (:domain every) (:init) (:init))",
+        "q.hddl:1:45: a second :init section (the first is at 1:37)",
+    ),
     ("(define (problem q) (:domain every) (:objects a - nowhere))", "q.hddl:1:47: a: unknown type nowhere"),
-    ("(define (problem q) (:domain every) (:objects a a - room))", "q.hddl:1:49: a is declared twice in this list (first at 1:47)"),
-    ("(define (problem q) (:domain every) (:htn :ordered-subtasks (fly)))", "q.hddl:1:61: :htn: no task or action is named fly"),
-    ("(define (problem q) (:domain every) (:htn :ordered-subtasks (goto ?r hall)))", "q.hddl:1:61: :htn: variable ?r is not declared"),
-    ("(define (problem q) (:domain every) (:goal (lit ?x)))", "q.hddl:1:44: :goal: variable ?x is not declared"),
+    (
+        "(define (problem q) (:domain every) (:objects a a - room))",
+        "q.hddl:1:49: a is declared twice in this list (first at 1:47)",
+    ),
+    (
+        "(define (problem q) (:domain every) (:htn :ordered-subtasks (fly)))",
+        "q.hddl:1:61: :htn: no task or action is named fly",
+    ),
+    (
+        "(define (problem q) (:domain every) (:htn :ordered-subtasks (goto ?r hall)))",
+        "q.hddl:1:61: :htn: variable ?r is not declared",
+    ),
+    (
+        "(define (problem q) (:domain every) (:goal (lit ?x)))",
+        "q.hddl:1:44: :goal: variable ?x is not declared",
+    ),
 ]
 
 
@@ -250,7 +368,10 @@ def test_nesting_is_bounded_without_recursion_error() -> None:
     deep = "(define (domain d) " + "(" * 100_000
     with pytest.raises(HddlError) as caught:
         parse_domain(deep, "d.hddl")
-    assert str(caught.value) == f"d.hddl:1:{20 + MAX_HDDL_DEPTH - 1}: nested more than {MAX_HDDL_DEPTH} parentheses deep"
+    assert (
+        str(caught.value)
+        == f"d.hddl:1:{20 + MAX_HDDL_DEPTH - 1}: nested more than {MAX_HDDL_DEPTH} parentheses deep"
+    )
 
 
 def test_formulas_nested_to_the_bound_are_read_and_checked() -> None:
@@ -273,7 +394,9 @@ def test_files_are_read_safely(tmp_path: Path) -> None:
     garbage.write_bytes(b"(define \xff\xfe\x00 (domain")
     with pytest.raises(HddlError) as caught:
         read_domain(garbage)
-    assert str(caught.value) == f"{garbage}:1: not UTF-8 text (byte 0xff at byte 8); expected a HDDL domain file"
+    assert (
+        str(caught.value) == f"{garbage}:1: not UTF-8 text (byte 0xff at byte 8); expected a HDDL domain file"
+    )
     nul = tmp_path / "nul.hddl"
     nul.write_bytes(b"(define (domain d\x00))")
     with pytest.raises(HddlError, match=r"nul.hddl:1:17: expected the domain's name, got 'd\\x00'"):
@@ -288,17 +411,65 @@ def test_files_are_read_safely(tmp_path: Path) -> None:
 def test_unicode_that_lowers_to_two_characters_keeps_positions() -> None:
     with pytest.raises(HddlError) as caught:
         parse_domain("(define (domain İİİ))", "d.hddl")
-    assert str(caught.value) == "d.hddl:1:17: expected the domain's name, got 'İİİ' (a name is a letter, then letters, digits, '-' or '_')"
+    assert (
+        str(caught.value)
+        == "d.hddl:1:17: expected the domain's name, got 'İİİ' (a name is a letter, then letters, digits, "
+        "'-' or '_')"
+    )
 
 
 # -- fuzz: nothing but HddlError, ever ------------------------------------------------------------
 
 _TOKENS = [
-    "(", ")", "(", ")", "define", "domain", "problem", "(domain d)", ":types", ":predicates", ":task",
-    ":method", ":action", ":parameters", ":precondition", ":effect", ":task", ":ordered-subtasks",
-    ":subtasks", ":ordering", ":constraints", ":objects", ":init", ":htn", ":goal", "and", "or", "not",
-    "imply", "forall", "exists", "when", "either", "sortof", "=", "<", "-", "?x", "?y", "t", "p", "go",
-    "object", "increase", ";", "\n", "\x00", "İ", "1",
+    "(",
+    ")",
+    "(",
+    ")",
+    "define",
+    "domain",
+    "problem",
+    "(domain d)",
+    ":types",
+    ":predicates",
+    ":task",
+    ":method",
+    ":action",
+    ":parameters",
+    ":precondition",
+    ":effect",
+    ":task",
+    ":ordered-subtasks",
+    ":subtasks",
+    ":ordering",
+    ":constraints",
+    ":objects",
+    ":init",
+    ":htn",
+    ":goal",
+    "and",
+    "or",
+    "not",
+    "imply",
+    "forall",
+    "exists",
+    "when",
+    "either",
+    "sortof",
+    "=",
+    "<",
+    "-",
+    "?x",
+    "?y",
+    "t",
+    "p",
+    "go",
+    "object",
+    "increase",
+    ";",
+    "\n",
+    "\x00",
+    "İ",
+    "1",
 ]
 
 
@@ -363,8 +534,15 @@ def test_ipc_feature_tests_read_or_are_refused_as_not_total_order() -> None:
     # The feature tests copied here are all total-order (those of :subtasks order one subtask,
     # or order them with :ordering); sortof's :constraints and the synonymes' :tasks are read.
     assert sorted(read) == [
-        "abort-iteration", "arguments", "constants", "empty-methods-empty-plan", "forall", "forall2",
-        "only-primitive", "sortof", "synonymes",
+        "abort-iteration",
+        "arguments",
+        "constants",
+        "empty-methods-empty-plan",
+        "forall",
+        "forall2",
+        "only-primitive",
+        "sortof",
+        "synonymes",
     ]
     assert refused == []
 

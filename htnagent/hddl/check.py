@@ -191,7 +191,7 @@ class _Checker:
             for c in x.subtasks:
                 if c in parent:
                     where = "a root task" if parent[c] == -1 else f"a subtask of {parent[c]} too"
-                    self.bad(x.line, f"task {x.id}: its subtask {c} is {where}")
+                    self.bad(x.line, f"task {x.id} ({_text(x.task)}): its subtask {c} is {where}")
                 else:
                     parent[c] = x.id
         self.root_tasks()
