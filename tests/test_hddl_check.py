@@ -15,6 +15,8 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from htnagent.cli import main
 from htnagent.errors import HddlError
@@ -189,8 +191,8 @@ def test_a_method_must_have_as_many_subtasks_as_listed(courier: Domain) -> None:
 
 def test_actions_follow_the_order_of_the_decomposition(courier: Domain) -> None:
     assert _check(courier, "courier", "actions-out-of-order")[0] == (
-        "line 4: the actions are not in the order of the decomposition: action 2 comes before action 3 there "
-        "(total order: each task's actions are in one block)"
+        "line 4: the actions are not in the order of the decomposition: action 3 of the plan is 3, "
+        "the decomposition's is 2 (total order: no interleaving)"
     )
 
 
@@ -271,6 +273,55 @@ def test_each_kind_of_violation_is_named_with_its_line(
     courier: Domain, old: str, new: str, violation: str
 ) -> None:
     assert violation in _check_text(courier, _edited("valid", old, new))
+
+
+_PLAN_TOKENS = [
+    "==>",
+    "<==",
+    "root",
+    "->",
+    "0",
+    "1",
+    "2",
+    "3",
+    "7",
+    "move",
+    "pick",
+    "goto",
+    "deliver",
+    "tidy",
+    "switch-off",
+    "r1",
+    "p1",
+    "p2",
+    "hall",
+    "kitchen",
+    "office",
+    "m-goto-here",
+    "m-goto-step",
+    "m-deliver",
+    "m-already",
+    "m-tidy",
+    "(",
+    ")",
+    "\n",
+    "\n",
+    "\n",
+    "x",
+]
+
+
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(st.lists(st.sampled_from(_PLAN_TOKENS), max_size=60))
+def test_random_plans_give_violations_or_one_error_never_a_crash(courier: Domain, tokens: list[str]) -> None:
+    text = "==>\n" + " ".join(tokens)
+    try:
+        plan = parse_plan(text, "r.plan")
+    except HddlError as e:
+        assert "\n" not in str(e)
+        return
+    found = check_plan(courier, _problem(courier), plan)
+    assert all(isinstance(v, Violation) and "\n" not in v.reason for v in found)
 
 
 def test_violations_are_values_with_a_line() -> None:

@@ -206,14 +206,14 @@ class _Checker:
         for x in self.plan.decompositions:
             if x.id not in seen:
                 self.bad(x.line, f"task {x.id} ({_text(x.task)}) is not reached from the root tasks")
-        order = [s.id for s in self.plan.steps]
-        reached = [i for i in leaves if i in self.steps]
-        if reached != [i for i in order if i in set(reached)]:
-            first = next(k for k, (a, b) in enumerate(zip(reached, order, strict=False)) if a != b)
+        reached = set(leaves)
+        in_plan = [s.id for s in self.plan.steps if s.id in reached]
+        if leaves != in_plan:
+            k = next(k for k, (a, b) in enumerate(zip(leaves, in_plan, strict=True)) if a != b)
             self.bad(
-                self.steps[order[first]].line,
-                f"the actions are not in the order of the decomposition: action {reached[first]} comes "
-                f"before action {order[first]} there (total order: each task's actions are in one block)",
+                self.steps[in_plan[k]].line,
+                f"the actions are not in the order of the decomposition: action {k + 1} of the plan is "
+                f"{in_plan[k]}, the decomposition's is {leaves[k]} (total order: no interleaving)",
             )
         return checks
 
