@@ -355,6 +355,45 @@ def test_the_ipc_verifier_gives_the_same_verdicts(courier: Domain, problem: str)
         )
 
 
+TINY = SHARED / "tools" / "hddl-verify" / "tiny"
+TINY_VERDICTS = [
+    # (problem, plan, the verifier's verdict as its selftest.sh states it, ours)
+    ("problem", "valid", True, True),
+    ("problem", "valid-parens", True, True),
+    ("problem", "valid-nospace", True, True),
+    ("problem", "invalid-precond", False, False),
+    ("problem", "invalid-nohier", False, False),
+    ("problem", "invalid-method", False, False),
+    ("problem", "orphan", False, False),
+    ("problem", "goal-miss", False, False),
+    ("problem-goal", "goal-miss", False, False),
+    # HDDL names are case-insensitive; pandaPIparser compares plan names as written (unless -l).
+    ("problem", "upper", False, True),
+]
+
+
+@pytest.mark.skipif(not TINY.is_dir(), reason=f"no hddl-verify test files at {TINY}")
+@pytest.mark.parametrize(("problem", "plan", "theirs", "ours"), TINY_VERDICTS)
+def test_the_verifiers_own_examples_get_its_verdicts(
+    problem: str, plan: str, theirs: bool, ours: bool
+) -> None:
+    domain = read_domain(TINY / "domain.hddl")
+    found = check_plan(
+        domain, read_problem(TINY / f"{problem}.hddl", domain), read_plan(TINY / f"{plan}.plan")
+    )
+    assert (found == []) == ours, found
+    assert ours == theirs or plan == "upper"
+
+
+@pytest.mark.skipif(not TINY.is_dir(), reason=f"no hddl-verify test files at {TINY}")
+@pytest.mark.parametrize("plan", ["garbage", "noarrow"])
+def test_what_the_verifier_calls_malformed_is_bad_input_here(plan: str) -> None:
+    with pytest.raises(HddlError):
+        read_plan(TINY / f"{plan}.plan")
+    with pytest.raises(HddlError, match=r"bad-domain.hddl:2:23: this '\)' closes no '\('"):
+        read_domain(TINY / "bad-domain.hddl")
+
+
 # -- the command line -----------------------------------------------------------------------------
 
 

@@ -314,7 +314,7 @@ def test_each_invalid_domain_is_one_line_at_its_place(text: str, message: str) -
 PROBLEM_ERRORS = [
     (
         "(define (problem q) (:domain other))",
-        "q.hddl: the problem is for domain other, but the domain is every",
+        "q.hddl:1:30: the problem is for domain other, but the domain is every",
     ),
     (
         "(define (problem q) (:domain every) (:init (at r9 hall)))",
@@ -484,6 +484,15 @@ def test_token_soup_raises_nothing_but_hddl_error(tokens: list[str], as_problem:
             parse_domain(text, "soup.hddl")
     except HddlError as e:
         assert "\n" not in str(e) and str(e).startswith("soup.hddl")
+
+
+@settings(max_examples=200, deadline=None)
+@given(st.text(max_size=300))
+def test_any_text_raises_nothing_but_hddl_error(text: str) -> None:
+    try:
+        parse_domain(text, "any.hddl")
+    except HddlError as e:
+        assert "\n" not in str(e)
 
 
 @settings(max_examples=200, deadline=None)

@@ -316,7 +316,8 @@ class Problem:
 
     ``htn`` is the initial task network's subtasks in order, with its
     ``:parameters`` in ``htn_params`` (variables the tasks may leave open).
-    ``init`` holds the initial facts (``init_at`` where each is written);
+    ``init`` holds the initial facts (``init_at`` where each is written,
+    ``domain_at`` where the domain is named);
     ``goal`` is :data:`TRUE` when the problem has none.
     """
 
@@ -331,3 +332,4 @@ class Problem:
     goal: Formula
     source: Source = field(compare=False, repr=False)
     init_at: tuple[int, ...] = field(default=(), compare=False, repr=False)
+    domain_at: int = field(default=0, compare=False, repr=False)

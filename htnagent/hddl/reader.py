@@ -600,6 +600,7 @@ class _Reader:
     def problem(self, define: SList) -> Problem:
         name = self.header(define, "problem")
         domain = ""
+        domain_at = 0
         requirements: list[str] = []
         objects: list[Typed] = []
         htn_params: tuple[Typed, ...] = ()
@@ -613,6 +614,7 @@ class _Reader:
                 if len(section.items) != 2:
                     raise self.error(section.at, f"expected (:domain NAME), got {text_of(section)}")
                 domain = self.name(section, 1, "the domain's name")
+                domain_at = section.ats[1]
             elif key == ":requirements":
                 requirements += self.requirements(section)
             elif key == ":objects":
@@ -640,6 +642,7 @@ class _Reader:
             goal,
             self.source,
             tuple(init_at),
+            domain_at,
         )
 
     def facts(self, section: SList, into: list[Atom], ats: list[int]) -> None:

@@ -184,8 +184,8 @@ class _Checker:
     def problem(self, p: Problem) -> None:
         self.objects = True
         if p.domain and p.domain != self.d.name:
-            raise self.source.error(
-                None, f"the problem is for domain {p.domain}, but the domain is {self.d.name}"
+            raise self.error(
+                p.domain_at, f"the problem is for domain {p.domain}, but the domain is {self.d.name}"
             )
         self.typed(p.objects)
         constants: Mapping[str, Typed] = {c.name: c for c in self.d.constants}
