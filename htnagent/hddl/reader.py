@@ -57,6 +57,7 @@ from htnagent.hddl.model import (
     Typed,
     When,
 )
+from htnagent.hddl.semantics import check_domain, check_problem
 from htnagent.hddl.sexpr import SExpr, SList, parse, text_of
 from htnagent.scenario.reading import gc_paused, read_text
 from htnagent.terms import Atom
@@ -79,8 +80,6 @@ def read_problem(path: str | Path, domain: Domain, max_bytes: int | None = None)
 
 def parse_domain(text: str, file: str = "<domain>") -> Domain:
     """The checked domain an HDDL text defines (``file`` names it in messages)."""
-    from htnagent.hddl.semantics import check_domain
-
     source = Source(file, text)
     with gc_paused():
         domain = _Reader(source).domain(_definition(source, "domain"))
@@ -90,8 +89,6 @@ def parse_domain(text: str, file: str = "<domain>") -> Domain:
 
 def parse_problem(text: str, domain: Domain, file: str = "<problem>") -> Problem:
     """The problem an HDDL text defines, checked against ``domain``."""
-    from htnagent.hddl.semantics import check_problem
-
     source = Source(file, text)
     with gc_paused():
         problem = _Reader(source).problem(_definition(source, "problem"))
