@@ -3,8 +3,9 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
-from bench import differential, fleet, fuzz, reaction, reliability, replanning, scaling, step
+from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, replanning, scaling, step
 
 
 def main() -> int:
@@ -13,11 +14,29 @@ def main() -> int:
         "study",
         nargs="?",
         default="replanning",
-        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction", "fuzz", "step"),
+        choices=(
+            "replanning",
+            "scaling",
+            "reliability",
+            "differential",
+            "fleet",
+            "reaction",
+            "fuzz",
+            "step",
+            "hddl-read",
+        ),
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
+    parser.add_argument(
+        "--suite",
+        type=Path,
+        default=None,
+        help="hddl-read: the folder of HDDL domains (default ../shared/data/ipc)",
+    )
     args = parser.parse_args()
+    if args.study == "hddl-read":
+        return hddl_read.main(args.suite)
     if args.study == "step":
         return step.main()
     if args.study == "fuzz":

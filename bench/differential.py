@@ -72,8 +72,10 @@ def main(runs: int = 1000) -> int:
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "differential.json").write_text(json.dumps(rows, indent=2) + "\n")
     (RESULTS / "differential_violations.json").write_text(json.dumps(examples[:50], indent=2) + "\n")
-    print(f"{'doors':>5} {'runs':>5} {'goals':>6} {'emerg.':>6} {'door ev.':>8} {'viol.':>5} "
-          f"{'on-line m':>10} {'naive m':>10}")
+    print(
+        f"{'doors':>5} {'runs':>5} {'goals':>6} {'emerg.':>6} {'door ev.':>8} {'viol.':>5} "
+        f"{'on-line m':>10} {'naive m':>10}"
+    )
     for row in rows:
         print(
             f"{row['doors']:>5} {row['runs']:>5} {row['goals']:>6} {row['emergencies']:>6} "

@@ -30,6 +30,7 @@ _WHERE = {
     "State": "state",
     "Suspension": "domain",
     "DomainError": "errors",
+    "HddlError": "errors",
     "HtnAgentError": "errors",
     "PlanningError": "errors",
     "PlotError": "errors",
@@ -78,6 +79,7 @@ __all__ = [
     "ExecutorActor",
     "GoalOutcome",
     "GoalStatus",
+    "HddlError",
     "HtnAgentError",
     "Plan",
     "PlanResult",
@@ -127,6 +129,7 @@ if TYPE_CHECKING:
     from htnagent.domain import Domain, Effect, Suspension
     from htnagent.errors import (
         DomainError,
+        HddlError,
         HtnAgentError,
         PlanningError,
         PlotError,

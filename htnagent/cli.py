@@ -1,9 +1,10 @@
-"""The command line: ``python -m htnagent run|plan|check SCENARIO``, ``report TRACE`` (docs/contracts.md).
+"""The command line: ``python -m htnagent run|plan|check SCENARIO``, ``report TRACE``,
+``check|verify --hddl`` (docs/contracts.md).
 
 The CLI owns the console.  Exit codes: 0 success, 1 no plan / a goal failed,
 2 invalid input or usage, 130 interrupted.  Every error of kind 2 is exactly one
 line on stderr, ``htnagent: error: <file>: <key path or line>: <reason>`` (usage
-errors have no file), never a traceback.
+errors have no file; HDDL files give ``FILE:LINE:COL: reason``), never a traceback.
 
 Ctrl-C and SIGTERM: until a run starts there is nothing to save, and
 ``python -m htnagent`` ends at once with exit 130 (:mod:`htnagent.__main__`).
@@ -32,6 +33,10 @@ from rich.console import Console
 
 from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.hddl.check import check_plan
+from htnagent.hddl.model import Domain, Problem
+from htnagent.hddl.plan_file import read_plan
+from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
@@ -84,7 +89,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="On-line HTN planning agents that handle emergency goals.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,report}", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report}", required=True)
 
     run = sub.add_parser("run", help="execute the scenario to the end")
     run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
@@ -109,8 +114,25 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--task", required=True, metavar="TASK", help='the task, e.g. "goto(n1)"')
     pl.add_argument("--json", action="store_true", help='one JSON line: {"plan", "cost", "alternatives"}')
 
-    check = sub.add_parser("check", help="validate the scenario; print ok")
-    check.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    check = sub.add_parser(
+        "check",
+        help="validate the scenario (print ok), or with --hddl an HDDL domain and problem (print sizes)",
+        usage=f"{PROG} check SCENARIO | {PROG} check --hddl DOMAIN PROBLEM",
+    )
+    check.add_argument("files", nargs="+", metavar="FILE", help="SCENARIO, or with --hddl DOMAIN PROBLEM")
+    check.add_argument("--hddl", action="store_true", help="the files are an HDDL domain and problem")
+
+    verify = sub.add_parser(
+        "verify",
+        help="check a plan in the IPC format against an HDDL domain and problem",
+        usage=f"{PROG} verify --hddl DOMAIN PROBLEM PLAN",
+    )
+    verify.add_argument("domain", metavar="DOMAIN", help="the HDDL domain file")
+    verify.add_argument("problem", metavar="PROBLEM", help="the HDDL problem file")
+    verify.add_argument("plan", metavar="PLAN", help="the plan, in the IPC output format (==> ... <==)")
+    verify.add_argument(
+        "--hddl", action="store_true", required=True, help="the files are HDDL (the one kind verify reads)"
+    )
 
     report = sub.add_parser("report", help="a saved trace (run --json) as one self-contained HTML page")
     report.add_argument("trace", metavar="TRACE", help="the output of run --json (JSON Lines)")
@@ -140,6 +162,8 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     try:
         if args.command == "check":
             return _check(args)
+        if args.command == "verify":
+            return _verify(args)
         if args.command == "plan":
             return _plan(args)
         if args.command == "report":
@@ -167,9 +191,55 @@ def _one_line(text: str) -> str:
 
 
 def _check(args: argparse.Namespace) -> int:
-    load_scenario(args.scenario)
+    files: list[str] = args.files
+    if args.hddl:
+        if len(files) != 2:
+            return _fail(
+                f"check --hddl takes DOMAIN PROBLEM, not {len(files)} files (see {PROG} check --help)"
+            )
+        domain, problem = _read_hddl(files[0], files[1])
+        print(_hddl_summary(domain, problem))
+        return EXIT_OK
+    if len(files) != 1:
+        return _fail(f"check takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} check --help)")
+    load_scenario(files[0])
     print("ok")
     return EXIT_OK
+
+
+def _read_hddl(domain_file: str, problem_file: str) -> tuple[Domain, Problem]:
+    domain = read_domain(domain_file)
+    return domain, read_problem(problem_file, domain)
+
+
+def _hddl_summary(domain: Domain, problem: Problem) -> str:
+    def n(count: int, noun: str) -> str:
+        return f"{count} {noun}" if count == 1 else f"{count} {noun}s"
+
+    objects = {o.name for o in (*domain.constants, *problem.objects)}
+    types = len(domain.types) - 1  # object, always there, is not counted
+    return (
+        f"ok: domain {domain.name}: {n(types, 'type')}, {n(len(domain.predicates), 'predicate')}, "
+        f"{n(len(domain.tasks), 'task')}, {n(len(domain.methods), 'method')}, "
+        f"{n(len(domain.actions), 'action')}; problem {problem.name}: {n(len(objects), 'object')}, "
+        f"{n(len(problem.init), 'initial fact')}, {n(len(problem.htn), 'initial task')}"
+    )
+
+
+def _verify(args: argparse.Namespace) -> int:
+    domain, problem = _read_hddl(args.domain, args.problem)
+    plan = read_plan(args.plan)
+    problems = check_plan(domain, problem, plan)
+    actions = f"{len(plan.steps)} action{'s' * (len(plan.steps) != 1)}"
+    if not problems:
+        print(f"valid: {actions}, {len(plan.decompositions)} decomposed tasks")
+        return EXIT_OK
+    noun = "problem" if len(problems) == 1 else "problems"
+    print(f"invalid: {len(problems)} {noun} ({actions})")
+    for p in problems:
+        place = f"{args.plan}:{p.line}" if p.line else args.plan
+        print(f"  {place}: {_one_line(p.reason)}")
+    return EXIT_FAILED
 
 
 def _plan(args: argparse.Namespace) -> int:

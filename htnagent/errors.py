@@ -6,6 +6,7 @@
     ├── TextFormError        a task, action or fact text is not ``name(arg,...)``   (also a ValueError)
     ├── DomainError          a domain definition is inconsistent (unknown variable, clash)
     ├── ScenarioError        a scenario or map file is invalid (file, key path, reason)
+    ├── HddlError            an HDDL domain, problem or IPC plan file is invalid (FILE:LINE:COL: reason)
     ├── PlanningError        a task or action names something the domain cannot do
     ├── SettingsError        a setting out of range or at odds: planner, plan set, runtime,
     │                        clock, event stream, size limit (also a ValueError)
@@ -57,6 +58,28 @@ class ScenarioError(HtnAgentError):
         self.where = _clipped(where, 300)
         self.reason = _clipped(reason, 1000)
         place = f"{self.file}: {self.where}" if self.where else self.file
+        super().__init__(f"{place}: {self.reason}")
+
+
+class HddlError(HtnAgentError):
+    """Raised when an HDDL domain or problem, or a plan in the IPC format, is invalid.
+
+    ``str()`` is one line, ``FILE:LINE:COL: reason`` (``FILE: reason`` when no
+    place in the file is to blame, such as an empty file); ``line`` and ``col``
+    count from 1.
+    """
+
+    def __init__(self, file: str, reason: str, line: int | None = None, col: int | None = None) -> None:
+        self.file = _clipped(file, 512)
+        self.reason = _clipped(" ".join(reason.split()), 1000)
+        self.line = line
+        self.col = col
+        if line is None:
+            place = self.file
+        elif col is None:
+            place = f"{self.file}:{line}"
+        else:
+            place = f"{self.file}:{line}:{col}"
         super().__init__(f"{place}: {self.reason}")
 
 

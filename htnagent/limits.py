@@ -64,6 +64,14 @@ Atoms are walked recursively (printing, unification, ground checks), so a
 bound far below Python's recursion limit keeps every such walk safe.
 """
 
+MAX_HDDL_DEPTH = 100
+"""Deepest nesting of parentheses in an HDDL file.
+
+The IPC domains nest about ten levels (a ``forall`` in a ``not`` in an
+``and`` in an action); formulas are read and evaluated recursively, so a bound
+far below Python's recursion limit keeps ``((((…`` a one-line error.
+"""
+
 MAX_COORDINATE = 1e9
 """Largest absolute map coordinate, in metres: distances between nodes stay finite."""
 

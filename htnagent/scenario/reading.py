@@ -168,7 +168,7 @@ def _decoded(raw: bytes, file: str, what: str) -> str:
         line = raw.count(b"\n", 0, start + e.start) + 1
         bad = raw[start + e.start : start + e.start + 1].hex()
         if encoding == "utf-8":
-            reason = f"not UTF-8 text (byte 0x{bad} at byte {start + e.start}); expected a YAML {what} file"
+            reason = f"not UTF-8 text (byte 0x{bad} at byte {start + e.start}); expected a {what} file"
         else:
             reason = f"not valid {encoding.upper()} text (at byte {start + e.start})"
         raise ScenarioError(file, f"line {line}", reason) from None

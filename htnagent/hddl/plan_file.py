@@ -1,0 +1,144 @@
+"""Plans in the IPC HTN output format, read into values.
+
+The format (IPC 2020, as pandaPIparser's verifier reads it)::
+
+    ==>
+    0 move a b
+    1 move b c
+    root 2
+    2 goto c -> m-step 0 3
+    3 goto c -> m-step 1 4
+    4 goto c -> m-here
+    <==
+
+Anything before ``==>`` (a planner's other output) and after ``<==`` is
+ignored.  Inside: the primitive actions in execution order, ``ID name
+arg...``; one ``root ID...`` line; then one line per decomposed task, ``ID
+task arg... -> method subtask-ID...``.  Actions and tasks may be written in
+parentheses, ``0 (move a b)``.  Names are case-insensitive as in HDDL
+(lowered); pandaPIparser compares them as written unless run with ``-l``.
+
+:func:`read_plan` refuses what is not in this form -- a line that is neither,
+an ID that is not a whole number or is given twice, no ``==>`` or no ``root``
+-- as one :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
+Whether the plan is a *valid* one is :mod:`htnagent.hddl.check`'s business.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from htnagent.errors import HddlError, shown
+from htnagent.hddl.reader import read_file
+from htnagent.terms import Atom
+
+__all__ = ["Decomposition", "IpcPlan", "Step", "parse_plan", "read_plan"]
+
+
+@dataclass(frozen=True, slots=True)
+class Step:
+    """A primitive action of the plan: ``ID name arg...``."""
+
+    id: int
+    action: Atom
+    line: int = field(default=0, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class Decomposition:
+    """A decomposed task: ``ID task arg... -> method subtask-ID...``."""
+
+    id: int
+    task: Atom
+    method: str
+    subtasks: tuple[int, ...]
+    line: int = field(default=0, compare=False)
+
+
+@dataclass(frozen=True, slots=True)
+class IpcPlan:
+    """A whole plan: the actions in order, the root tasks, the decompositions in file order."""
+
+    file: str
+    steps: tuple[Step, ...]
+    root: tuple[int, ...]
+    decompositions: tuple[Decomposition, ...]
+    root_line: int = field(default=0, compare=False)
+
+
+def read_plan(path: str | Path, max_bytes: int | None = None) -> IpcPlan:
+    """The plan in the file at ``path`` (read as HDDL files are)."""
+    return parse_plan(read_file(path, "plan", max_bytes), str(path))
+
+
+_INT = re.compile(r"0|[1-9][0-9]{0,17}")
+_WORD = re.compile(r"[^\s()]+")
+
+
+def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
+    """The plan written in ``text`` (``file`` names it in messages)."""
+    lines = text.splitlines()
+    start = next((i for i, line in enumerate(lines) if line.strip().startswith("==>")), None)
+    if start is None:
+        raise HddlError(file, "no '==>' line; a plan in the IPC format starts with '==>'")
+    steps: list[Step] = []
+    decompositions: list[Decomposition] = []
+    root: tuple[int, ...] | None = None
+    root_line = 0
+    ids: dict[int, int] = {}
+    for i in range(start + 1, len(lines)):
+        number = i + 1
+        line = lines[i]
+        stripped = line.strip()
+        if stripped.startswith("<=="):
+            break
+        if not stripped or stripped.startswith(";"):
+            continue
+        words = [(m.group(), m.start()) for m in _WORD.finditer(line.lower())]
+        if not words:
+            raise HddlError(
+                file, f"expected an action, root or decomposition line, got {shown(stripped)}", number, 1
+            )
+        if words[0][0] == "root":
+            if root is not None:
+                raise HddlError(file, f"a second root line (the first is line {root_line})", number, 1)
+            root = tuple(_number(file, number, w, at) for w, at in words[1:])
+            root_line = number
+            continue
+        ident = _number(file, number, *words[0])
+        if ident in ids:
+            raise HddlError(
+                file, f"ID {ident} is given twice (first on line {ids[ident]})", number, words[0][1] + 1
+            )
+        ids[ident] = number
+        arrow = next((k for k, (w, _) in enumerate(words) if w == "->"), None)
+        if root is None:
+            if arrow is not None:
+                raise HddlError(
+                    file, "a decomposition line before the root line", number, words[arrow][1] + 1
+                )
+            if len(words) < 2:
+                raise HddlError(file, f"ID {ident} names no action", number, words[0][1] + 1)
+            steps.append(Step(ident, Atom(words[1][0], tuple(w for w, _ in words[2:])), number))
+            continue
+        if arrow is None:
+            raise HddlError(file, "expected 'ID task args -> method subtask-IDs' (no '->')", number, 1)
+        if arrow < 2:
+            raise HddlError(file, f"ID {ident} names no task before '->'", number, words[arrow][1] + 1)
+        if arrow + 1 >= len(words):
+            raise HddlError(file, "no method after '->'", number, words[arrow][1] + 1)
+        task = Atom(words[1][0], tuple(w for w, _ in words[2:arrow]))
+        method = words[arrow + 1][0]
+        subtasks = tuple(_number(file, number, w, at) for w, at in words[arrow + 2 :])
+        decompositions.append(Decomposition(ident, task, method, subtasks, number))
+    if root is None:
+        raise HddlError(file, "no 'root' line after the actions (it lists the root task IDs)")
+    return IpcPlan(file, tuple(steps), root, tuple(decompositions), root_line)
+
+
+def _number(file: str, line: int, word: str, at: int) -> int:
+    if _INT.fullmatch(word) is None:
+        raise HddlError(file, f"expected an ID (a whole number), got {shown(word)}", line, at + 1)
+    return int(word)
