@@ -151,6 +151,11 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
         return _run(args, restore_signals=not owns_process)
     except HtnAgentError as e:
         return _fail(str(e))
+    except BaseExceptionGroup as group:  # an error of ours from inside a task group (serve, remote:)
+        error = _first_error(group)
+        if isinstance(error, HtnAgentError):
+            return _fail(str(error))
+        raise
     except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -408,10 +413,7 @@ def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
             tg.cancel_scope.cancel()
 
     with _RunSignals(restore=restore_signals) as signals:
-        try:
-            anyio.run(until_interrupted, signals)
-        except BaseExceptionGroup as group:
-            raise _first_error(group) from None
+        anyio.run(until_interrupted, signals)
     print(f"{PROG}: interrupted", file=sys.stderr)
     return EXIT_INTERRUPTED
 

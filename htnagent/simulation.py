@@ -116,6 +116,7 @@ def build_runtime(
                 keys=remote_keys(scenario, served.name),
                 domain=scenario.domain_for(served.name),
                 wait=scenario.peer_wait,
+                where=f"{scenario.file}: agents[{scenario.agent_names.index(served.name)}].remote",
             )
 
         # Another process acts meanwhile: time is the wall clock's.

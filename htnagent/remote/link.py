@@ -37,6 +37,8 @@ LEASE_MS = 1000
 """A peer that sends nothing for this long is gone (Zenoh's default is 10 s)."""
 RETRY_MS = (100, 500)
 """How soon, and at most how seldom, a lost connection to a peer is tried again."""
+OPEN_MS = 500
+"""How long opening a connection to a peer may take (a frozen one never answers)."""
 CLOSE_WITHIN = 2.0
 """Wall-clock seconds closing a session may take before it is left to finish alone."""
 BLOCKED_PUT_MS = 2000
@@ -57,6 +59,10 @@ def zenoh_config(listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zen
         ("scouting/multicast/enabled", False),
         ("scouting/gossip/enabled", False),
         ("transport/link/tx/lease", LEASE_MS),
+        # A frozen peer accepts a connection and never answers: give up opening it soon
+        # (the default, 10 s, would hold closing the session as long).
+        ("transport/unicast/open_timeout", OPEN_MS),
+        ("transport/unicast/accept_timeout", OPEN_MS),
         ("transport/link/tx/queue/congestion_control/block/wait_before_close", BLOCKED_PUT_MS * 1000),
     ]
     for key, value in settings:

@@ -68,12 +68,15 @@ class RemoteChild(ExecutorActor):
         keys: Keys,
         domain: Domain | None = None,
         wait: float = 10.0,
+        where: str = "",
     ) -> None:
+        """``where``: the scenario file and key naming the endpoint, for the start-up error."""
         super().__init__(name, clock, trace)
         self.agent_domain = domain
         self.endpoint = endpoint
         self.keys = keys
         self.wait = wait
+        self.where = where
         self.status: RobotStatus | None = None
         """The robot's state as the serving process last told it."""
         self.up = False
@@ -94,8 +97,9 @@ class RemoteChild(ExecutorActor):
             with anyio.move_on_after(self.wait):
                 await self._joined.wait()
             if not self.up:
+                place = f"{self.where}: " if self.where else ""
                 raise RemoteError(
-                    f"no process serves agent {self.name} at {self.endpoint} (namespace "
+                    f"{place}no process serves agent {self.name} at {self.endpoint} (namespace "
                     f"{self.keys.namespace}) within {self.wait:g} s; start it first: python -m htnagent "
                     f"serve SCENARIO --agent {self.name} --listen {self.endpoint}"
                 )
