@@ -13,13 +13,27 @@ def main() -> int:
         "study",
         nargs="?",
         default="replanning",
-        choices=("replanning", "scaling", "reliability", "differential", "fleet", "reaction", "fuzz", "step"),
+        choices=(
+            "replanning",
+            "scaling",
+            "reliability",
+            "differential",
+            "fleet",
+            "reaction",
+            "fuzz",
+            "step",
+            "remote",
+        ),
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
     args = parser.parse_args()
     if args.study == "step":
         return step.main()
+    if args.study == "remote":
+        from bench import remote  # needs the zenoh extra
+
+        return remote.main()
     if args.study == "fuzz":
         return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":

@@ -68,7 +68,9 @@ class Lines:
             try:
                 line = self._queue.get(timeout=max(left, 0.001))
             except queue.Empty:
-                raise AssertionError(f"no line with {pattern!r} within {timeout} s: {self.lines[-5:]}") from None
+                raise AssertionError(
+                    f"no line with {pattern!r} within {timeout} s: {self.lines[-5:]}"
+                ) from None
             if line is None:
                 raise AssertionError(f"the output ended without {pattern!r}: {self.lines[-5:]}")
             self.lines.append(line)
@@ -102,7 +104,14 @@ def htnagent(*args: str) -> subprocess.Popen[str]:
 def serving(scenario: Path, port: int, speed: float) -> Iterator[subprocess.Popen[str]]:
     """A process serving the navigator of ``scenario`` at the port, ready; killed at the end."""
     proc = htnagent(
-        "serve", str(scenario), "--agent", "navigator", "--listen", f"tcp/127.0.0.1:{port}", "--speed", str(speed)
+        "serve",
+        str(scenario),
+        "--agent",
+        "navigator",
+        "--listen",
+        f"tcp/127.0.0.1:{port}",
+        "--speed",
+        str(speed),
     )
     try:
         assert proc.stdout is not None

@@ -22,10 +22,10 @@ import pytest
 
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed")
 
-from htnagent.events import PeerJoined, Summary  # noqa: E402
-from htnagent.scenario import load_scenario  # noqa: E402
-from htnagent.simulation import run_scenario  # noqa: E402
-from tests.remote_support import (  # noqa: E402
+from htnagent.events import PeerJoined, Summary
+from htnagent.scenario import load_scenario
+from htnagent.simulation import run_scenario
+from tests.remote_support import (
     Lines,
     free_port,
     htnagent,
@@ -34,7 +34,7 @@ from tests.remote_support import (  # noqa: E402
     serving,
     stop,
 )
-from tests.support import shipped_run, summary_of  # noqa: E402
+from tests.support import shipped_run, summary_of
 
 SPEED = 40.0
 """Simulated seconds per real second: the museum run takes under 2 s, and a message's
@@ -94,7 +94,11 @@ def test_a_lost_serving_process_fails_the_run_with_peer_lost_within_3_s(tmp_path
             for proto, local, remote, state in inet_sockets(host.pid):
                 assert proto == "tcp" and local == f"127.0.0.1:{port}", (proto, local, remote, state)
             for proto, local, remote, state in inet_sockets(parent.pid):
-                assert proto == "tcp" and remote == f"127.0.0.1:{port}" and state != "0A", (proto, local, remote)
+                assert proto == "tcp" and remote == f"127.0.0.1:{port}" and state != "0A", (
+                    proto,
+                    local,
+                    remote,
+                )
             lost_at = time.monotonic()
             host.send_signal(how)
             code = parent.wait(timeout=10)
@@ -144,7 +148,7 @@ def test_no_serving_process_is_one_line_and_exit_2_after_the_wait(tmp_path: Path
     path = remote_scenario(tmp_path, free_port(), peer_wait=1)
     start = time.monotonic()
     proc = htnagent("run", str(path))
-    out, err = proc.communicate(timeout=20)
+    _, err = proc.communicate(timeout=20)
     assert proc.returncode == 2
     assert time.monotonic() - start < 10
     lines = err.strip().splitlines()
@@ -176,4 +180,6 @@ def test_peer_joined_is_traced_once_per_join(tmp_path: Path) -> None:
     with serving(path, port, speed=50):
         report = anyio.run(functools.partial(run_scenario, scenario, speed=50.0, observers=[watch]))
     assert report.succeeded
-    assert [(j.agent, j.side, j.endpoint) for j in joined] == [("navigator", "serving", f"tcp/127.0.0.1:{port}")]
+    assert [(j.agent, j.side, j.endpoint) for j in joined] == [
+        ("navigator", "serving", f"tcp/127.0.0.1:{port}")
+    ]

@@ -36,7 +36,7 @@ def scenario_data(**navigator: object) -> dict[str, object]:
 @pytest.fixture
 def no_zenoh(monkeypatch: pytest.MonkeyPatch) -> None:
     """Importing zenoh fails, as without the extra; htnagent.remote is imported afresh."""
-    monkeypatch.setitem(sys.modules, "zenoh", None)  # type: ignore[arg-type]  # None makes import fail
+    monkeypatch.setitem(sys.modules, "zenoh", None)  # None makes importing it fail
     for name in [m for m in sys.modules if m == "htnagent.remote" or m.startswith("htnagent.remote.")]:
         monkeypatch.delitem(sys.modules, name)
 
@@ -50,7 +50,9 @@ def test_without_the_extra_serve_and_remote_agents_are_one_line_naming_it(
     args = ["serve", str(path), "--agent", "navigator"] if command == "serve" else ["run", str(path)]
     assert main(args) == 2
     err = capsys.readouterr().err.strip().splitlines()
-    assert err == ["htnagent: error: agents in other processes need the zenoh extra: pip install 'htnagent[zenoh]'"]
+    assert err == [
+        "htnagent: error: agents in other processes need the zenoh extra: pip install 'htnagent[zenoh]'"
+    ]
 
 
 @pytest.mark.usefixtures("no_zenoh")
