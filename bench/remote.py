@@ -174,10 +174,10 @@ def _museum() -> dict[str, Any]:
     scenarios = REPO / "scenarios"
     one = load_scenario(scenarios / "museum.yaml")
     start = time.perf_counter()
-    local = anyio.run(run_scenario, one).summary.as_dict()
+    local = anyio.run(run_scenario, one).summary
     local_s = time.perf_counter() - start
     start = time.perf_counter()
-    paced = anyio.run(functools.partial(run_scenario, one, speed=SPEED)).summary.as_dict()
+    paced = anyio.run(functools.partial(run_scenario, one, speed=SPEED)).summary
     paced_s = time.perf_counter() - start
     port = _free_port()
     with tempfile.TemporaryDirectory() as tmp:
@@ -199,25 +199,24 @@ def _museum() -> dict[str, Any]:
             assert host.stdout is not None and host.stdout.readline().startswith("serving")
             two = load_scenario(path)
             start = time.perf_counter()
-            remote = anyio.run(functools.partial(run_scenario, two, speed=SPEED)).summary.as_dict()
+            remote = anyio.run(functools.partial(run_scenario, two, speed=SPEED)).summary
             remote_s = time.perf_counter() - start
         finally:
             host.kill()
             host.wait()
-    same = (
-        all(local[k] == remote[k] for k in ("goals", "visited", "robot"))
-        and abs(local["distance"] - remote["distance"]) < 1e-6
-    )
+    same = (local.goals, local.visited, local.robot) == (remote.goals, remote.visited, remote.robot) and abs(
+        local.distance - remote.distance
+    ) < 1e-6
     return {
         "speed": SPEED,
         "same_goals_visited_distance": same,
-        "distance_one_process": local["distance"],
-        "distance_two_processes": remote["distance"],
+        "distance_one_process": local.distance,
+        "distance_two_processes": remote.distance,
         "wall_s_one_process_virtual": round(local_s, 3),
         "wall_s_one_process_paced": round(paced_s, 3),
         "wall_s_two_processes_paced": round(remote_s, 3),
-        "simulated_s": remote.get("t"),
-        "paced_same": paced["distance"] == local["distance"],
+        "simulated_s": remote.t,
+        "paced_same": paced.distance == local.distance,
     }
 
 
