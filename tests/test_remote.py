@@ -36,8 +36,8 @@ from tests.remote_support import (
 )
 from tests.support import shipped_run, summary_of
 
-SPEED = 40.0
-"""Simulated seconds per real second: the museum run takes under 2 s, and a message's
+SPEED = 20.0
+"""Simulated seconds per real second: the museum run takes about 3 s, and a message's
 few milliseconds on the way stay well inside the half move the emergency waits for."""
 GUARD = 30.0
 
@@ -183,3 +183,72 @@ def test_peer_joined_is_traced_once_per_join(tmp_path: Path) -> None:
     assert [(j.agent, j.side, j.endpoint) for j in joined] == [
         ("navigator", "serving", f"tcp/127.0.0.1:{port}")
     ]
+
+
+def test_a_serving_process_serves_a_second_parent_after_the_first_is_gone(tmp_path: Path) -> None:
+    port = free_port()
+    path = remote_scenario(tmp_path, port, goals="  - {agent: guide, task: goto(n39)}\n")
+    with serving(path, port, speed=20):
+        first, out = _parent_run(path, speed=20)
+        try:
+            out.until('"robot_moving"', timeout=15)
+        finally:
+            stop(first)  # killed half way: the serving process drops what it was ordered
+        second, out = _parent_run(path, speed=20)
+        try:
+            code = second.wait(timeout=20)
+            events = _events(out.rest(5))
+        finally:
+            stop(second)
+    assert code == 0, events[-3:]
+    assert events[-1]["goals"][0]["status"] == "success"
+
+
+def test_every_item_crosses_the_wire_unchanged() -> None:
+    from htnagent.events import GoalReceived
+    from htnagent.messages import (
+        BeliefUpdate,
+        Clear,
+        Execute,
+        Failure,
+        ParentLost,
+        Prepare,
+        Refused,
+        Resume,
+        Success,
+        Suspend,
+        Suspended,
+    )
+    from htnagent.progress import Phase, Progress
+    from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
+    from htnagent.terms import parse
+
+    a = parse("move(n40,n35,arc59)")
+    items: list[Item] = [
+        Execute(action=a, seq=1),
+        Suspend(action=a, seq=1),
+        Resume(action=a, seq=2),
+        Clear(action=a),
+        Prepare(action=a),
+        ParentLost(),
+        BeliefUpdate(add=(parse("closed(arc51)"),), delete=(parse("closed(arc3)"),)),
+        Success(action=a, seq=1),
+        Failure(action=a, seq=1, reason="no", permanent=True),
+        Suspended(action=a, seq=1),
+        Refused(action=a, seq=1),
+        Progress("robot", a, Phase.STARTED, 4.2, 0.5),
+        GoalReceived(agent="navigator", t=1.5, goal="goto_node(n1)", emergency=False),
+        RobotStatus(robot={"at": "n1"}, visited=("n40", "n1"), distance=3.5),
+        WorldChange(arc="arc51", close=True),
+    ]
+    for item in items:
+        assert decode(encode(2.5, item)) == (2.5, item)
+    for bad in [
+        b"",
+        b"[]",
+        b'{"t": 1, "type": "message", "body": {"kind": "submit"}}',
+        b"\xff",
+        b'{"t": true}',
+    ]:
+        with pytest.raises(CodecError):
+            decode(bad)

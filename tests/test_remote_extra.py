@@ -112,3 +112,73 @@ def test_a_listen_endpoint_that_is_not_tcp_host_port_is_a_usage_error(
 ) -> None:
     assert main(["serve", "x.yaml", "--agent", "navigator", "--listen", "tcp/0.0.0.0"]) == 2
     assert "expected tcp/HOST:PORT" in capsys.readouterr().err
+
+
+# -- the clock's side of it: peers' time, answers awaited from outside -----------------------------
+
+
+def test_a_peers_message_moves_a_paced_clock_on_to_its_time_at_once() -> None:
+    import anyio
+
+    from htnagent.clock import Clock
+
+    async def main() -> tuple[list[float], float]:
+        clock = Clock(speed=1.0)
+        got: list[float] = []
+        handled = [anyio.Event(), anyio.Event()]
+
+        def at(i: int) -> None:
+            got.append(clock.now())
+            handled[i].set()
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            start = anyio.current_time()
+            with anyio.fail_after(5):
+                clock.call_from_peer(100.0, lambda: at(0))
+                await handled[0].wait()
+                clock.call_from_peer(50.0, lambda: at(1))  # behind this clock now: handled at once
+                await handled[1].wait()
+            waited = anyio.current_time() - start
+            tg.cancel_scope.cancel()
+        return got, waited
+
+    got, waited = anyio.run(main)
+    assert got == [100.0, 100.0]
+    assert waited < 1.0  # not 100 s of pacing
+
+
+def test_an_answer_awaited_from_outside_keeps_the_runtime_from_being_idle_for_good() -> None:
+    import anyio
+
+    from htnagent.clock import Clock
+
+    async def main() -> list[str]:
+        clock = Clock(speed=1000.0)
+        seen: list[str] = []
+        fired, idle = anyio.Event(), anyio.Event()
+
+        def on_idle() -> None:
+            seen.append("idle")
+            idle.set()
+
+        def timer() -> None:
+            seen.append("timer")
+            fired.set()
+
+        clock.add_outside()
+        clock.on_idle(on_idle)
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            with anyio.fail_after(5):
+                clock.call_later(1.0, timer)  # time goes on meanwhile
+                await fired.wait()
+                for _ in range(10):  # the time keeper looks again: still not idle for good
+                    await anyio.lowlevel.checkpoint()
+                seen.append("answer")
+                clock.done_outside()
+                await idle.wait()
+            tg.cancel_scope.cancel()
+        return seen
+
+    assert anyio.run(main) == ["timer", "answer", "idle"]
