@@ -130,6 +130,8 @@ def test_a_serving_process_back_after_being_lost_serves_the_next_goal(tmp_path: 
             out.until('"robot_moving"', timeout=15)
             host.send_signal(signal.SIGKILL if how == "restarted" else signal.SIGSTOP)
             out.until('"peer_lost"', timeout=5)
+            # Back only once the first goal has failed (else it may be served after all).
+            out.until('"goal_finished","goal":"goto(n1)"', timeout=5)
             if how == "restarted":
                 with serving(path, port, speed=20):
                     code = parent.wait(timeout=20)
