@@ -24,6 +24,7 @@ def main() -> int:
             "fuzz",
             "step",
             "hddl-read",
+            "remote",
         ),
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
@@ -39,6 +40,10 @@ def main() -> int:
         return hddl_read.main(args.suite)
     if args.study == "step":
         return step.main()
+    if args.study == "remote":
+        from bench import remote  # needs the zenoh extra
+
+        return remote.main()
     if args.study == "fuzz":
         return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":

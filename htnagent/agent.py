@@ -173,6 +173,7 @@ class Agent(ExecutorActor):
         on_outcome: OutcomeCallback | None = None,
     ) -> None:
         super().__init__(config.name, clock, trace)
+        self.agent_domain = config.domain
         self.config = config
         self.domain = config.domain
         self.belief = config.belief
@@ -181,7 +182,8 @@ class Agent(ExecutorActor):
         executor.connect(self.inbox)
         self.on_outcome = on_outcome
         self.settings = config.settings
-        if isinstance(executor, Agent) and ROLLBACK not in executor.domain.methods:
+        child = executor.agent_domain
+        if child is not None and ROLLBACK not in child.methods:
             # §5: a rollback(A) of an action a child agent carries out is offered only as a
             # task the child can plan.
             self.settings = PlannerSettings(
@@ -444,7 +446,7 @@ class Agent(ExecutorActor):
         else:
             self.order(self.executor, Execute(action=action, seq=seq))
         running = _Running(seq, action, ordered)
-        if self.config.action_timeout is not None and not isinstance(self.executor, Agent):
+        if self.config.action_timeout is not None and self.executor.agent_domain is None:
             running.timer = self.clock.call_later(
                 self.config.action_timeout, lambda: self.inbox.send(Timeout(seq=seq))
             )
@@ -636,7 +638,7 @@ class Agent(ExecutorActor):
         self._get_ready(top, top_fork.fork(), after, (action,))
         assert top.ready is not None
         best = top.ready.plans.best
-        if isinstance(self.executor, Agent) and best is not None and best.steps:
+        if self.executor.agent_domain is not None and best is not None and best.steps:
             # The child agent gets ready for this order too (or for resuming its goal).
             self.order(self.executor, Prepare(action=best.steps[0].action))
             return True
@@ -713,6 +715,8 @@ class Agent(ExecutorActor):
         if isinstance(message, Submit):
             self._submitted(message)
         elif isinstance(message, Execute | Resume | Clear):
+            if isinstance(message, Execute):
+                self._orphaned = False  # a parent orders again (one in another process came back)
             self.orders.append(message)
         elif isinstance(message, Suspend):
             self._parent_suspends(message)

@@ -21,6 +21,7 @@ import argparse
 import functools
 import json
 import os
+import re
 import signal
 import sys
 import threading
@@ -89,7 +90,7 @@ def build_parser() -> argparse.ArgumentParser:
         prog=PROG,
         description="On-line HTN planning agents that handle emergency goals.",
     )
-    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report}", required=True)
+    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report,serve}", required=True)
 
     run = sub.add_parser("run", help="execute the scenario to the end")
     run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
@@ -142,6 +143,7 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="SCENARIO",
         help="the scenario the trace ran (for the map and the agents' order)",
     )
+    _add_serve(sub)
     return parser
 
 
@@ -168,9 +170,16 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
             return _plan(args)
         if args.command == "report":
             return _report(args)
+        if args.command == "serve":
+            return _serve(args, restore_signals=not owns_process)
         return _run(args, restore_signals=not owns_process)
     except HtnAgentError as e:
         return _fail(str(e))
+    except BaseExceptionGroup as group:  # an error of ours from inside a task group (serve, remote:)
+        error = _first_error(group)
+        if isinstance(error, HtnAgentError):
+            return _fail(str(error))
+        raise
     except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -308,6 +317,8 @@ def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: S
 
 def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     scenario = load_scenario(args.scenario)
+    if scenario.remote:
+        import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     if args.plot:
         check_plot_target(args.plot)
     if args.timeline:
@@ -416,3 +427,73 @@ async def _until_interrupted(run: Callable[..., Awaitable[RunReport]], signals: 
         report = await run(stop=stop)
         tg.cancel_scope.cancel()
     return report
+
+
+# -- serve: one agent for a parent in another process (docs/contracts.md "Agents in other processes")
+
+
+def _endpoint(text: str) -> str:
+    """``--listen``: ``tcp/HOST:PORT``."""
+    from htnagent.scenario.schema import ENDPOINT_PATTERN
+
+    if re.fullmatch(ENDPOINT_PATTERN, text) is None:
+        raise argparse.ArgumentTypeError(f"expected tcp/HOST:PORT, got {text!r}")
+    return text
+
+
+def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
+    serve = sub.add_parser(
+        "serve", help="serve one agent (and the agents below it) to its parent in another process"
+    )
+    serve.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    serve.add_argument("--agent", required=True, metavar="NAME", help="the agent to serve")
+    serve.add_argument(
+        "--listen",
+        type=_endpoint,
+        default="tcp/127.0.0.1:7447",
+        metavar="ENDPOINT",
+        help="where the parent connects, tcp/HOST:PORT (default: tcp/127.0.0.1:7447, loopback only)",
+    )
+    serve.add_argument(
+        "--speed", type=_speed, metavar="X", help="simulated seconds per real second (default 1)"
+    )
+
+
+def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
+    scenario = load_scenario(args.scenario)
+    import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
+    from htnagent.remote.host import check_served, serve
+
+    check_served(scenario, args.agent)
+
+    def ready() -> None:
+        print(f"serving {args.agent} at {args.listen} (namespace {scenario.key_space})", flush=True)
+
+    async def until_interrupted(signals: _RunSignals) -> None:
+        stop = anyio.Event()
+
+        async def watch() -> None:
+            while not signals.received:  # noqa: ASYNC110  (a signal handler cannot set an anyio.Event)
+                await anyio.sleep(_SIGNAL_POLL_S)
+            stop.set()
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(watch)
+            await serve(scenario, args.agent, args.listen, speed=args.speed, ready=ready, stop=stop)
+            tg.cancel_scope.cancel()
+
+    with _RunSignals(restore=restore_signals) as signals:
+        anyio.run(until_interrupted, signals)
+    print(f"{PROG}: interrupted", file=sys.stderr)
+    return EXIT_INTERRUPTED
+
+
+def _first_error(group: BaseExceptionGroup[BaseException]) -> BaseException:
+    """The error of ours inside task groups' exception groups (else the group)."""
+    match, _ = group.split(HtnAgentError)
+    if match is None:
+        return group
+    first: BaseException = match
+    while isinstance(first, BaseExceptionGroup):
+        first = first.exceptions[0]
+    return first

@@ -11,6 +11,13 @@ depend on the pace.
 Timers are messages too: :meth:`Clock.call_at` delivers a message into a
 mailbox at a simulated time; all the timers due at one instant are delivered
 together.
+
+Agents in other processes (:mod:`htnagent.remote`) keep wall-clock time and
+keep their clocks in step through their messages: a message from a peer is
+stamped with its sender's time and delivered by :meth:`Clock.call_from_peer`,
+which moves this clock on to that time at once if it is behind.  An order
+awaiting a peer's answer is *outside work* (:meth:`Clock.add_outside`): time
+goes on meanwhile, but the runtime is not idle for good.
 """
 
 from __future__ import annotations
@@ -38,6 +45,8 @@ class _Timer:
     seq: int
     deliver: Callable[[], None] = field(compare=False)
     cancelled: bool = field(default=False, compare=False)
+    paced: bool = field(default=True, compare=False)
+    """False for a peer's message: due at once, whatever the wall clock says."""
 
 
 class TimerHandle:
@@ -70,6 +79,7 @@ class Clock:
         self._stopped = False
         self._quiet = anyio.Event()
         self._wall: float | None = None  # paced: the wall-clock time at which ``now`` was reached
+        self._outside = 0
 
     # -- time ---------------------------------------------------------------------
 
@@ -80,6 +90,18 @@ class Clock:
     def call_at(self, when: float, deliver: Callable[[], None]) -> TimerHandle:
         """Run ``deliver`` (which sends a message) at simulated time ``when``."""
         timer = _Timer(max(when, self._now), next(self._seq), deliver)
+        heapq.heappush(self._timers, timer)
+        self._poke()
+        return TimerHandle(timer)
+
+    def call_from_peer(self, when: float, deliver: Callable[[], None]) -> TimerHandle:
+        """Run ``deliver`` for a message from another process, stamped with its sender's time.
+
+        It is handled as soon as the runtime is idle, after the timers due before
+        ``when``; if this clock is behind ``when`` it moves on to it at once (the
+        two clocks keep in step).  Messages from one sender keep their order.
+        """
+        timer = _Timer(max(when, self._now), next(self._seq), deliver, paced=False)
         heapq.heappush(self._timers, timer)
         self._poke()
         return TimerHandle(timer)
@@ -121,6 +143,18 @@ class Clock:
             self._idle.set()
         self._poke()
 
+    def add_outside(self, n: int = 1) -> None:
+        """An answer is awaited from outside the process: time goes on, but the runtime is
+        not idle for good (no :meth:`on_idle` callback) until :meth:`done_outside`."""
+        self._outside += n
+        self._poke()
+
+    def done_outside(self, n: int = 1) -> None:
+        """Answers awaited from outside came (or will never come)."""
+        self._outside -= n
+        assert self._outside >= 0, "outside work accounting went negative"
+        self._poke()
+
     def _poke(self) -> None:
         self._changed.set()
 
@@ -145,7 +179,7 @@ class Clock:
             while self._timers and self._timers[0].cancelled:
                 heapq.heappop(self._timers)
             if not self._timers:
-                for cb in list(self._idle_callbacks):
+                for cb in list(self._idle_callbacks) if not self._outside else ():
                     cb()
                 if self._busy > 0 or self._timers:
                     continue
@@ -153,7 +187,7 @@ class Clock:
                 await self._changed.wait()
                 continue
             nxt = self._timers[0]
-            if self.speed is not None:
+            if self.speed is not None and nxt.paced:
                 # Paced: ``now`` was reached at wall time ``_wall``; the timer is due
                 # (when - now) / speed later, however often the wait is woken meanwhile.
                 if self._wall is None:
@@ -169,6 +203,8 @@ class Clock:
             heapq.heappop(self._timers)
             if nxt.cancelled:
                 continue
+            if not nxt.paced and nxt.when > self._now and self.speed is not None:
+                self._wall = time.monotonic()  # a peer's time, reached now
             self._now = max(self._now, nxt.when)
             # Everything due at this instant is delivered together, before anyone acts on
             # any of it: two emergencies of one instant are seen together (§4).

@@ -13,6 +13,7 @@
     ├── TraceFormatError     a saved trace line is not an event of ``run --json`` (also a ValueError)
     ├── PlotError            ``run --plot`` cannot draw (no matplotlib, bad file name)
     ├── RuntimeClosedError   a goal is given to a runtime that is not running
+    ├── RemoteError          a remote peer is not reached at start-up, or the ``zenoh`` extra is missing
     └── UnknownNameError     an agent name or goal ticket the runtime does not have (also a KeyError)
 
 Messages quote what they refuse with :func:`shown`, never with a bare ``repr``:
@@ -162,6 +163,12 @@ def _clipped(text: str, limit: int) -> str:
 
 class RuntimeClosedError(HtnAgentError):
     """Raised when a goal is submitted to a runtime that is not running (not entered, or closed)."""
+
+
+class RemoteError(HtnAgentError):
+    """Raised when agents in other processes cannot be reached: the ``zenoh`` extra is not
+    installed, an endpoint cannot be opened, or no peer serves a remote agent within the
+    start-up wait.  A peer lost once running is no exception: orders fail with ``peer lost``."""
 
 
 class UnknownNameError(HtnAgentError, KeyError):

@@ -258,6 +258,30 @@ class EventsDropped(TraceEvent):
     count: int
 
 
+# -- agents in other processes ---------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class PeerLost(TraceEvent):
+    """The process on the ``side`` of remote agent ``agent``'s link (``serving``: the process
+    serving it, seen from its parent's; ``parent``: the parent's, seen from the serving one),
+    at ``endpoint``, is gone or frozen; ``orders`` of the parent's orders were in flight."""
+
+    event: ClassVar[Literal["peer_lost"]] = "peer_lost"
+    side: str
+    endpoint: str
+    orders: int
+
+
+@dataclass(slots=True, kw_only=True)
+class PeerJoined(TraceEvent):
+    """The process on the ``side`` of remote agent ``agent``'s link (as for ``peer_lost``) is back."""
+
+    event: ClassVar[Literal["peer_joined"]] = "peer_joined"
+    side: str
+    endpoint: str
+
+
 # -- the end of a run ----------------------------------------------------------------------------
 
 
@@ -309,6 +333,8 @@ EVENT_KINDS: dict[str, type[TraceEvent]] = {
         ExecutorError,
         AgentCrashed,
         EventsDropped,
+        PeerLost,
+        PeerJoined,
         Summary,
     )
 }

@@ -21,6 +21,7 @@ import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.clock import Clock, Mailbox
+from htnagent.domain import Domain
 from htnagent.events import ExecutorError, MessageSent
 from htnagent.messages import (
     Clear,
@@ -106,6 +107,9 @@ class ExecutorActor(ABC):
         self.inbox: Mailbox[Message] = Mailbox(clock, name)
         self.reply_to: Mailbox[Message] | None = None
         self.progress = ProgressListeners()
+        self.agent_domain: Domain | None = None
+        """The domain of the planning agent behind this executor, if it is one (a child agent,
+        here or in another process): an order is then a whole goal (docs/design.md §5)."""
 
     def connect(self, reply_to: Mailbox[Message]) -> None:
         """Send results to this mailbox (the parent agent's)."""

@@ -217,7 +217,7 @@ class Runtime:
             finally:
                 for ticket in tickets:  # even if its own bookkeeping is what broke
                     self._resolve(ticket, GoalStatus.FAILURE, reason)
-                if isinstance(actor.executor, Agent):
+                if actor.executor.agent_domain is not None:
                     # Nobody will resume or await what the child does for the dead parent.
                     actor.order(actor.executor, ParentLost())
 

@@ -4,18 +4,26 @@
 robot, gives the goals at their triggers, applies the world events, waits
 until every goal has ended (or nothing more can happen) and returns the
 summary of docs/contracts.md.
+
+An agent of the scenario marked ``remote`` is served by another process
+(``python -m htnagent serve``): the chain here ends above it, with the stand-in
+of :mod:`htnagent.remote` (imported only then) as the last agent's executor;
+the run keeps wall-clock time, and the robot's part of the summary is what the
+serving process last told.
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import anyio
 
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock, TimerHandle
 from htnagent.events import ArcClosed, ArcOpened, GoalRow, Summary, TraceEvent
+from htnagent.executor import ExecutorActor
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.messages import BeliefUpdate
 from htnagent.planset import Replanning
@@ -24,6 +32,9 @@ from htnagent.runtime import Runtime
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.terms import Atom
 from htnagent.trace import Observer, Trace
+
+if TYPE_CHECKING:
+    from htnagent.remote.link import Keys
 
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
@@ -51,11 +62,20 @@ class RunReport:
 
 
 def build_runtime(
-    scenario: Scenario, *, replanning: str | None = None, speed: float | None = None
+    scenario: Scenario,
+    *,
+    replanning: str | None = None,
+    speed: float | None = None,
+    first: str | None = None,
 ) -> tuple[Runtime, RobotWorld]:
-    """The scenario's agents over a simulated robot, ready to enter."""
+    """The scenario's agents over a simulated robot, ready to enter.
+
+    ``first``: the agents from this one down (a process serving it); by default from
+    the first.  The chain stops above an agent served elsewhere (``remote``).
+    """
     mode = Replanning(replanning or scenario.replanning)
     world = RobotWorld(scenario.world, at=scenario.robot.start, keep_path=True)
+    local, remote = scenario.chain_from(first)
     configs = [
         AgentConfig(
             name=spec.name,
@@ -65,7 +85,7 @@ def build_runtime(
             settings=scenario.settings,
             action_timeout=scenario.action_timeout,
         )
-        for spec in scenario.agents
+        for spec in local
     ]
 
     def robot(clock: Clock, trace: Trace) -> Robot:
@@ -80,8 +100,37 @@ def build_runtime(
             scenario.robot.durations,
         )
 
+    bottom: Callable[[Clock, Trace], ExecutorActor] = robot
+    if remote is not None:
+        from htnagent.remote.proxy import RemoteChild  # only now: zenoh is an optional extra
+
+        served, endpoint = remote, remote.remote
+        assert endpoint is not None
+
+        def bottom(clock: Clock, trace: Trace) -> ExecutorActor:
+            return RemoteChild(
+                served.name,
+                clock,
+                trace,
+                endpoint=endpoint,
+                keys=remote_keys(scenario, served.name),
+                domain=scenario.domain_for(served.name),
+                wait=scenario.peer_wait,
+                where=f"{scenario.file}: agents[{scenario.agent_names.index(served.name)}].remote",
+            )
+
+        # Another process acts meanwhile: time is the wall clock's.
+        speed = 1.0 if speed is None else speed
+
     # The summary names every goal's outcome: keep them all (a scenario lists its goals).
-    return Runtime(configs, robot, speed=speed, keep_outcomes=None), world
+    return Runtime(configs, bottom, speed=speed, keep_outcomes=None), world
+
+
+def remote_keys(scenario: Scenario, agent: str) -> Keys:
+    """The key space of the link to ``agent``, served by another process."""
+    from htnagent.remote.link import Keys
+
+    return Keys(scenario.key_space, agent)
 
 
 async def run_scenario(
@@ -129,6 +178,7 @@ async def run_scenario(
             )
             for agent in runtime.agents.values():
                 agent.inbox.send(BeliefUpdate(add=(fact,)) if close else BeliefUpdate(delete=(fact,)))
+            world_changed(runtime, arc, close)
 
         watchers: list[_Watcher] = []
 
@@ -247,10 +297,27 @@ def _fire_in(w: _Watcher, delay: float, clock: Clock) -> None:
     w.pending = clock.call_later(delay, fire)
 
 
-def _travelled(runtime: Runtime, world: RobotWorld) -> float:
-    """Metres travelled, counting the part of an arc the robot is on when the run ends."""
-    robot = runtime.executor
-    return robot.travelled() if isinstance(robot, Robot) else world.distance
+def world_changed(runtime: Runtime, arc: str, close: bool) -> None:
+    """Tell a process serving agents below this runtime's that a door shut or opened."""
+    bottom = runtime.executor
+    if not isinstance(bottom, Robot):
+        from htnagent.remote.proxy import RemoteChild
+
+        if isinstance(bottom, RemoteChild):
+            bottom.world_changed(arc, close)
+
+
+def robot_status(runtime: Runtime, world: RobotWorld) -> tuple[dict[str, str], tuple[str, ...], float]:
+    """Where the robot is, the nodes it reached, the metres travelled (counting the part of an
+    arc it is on): from the robot here, or as the process serving the agents below last told."""
+    bottom = runtime.executor
+    if isinstance(bottom, Robot):
+        return world.where(), tuple(world.visited), bottom.travelled()
+    from htnagent.remote.proxy import RemoteChild
+
+    if isinstance(bottom, RemoteChild) and bottom.status is not None:
+        return bottom.status.robot, bottom.status.visited, bottom.status.distance
+    return world.where(), tuple(world.visited), world.distance
 
 
 def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]) -> Summary:
@@ -271,11 +338,12 @@ def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: l
                 reason="" if success else reason,
             )
         )
+    robot, visited, distance = robot_status(runtime, world)
     return Summary(
         agent="runtime",
         goals=tuple(goals),
-        robot=world.where(),
-        visited=tuple(world.visited),
-        distance=round(_travelled(runtime, world), 6),
+        robot=robot,
+        visited=visited,
+        distance=round(distance, 6),
         planning_ms={name: round(a.stats.seconds * 1000, 3) for name, a in runtime.agents.items()},
     )

@@ -45,9 +45,17 @@ def cross_check(s: Scenario, base_dir: Path) -> None:
     _check_durations(s)
     _check_timeout(s)
     names = s.agent_names
+    here = {a.name for a in s.chain_from()[0]}
     for i, g in enumerate(s.goals):
         if g.agent not in names:
             raise ScenarioError(file, f"goals[{i}].agent", no_agent(g.agent, names))
+        if g.agent not in here:
+            raise ScenarioError(
+                file,
+                f"goals[{i}].agent",
+                f"agent {g.agent!r} is served by another process (remote); give goals to "
+                f"{', '.join(a.name for a in s.chain_from()[0])}",
+            )
         check_task(s, g.agent, g.task, f"goals[{i}].task")
         if g.when is not None:
             _check_trigger(s, g.when, f"goals[{i}].when")
@@ -84,6 +92,12 @@ def _check_chain(s: Scenario) -> None:
             )
         if a.name in names[:i]:
             raise ScenarioError(s.file, f"agents[{i}].name", f"duplicate agent name {a.name!r}")
+    if s.agents[0].remote is not None:
+        raise ScenarioError(
+            s.file,
+            "agents[0].remote",
+            "the first agent runs where the goals are given; only an agent below it can be remote",
+        )
     for i, a in enumerate(s.agents):
         expected = names[i + 1] if i + 1 < len(names) else ROBOT
         if a.executor != expected:

@@ -9,6 +9,7 @@ returns: the file's fields plus the parsed map and each agent's domain.
 
 from __future__ import annotations
 
+import re
 from collections.abc import Mapping
 from typing import Annotated, Literal
 
@@ -62,6 +63,10 @@ TextForm = Annotated[Atom, PlainValidator(_parse_atom), PlainSerializer(str)]
 """A task or action written ``name(arg,...)`` in the file, held as an :class:`Atom`."""
 
 Name = Annotated[str, Field(min_length=1)]
+ENDPOINT_PATTERN = r"^tcp/(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):[0-9]{1,5}$"
+Endpoint = Annotated[str, Strict(), Field(pattern=ENDPOINT_PATTERN)]
+"""A Zenoh endpoint: ``tcp/HOST:PORT`` (an IPv6 address in brackets)."""
+Namespace = Annotated[str, Strict(), Field(pattern=r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$", max_length=200)]
 PositiveSeconds = Annotated[float, Strict(), Field(gt=0, le=MAX_SECONDS, allow_inf_nan=False)]
 
 
@@ -114,6 +119,9 @@ class AgentSpec(_Spec):
     """A built-in domain name or ``package.module:attribute``."""
     executor: Name
     """The next agent's name, or ``robot`` for the last agent."""
+    remote: Endpoint | None = None
+    """Where another process serves this agent and everything below it
+    (``python -m htnagent serve``), e.g. ``tcp/127.0.0.1:7447``; None: in this process."""
 
 
 class PlannerSpec(_Spec):
@@ -206,6 +214,11 @@ class Scenario(_Spec):
     """Simulated seconds after which a running action is given up; None: never."""
     goals: Annotated[tuple[GoalSpec, ...], Field(min_length=1, fail_fast=True)]
     events: Annotated[tuple[WorldEvent, ...], Field(fail_fast=True)] = ()
+    namespace: Namespace | None = None
+    """Where in Zenoh's key space the agents of this scenario talk (``a/b``); None: the
+    scenario's name, with everything but letters, digits, ``_ . -`` made ``-``."""
+    peer_wait: PositiveSeconds = 10.0
+    """Wall-clock seconds a run waits at start-up for the processes serving its remote agents."""
 
     _file: str = PrivateAttr(default="")
     _world: WorldMap | None = PrivateAttr(default=None)
@@ -227,6 +240,33 @@ class Scenario(_Spec):
     def settings(self) -> PlannerSettings:
         """The planner settings every agent uses."""
         return PlannerSettings(alternatives=self.planner.alternatives, budget=self.planner.budget)
+
+    @property
+    def key_space(self) -> str:
+        """The namespace the scenario's agents talk in over Zenoh (see :attr:`namespace`)."""
+        if self.namespace is not None:
+            return self.namespace
+        return re.sub(r"[^A-Za-z0-9_.-]+", "-", self.name).strip("-") or "scenario"
+
+    def chain_from(self, first: str | None = None) -> tuple[tuple[AgentSpec, ...], AgentSpec | None]:
+        """The agents one process runs, parent first, and the agent below them served elsewhere.
+
+        From ``first`` (default: the first agent, whose process runs the goals) down to the
+        next agent with a ``remote`` endpoint, which is returned apart (None: the chain
+        ends at the robot, in this process).  ``first``'s own ``remote`` is where it is served.
+        """
+        start = 0 if first is None else self.agent_names.index(self.agent(first).name)
+        local = [self.agents[start]]
+        for spec in self.agents[start + 1 :]:
+            if spec.remote is not None:
+                return tuple(local), spec
+            local.append(spec)
+        return tuple(local), None
+
+    @property
+    def remote(self) -> bool:
+        """Whether some agent of the scenario is served by another process."""
+        return any(a.remote is not None for a in self.agents)
 
     @property
     def agent_names(self) -> tuple[str, ...]:

@@ -1,0 +1,185 @@
+"""The wire form of what a parent and a serving process exchange: JSON, Atoms in their text form.
+
+Every payload is one JSON object ``{"t": T, "type": TYPE, "body": {...}}``: ``t``
+is the sender's simulated time (the receiver's clock keeps in step with it,
+:meth:`htnagent.clock.Clock.call_from_peer`), ``type`` one of
+
+- ``message``: a protocol message (:mod:`htnagent.messages`) — down, an order
+  or a belief update; up, a result — its fields, ``kind`` first;
+- ``progress``: how far an action has got (:class:`~htnagent.progress.Progress`),
+  so that the parent's triggers follow a remote robot;
+- ``event``: a trace event of the serving process, as ``run --json`` prints it;
+- ``status``: where the robot is, the nodes it reached and how far it went;
+- ``world``: a door shut or opened (``arc``, ``close``).
+
+What does not decode is refused with :class:`CodecError`, never half read.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from typing import Any
+
+from pydantic import ValidationError
+
+from htnagent.errors import HtnAgentError, TraceFormatError
+from htnagent.events import TraceEvent, event_from_dict
+from htnagent.messages import (
+    BeliefUpdate,
+    Clear,
+    Execute,
+    Failure,
+    ParentLost,
+    Prepare,
+    Refused,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.progress import Phase, Progress
+from htnagent.terms import Atom, parse
+
+Wire = (
+    Execute
+    | Suspend
+    | Resume
+    | Clear
+    | Prepare
+    | ParentLost
+    | BeliefUpdate
+    | Success
+    | Failure
+    | Suspended
+    | Refused
+)
+"""The protocol messages that cross processes."""
+
+_MESSAGES: dict[str, type[Wire]] = {
+    cls.model_fields["kind"].default: cls
+    for cls in (
+        Execute,
+        Suspend,
+        Resume,
+        Clear,
+        Prepare,
+        ParentLost,
+        BeliefUpdate,
+        Success,
+        Failure,
+        Suspended,
+        Refused,
+    )
+}
+_ATOMS = frozenset({"action"})
+_ATOM_TUPLES = frozenset({"add", "delete"})
+
+
+class CodecError(HtnAgentError, ValueError):
+    """A payload that is not one this module writes."""
+
+
+@dataclass(frozen=True, slots=True)
+class RobotStatus:
+    """Where the robot of the serving process is: the summary's ``robot``, ``visited``, ``distance``."""
+
+    robot: dict[str, str]
+    visited: tuple[str, ...]
+    distance: float
+
+
+@dataclass(frozen=True, slots=True)
+class WorldChange:
+    """A door shut (``close``) or opened: the serving process's robot and agents learn it."""
+
+    arc: str
+    close: bool
+
+
+Item = Wire | Progress | TraceEvent | RobotStatus | WorldChange
+"""Anything a payload carries."""
+
+
+def encode(t: float, item: Item) -> bytes:
+    """The payload of ``item``, sent at simulated time ``t``."""
+    body: dict[str, Any]
+    if isinstance(item, TraceEvent):
+        kind, body = "event", dict(item.as_dict())
+    elif isinstance(item, Progress):
+        kind = "progress"
+        body = {
+            "actor": item.actor,
+            "action": str(item.action),
+            "phase": item.phase.value,
+            "duration": item.duration,
+            "done": item.done,
+        }
+    elif isinstance(item, RobotStatus):
+        kind, body = "status", {"robot": item.robot, "visited": list(item.visited), "distance": item.distance}
+    elif isinstance(item, WorldChange):
+        kind, body = "world", {"arc": item.arc, "close": item.close}
+    else:
+        kind, body = "message", _message_body(item)
+    return json.dumps({"t": t, "type": kind, "body": body}, separators=(",", ":")).encode()
+
+
+def _message_body(message: Wire) -> dict[str, Any]:
+    body: dict[str, Any] = {}
+    for name in type(message).model_fields:
+        value = getattr(message, name)
+        if isinstance(value, Atom):
+            value = str(value)
+        elif isinstance(value, tuple):
+            value = [str(v) for v in value]
+        body[name] = value
+    return body
+
+
+def decode(payload: bytes) -> tuple[float, Item]:
+    """The sender's time and the item of a payload; :class:`CodecError` if it is not one."""
+    try:
+        data = json.loads(payload)
+        t, kind, body = data["t"], data["type"], data["body"]
+        if not isinstance(t, int | float) or isinstance(t, bool) or not isinstance(body, dict):
+            raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
+        return float(t), _item(kind, body)
+    except CodecError:
+        raise
+    except (ValueError, KeyError, TypeError, RecursionError, TraceFormatError, ValidationError) as e:
+        raise CodecError(f"not a payload of htnagent ({type(e).__name__}: {e}): {payload[:80]!r}") from None
+
+
+def _item(kind: object, body: dict[str, Any]) -> Item:
+    if kind == "message":
+        cls = _MESSAGES.get(body.get("kind"))  # type: ignore[arg-type]
+        if cls is None:
+            raise CodecError(f"unknown message kind {body.get('kind')!r}")
+        fields = dict(body)
+        for name in _ATOMS & fields.keys():
+            fields[name] = parse(fields[name])
+        for name in _ATOM_TUPLES & fields.keys():
+            fields[name] = tuple(parse(v) for v in fields[name])
+        return cls.model_validate(fields)
+    if kind == "event":
+        return event_from_dict(body)
+    if kind == "progress":
+        return Progress(
+            actor=str(body["actor"]),
+            action=parse(body["action"]),
+            phase=Phase(body["phase"]),
+            duration=float(body["duration"]),
+            done=float(body["done"]),
+        )
+    if kind == "status":
+        robot = body["robot"]
+        if not isinstance(robot, dict):
+            raise CodecError("status: robot is not an object")
+        return RobotStatus(
+            robot={str(k): str(v) for k, v in robot.items()},
+            visited=tuple(str(v) for v in body["visited"]),
+            distance=float(body["distance"]),
+        )
+    if kind == "world":
+        return WorldChange(arc=str(body["arc"]), close=bool(body["close"]))
+    raise CodecError(f"unknown payload type {kind!r}")

@@ -1,0 +1,188 @@
+"""The parent's side: an executor actor standing in for an agent another process serves.
+
+:class:`RemoteChild` is, to its parent agent, an executor like any other — and,
+like a child agent, one whose orders are whole goals (its ``agent_domain`` is
+the remote agent's).  It forwards the parent's orders (and the world's changes)
+to the serving process and relays what comes back: results to the parent,
+progress to the runtime's listeners (what triggers follow), trace events to the
+runtime's trace, the robot's state for the summary.
+
+A lost peer is a reported failure, never a hang (docs/contracts.md "Agents in
+other processes"): when the serving process's liveliness token goes — its
+process died, or it froze and its lease ran out — every order in flight fails
+with ``peer lost`` and ``peer_lost`` is traced; until the token is back
+(``peer_joined``), new orders fail at once.  Start-up waits
+``scenario.peer_wait`` seconds for the peer, then raises
+:class:`~htnagent.errors.RemoteError`.
+"""
+
+from __future__ import annotations
+
+import functools
+import logging
+from collections.abc import Callable
+
+import anyio
+from anyio.abc import TaskStatus
+
+from htnagent.clock import Clock
+from htnagent.domain import Domain
+from htnagent.errors import RemoteError
+from htnagent.events import PeerJoined, PeerLost, TraceEvent
+from htnagent.executor import ExecutorActor
+from htnagent.messages import (
+    BeliefUpdate,
+    Clear,
+    Execute,
+    Failure,
+    Message,
+    ParentLost,
+    Prepare,
+    Refused,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.progress import Progress
+from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
+from htnagent.remote.link import Keys, Link
+from htnagent.trace import Trace
+
+log = logging.getLogger("htnagent")
+
+PEER_LOST = "peer lost"
+"""The start of the reason of every order that failed because its peer went."""
+
+
+class RemoteChild(ExecutorActor):
+    """Stands in, in the parent's process, for the agent ``name`` served at ``endpoint``."""
+
+    def __init__(
+        self,
+        name: str,
+        clock: Clock,
+        trace: Trace,
+        *,
+        endpoint: str,
+        keys: Keys,
+        domain: Domain | None = None,
+        wait: float = 10.0,
+        where: str = "",
+    ) -> None:
+        """``where``: the scenario file and key naming the endpoint, for the start-up error."""
+        super().__init__(name, clock, trace)
+        self.agent_domain = domain
+        self.endpoint = endpoint
+        self.keys = keys
+        self.wait = wait
+        self.where = where
+        self.status: RobotStatus | None = None
+        """The robot's state as the serving process last told it."""
+        self.up = False
+        """Whether the serving process is there now."""
+        self._in_flight: dict[int, Execute | Resume] = {}
+        self._joined = anyio.Event()
+        self._lost_once = False
+        self._put: Callable[[bytes], None] | None = None
+
+    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
+        async with Link(connect=[self.endpoint]) as link:
+            # Subscribers first, the token last: the peer, once it sees the token, knows
+            # that what it sends will be heard (a put before that would be lost).
+            link.on_sample(self.keys.up, self._arrived)
+            link.on_liveliness(self.keys.host_alive, self._liveliness)
+            self._put = link.publisher(self.keys.down)
+            link.token(self.keys.parent_alive)
+            with anyio.move_on_after(self.wait):
+                await self._joined.wait()
+            if not self.up:
+                place = f"{self.where}: " if self.where else ""
+                raise RemoteError(
+                    f"{place}no process serves agent {self.name} at {self.endpoint} (namespace "
+                    f"{self.keys.namespace}) within {self.wait:g} s; start it first: python -m htnagent "
+                    f"serve SCENARIO --agent {self.name} --listen {self.endpoint}"
+                )
+            task_status.started()
+            while True:
+                self._forward(await self.inbox.receive())
+
+    # -- down ------------------------------------------------------------------------------------
+
+    def _publish(self, item: Item) -> None:
+        if self._put is not None:
+            self._put(encode(self.clock.now(), item))
+
+    def _forward(self, message: Message) -> None:
+        if isinstance(message, Execute | Resume):
+            if not self.up:
+                self._fail(message, "new orders fail until it is back")
+                return
+            self._in_flight[message.seq] = message
+            self.clock.add_outside()  # the answer comes from outside: the run is not over meanwhile
+        elif isinstance(message, Suspend | Clear | Prepare | ParentLost | BeliefUpdate):
+            if not self.up:
+                return  # what it would stop or forget has failed already
+        else:
+            return  # results, goals and timers are not sent down
+        self._publish(message)
+
+    def world_changed(self, arc: str, close: bool) -> None:
+        """A door shut or opened: tell the serving process (its robot and agents)."""
+        if self.up:
+            self._publish(WorldChange(arc=arc, close=close))
+
+    def _fail(self, order: Execute | Resume, why: str) -> None:
+        reason = f"{PEER_LOST}: {self.name} at {self.endpoint} is gone or frozen; {why}"
+        self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+
+    # -- up --------------------------------------------------------------------------------------
+
+    def _arrived(self, payload: bytes) -> None:
+        try:
+            t, item = decode(payload)
+        except CodecError as e:
+            log.warning("%s: dropping a payload from %s: %s", self.name, self.endpoint, e)
+            return
+        # In the sender's order, at the sender's time (the clocks keep in step).
+        self.clock.call_from_peer(t, functools.partial(self._handle, item))
+
+    def _handle(self, item: Item) -> None:
+        if isinstance(item, Success | Failure | Suspended | Refused):
+            order = self._in_flight.get(item.seq)
+            if order is None:
+                return  # an answer to an order that failed when the peer was lost
+            if not isinstance(item, Refused):
+                del self._in_flight[item.seq]
+                self.clock.done_outside()
+            if self.reply_to is not None:
+                self.reply_to.send(item)  # the serving process traced the message
+        elif isinstance(item, Progress):
+            self.progress.report(item)
+        elif isinstance(item, TraceEvent):
+            if not isinstance(item, PeerLost | PeerJoined):  # its side of the link: ours is traced here
+                self.trace.emit(item)
+        elif isinstance(item, RobotStatus):
+            self.status = item
+
+    def _liveliness(self, alive: bool) -> None:
+        if alive and not self.up:
+            self.up = True
+            self._joined.set()
+            self.trace.emit(PeerJoined(agent=self.name, side="serving", endpoint=self.endpoint))
+            if self._lost_once:
+                # It may be the same process, come back from a freeze, still holding what was
+                # ordered before: nobody awaits that any more.
+                self._publish(ParentLost())
+        elif not alive and self.up:
+            self.up = False
+            self._lost_once = True
+            failed = list(self._in_flight.values())
+            self._in_flight.clear()
+            if failed:
+                self.clock.done_outside(len(failed))
+            self.trace.emit(
+                PeerLost(agent=self.name, side="serving", endpoint=self.endpoint, orders=len(failed))
+            )
+            for order in failed:
+                self._fail(order, "the order in flight is lost")

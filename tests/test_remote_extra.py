@@ -1,0 +1,184 @@
+"""Remote agents in scenario files, and the ``zenoh`` extra being optional (no zenoh needed here).
+
+Without the extra, ``serve`` and a scenario naming a ``remote:`` agent give one
+line naming the extra and exit 2 (the import failure is simulated); the scenario
+fields are checked like any other.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import pytest
+
+from htnagent.cli import main
+from htnagent.errors import ScenarioError
+from htnagent.scenario import load_scenario, parse_scenario
+from tests.remote_support import SCENARIOS, remote_scenario
+
+MAP = str(SCENARIOS / "museum_map.yaml")
+
+
+def scenario_data(**navigator: object) -> dict[str, object]:
+    return {
+        "name": "museum, remote navigator",
+        "map": MAP,
+        "robot": {"start": "n40", "speed": 1.0},
+        "agents": [
+            {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
+            {"name": "navigator", "domain": "museum.nodes", "executor": "robot", **navigator},
+        ],
+        "goals": [{"agent": "guide", "task": "goto(n1)"}],
+    }
+
+
+@pytest.fixture
+def no_zenoh(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Importing zenoh fails, as without the extra; htnagent.remote is imported afresh."""
+    monkeypatch.setitem(sys.modules, "zenoh", None)  # None makes importing it fail
+    for name in [m for m in sys.modules if m == "htnagent.remote" or m.startswith("htnagent.remote.")]:
+        monkeypatch.delitem(sys.modules, name)
+
+
+@pytest.mark.usefixtures("no_zenoh")
+@pytest.mark.parametrize("command", ["serve", "run"])
+def test_without_the_extra_serve_and_remote_agents_are_one_line_naming_it(
+    command: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = remote_scenario(tmp_path, 7447)
+    args = ["serve", str(path), "--agent", "navigator"] if command == "serve" else ["run", str(path)]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "htnagent: error: agents in other processes need the zenoh extra: pip install 'htnagent[zenoh]'"
+    ]
+
+
+@pytest.mark.usefixtures("no_zenoh")
+def test_without_the_extra_a_scenario_in_one_process_runs(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["run", str(SCENARIOS / "navigator_only.yaml"), "--json"]) == 0
+
+
+def test_a_remote_agent_is_read_with_its_endpoint_and_the_namespace_defaults_to_the_name() -> None:
+    s = parse_scenario(scenario_data(remote="tcp/127.0.0.1:7447"), "s.yaml")
+    assert s.agent("navigator").remote == "tcp/127.0.0.1:7447"
+    assert s.key_space == "museum-remote-navigator"
+    assert s.remote and s.peer_wait == 10.0
+    local, served = s.chain_from()
+    assert [a.name for a in local] == ["guide"] and served is not None and served.name == "navigator"
+    assert [a.name for a in s.chain_from("navigator")[0]] == ["navigator"]
+
+
+@pytest.mark.parametrize(
+    ("change", "where"),
+    [
+        ({"navigator": {"remote": "udp/127.0.0.1:7447"}}, "agents[1].remote"),
+        ({"navigator": {"remote": "tcp/127.0.0.1"}}, "agents[1].remote"),
+        ({"guide": {"remote": "tcp/127.0.0.1:7447"}}, "agents[0].remote"),
+        ({"goal_to": "navigator"}, "goals[0].agent"),
+        ({"namespace": "a b"}, "namespace"),
+        ({"peer_wait": 0}, "peer_wait"),
+    ],
+)
+def test_remote_settings_are_checked(change: dict[str, object], where: str) -> None:
+    data = scenario_data(remote="tcp/127.0.0.1:7447")
+    agents = data["agents"]
+    assert isinstance(agents, list)
+    for i, name in enumerate(("guide", "navigator")):
+        extra = change.get(name)
+        if isinstance(extra, dict):
+            agents[i] = {**agents[i], **extra}
+    if "goal_to" in change:
+        data["goals"] = [{"agent": "navigator", "task": "goto_node(n1)"}]
+    for key in ("namespace", "peer_wait"):
+        if key in change:
+            data[key] = change[key]
+    with pytest.raises(ScenarioError) as caught:
+        parse_scenario(data, "s.yaml")
+    assert caught.value.where == where
+
+
+def test_serving_the_first_agent_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    pytest.importorskip("zenoh", reason="the zenoh extra is not installed")
+    path = remote_scenario(tmp_path, 7447)
+    assert load_scenario(path).remote
+    assert main(["serve", str(path), "--agent", "guide"]) == 2
+    assert "serve an agent below it" in capsys.readouterr().err
+
+
+def test_a_listen_endpoint_that_is_not_tcp_host_port_is_a_usage_error(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    assert main(["serve", "x.yaml", "--agent", "navigator", "--listen", "tcp/0.0.0.0"]) == 2
+    assert "expected tcp/HOST:PORT" in capsys.readouterr().err
+
+
+# -- the clock's side of it: peers' time, answers awaited from outside -----------------------------
+
+
+def test_a_peers_message_moves_a_paced_clock_on_to_its_time_at_once() -> None:
+    import anyio
+
+    from htnagent.clock import Clock
+
+    async def main() -> tuple[list[float], float]:
+        clock = Clock(speed=1.0)
+        got: list[float] = []
+        handled = [anyio.Event(), anyio.Event()]
+
+        def at(i: int) -> None:
+            got.append(clock.now())
+            handled[i].set()
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            start = anyio.current_time()
+            with anyio.fail_after(5):
+                clock.call_from_peer(100.0, lambda: at(0))
+                await handled[0].wait()
+                clock.call_from_peer(50.0, lambda: at(1))  # behind this clock now: handled at once
+                await handled[1].wait()
+            waited = anyio.current_time() - start
+            tg.cancel_scope.cancel()
+        return got, waited
+
+    got, waited = anyio.run(main)
+    assert got == [100.0, 100.0]
+    assert waited < 1.0  # not 100 s of pacing
+
+
+def test_an_answer_awaited_from_outside_keeps_the_runtime_from_being_idle_for_good() -> None:
+    import anyio
+
+    from htnagent.clock import Clock
+
+    async def main() -> list[str]:
+        clock = Clock(speed=1000.0)
+        seen: list[str] = []
+        fired, idle = anyio.Event(), anyio.Event()
+
+        def on_idle() -> None:
+            seen.append("idle")
+            idle.set()
+
+        def timer() -> None:
+            seen.append("timer")
+            fired.set()
+
+        clock.add_outside()
+        clock.on_idle(on_idle)
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            with anyio.fail_after(5):
+                clock.call_later(1.0, timer)  # time goes on meanwhile
+                await fired.wait()
+                for _ in range(10):  # the time keeper looks again: still not idle for good
+                    await anyio.lowlevel.checkpoint()
+                seen.append("answer")
+                clock.done_outside()
+                await idle.wait()
+            tg.cancel_scope.cancel()
+        return seen
+
+    assert anyio.run(main) == ["timer", "answer", "idle"]
