@@ -458,7 +458,7 @@ class Agent(ExecutorActor):
                 # loop for each level below — then do the plan maintenance that waited for
                 # this moment (§4, Algorithm 3), and get ready for what comes after this
                 # action while it runs.
-                for _ in range(self._levels_below()):
+                for _ in range(self.executor.levels_below()):
                     await anyio.lowlevel.checkpoint()
                 self._flush()
                 if self._prepare_resumption(action):
@@ -589,10 +589,8 @@ class Agent(ExecutorActor):
 
     # -- getting ready for what comes next, while an action runs (§4) -----------------------------
 
-    def _levels_below(self) -> int:
-        """How many executors an order passes on its way to the robot (1: the robot itself)."""
-        below = self.executor
-        return 1 + below._levels_below() if isinstance(below, Agent) else 1
+    def levels_below(self) -> int:
+        return 1 + self.executor.levels_below()
 
     def _will_resume_after(self, action: Atom) -> bool:
         """Whether the running goal ends with this action and a stacked goal resumes then."""

@@ -111,6 +111,11 @@ class ExecutorActor(ABC):
         """The domain of the planning agent behind this executor, if it is one (a child agent,
         here or in another process): an order is then a whole goal (docs/design.md §5)."""
 
+    def levels_below(self) -> int:
+        """How many executors an order passes on its way to the robot, this one included
+        (a child agent adds its own executor's)."""
+        return 1
+
     def connect(self, reply_to: Mailbox[Message]) -> None:
         """Send results to this mailbox (the parent agent's)."""
         self.reply_to = reply_to
