@@ -242,6 +242,11 @@ class Domain:
     """Facts the agent believes from the start, whatever the world."""
     world_facts: Callable[[str], Iterable[Atom]] | None = None
     """For map-based domains: the belief about a world whose robot stands at a node."""
+    task_costs: dict[str, float] | None = None
+    """The least cost of each task name whatever the state (``inf``: the task can never be
+    done).  When set, the planner's estimate of a task list is the sum over its tasks (in
+    place of :attr:`estimates`): admissible, and it sees the whole list.  The HDDL
+    translation sets it (:mod:`htnagent.hddl_domain`)."""
     actions: Actions = field(init=False, repr=False, compare=False)
     """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.actions`)."""
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)

@@ -37,6 +37,8 @@ from htnagent.terms import Atom, Bindings, substitute, unify
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
+_INF = float("inf")
+
 _MIN_EXTRA = 500
 """Expansions the alternatives may always take, however quickly the first plan came."""
 
@@ -50,6 +52,21 @@ class PlanStatus(Enum):
     """The whole search space was explored and holds no plan."""
     BUDGET_EXHAUSTED = "budget_exhausted"
     """The expansion budget ran out before any plan was found."""
+    TIMED_OUT = "timed_out"
+    """The time limit (:attr:`PlannerSettings.time_limit`) ran out before any plan was found."""
+
+
+class Search(Enum):
+    """The order in which the search expands its nodes (docs/design.md §1.2)."""
+
+    ASTAR = "astar"
+    """Cost-optimal A*: the lowest ``g + h`` first (the default; the museum's)."""
+    GBFS = "gbfs"
+    """Greedy best-first: the lowest ``h`` first, ties to the larger ``g``.  Not optimal,
+    usually far quicker when ``h`` is informative (the HDDL domains)."""
+    DFS = "dfs"
+    """Depth-first in method order, SHOP's: the deepest node first, and among the children
+    of one node the first method's (and the first binding's) first."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -66,12 +83,20 @@ class PlannerSettings:
     """Whether plans may roll a suspended action back.  An agent whose executor is a
     child agent that cannot plan ``rollback(A)`` as a task plans without them
     (docs/design.md §5)."""
+    search: Search = Search.ASTAR
+    """The order of expansion; every order gives plans with the same decomposition
+    records, so plan upkeep works alike with each."""
+    time_limit: float | None = None
+    """Seconds the search may take (checked every few hundred expansions); past it the
+    search ends as if its budget had run out."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
             raise SettingsError(f"planner settings: alternatives must be at least 1, not {self.alternatives}")
         if self.budget < 1:
             raise SettingsError(f"planner settings: budget must be at least 1, not {self.budget}")
+        if self.time_limit is not None and not self.time_limit > 0:
+            raise SettingsError(f"planner settings: time_limit must be positive, not {self.time_limit}")
         if self.alternatives_effort < 0:
             raise SettingsError(
                 f"planner settings: alternatives_effort must not be negative, not {self.alternatives_effort}"
@@ -231,6 +256,13 @@ def _search(
     estimates = domain.estimates
     methods = domain.methods
     operators = domain.operators
+    search = settings.search
+    # f = wg * g + h: A* weighs the cost so far, greedy best-first does not; depth-first
+    # ignores both and takes the deepest node (f falls by one a level; docs/design.md §1.2).
+    wg = 1.0 if search is Search.ASTAR else 0.0
+    dfs = search is Search.DFS
+    task_costs = domain.task_costs
+    deadline = started + settings.time_limit if settings.time_limit is not None else None
     # What each task name means to h (heuristic below): its estimate, None for a compound
     # task without one (h is 0), absent for a primitive task (h looks further).
     h_role: dict[str, Estimate | None] = {name: None for name in methods}
@@ -240,6 +272,9 @@ def _search(
     last: tuple[object, object, float] = (None, None, 0.0)  # the last look-up, by identity
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
+        if task_costs is not None:
+            # Each task's least cost whatever the state: their sum never over-estimates.
+            return sum([task_costs.get(t.name, 0.0) for t in tasks])
         # The first compound task's estimate; the children of one node mostly share their
         # state and that task (often the very same objects), so it is worked out once for them.
         nonlocal last
@@ -286,12 +321,15 @@ def _search(
                 cost = op.action_cost(action)
                 dynamic = op.effects_on(state.dynamic, b)
                 h = h_of(root.tasks, dynamic, None)
+                if h == _INF:
+                    continue
                 first: tuple[Atom, float, _Record] = (action, cost, None)
+                f = root.f - 1.0 if dfs else cost * wg + h
                 heappush(
                     heap,
                     _new(
                         _Node,
-                        (cost + h, -cost, next(counter), dynamic, root.tasks, root.records, first, root),
+                        (f, -cost, next(counter), dynamic, root.tasks, root.records, first, root),
                     ),
                 )
 
@@ -307,12 +345,17 @@ def _search(
     made: dict[int, tuple[object, object]] = {}
     expansions = 0
     limit = settings.budget
+    timed_out = False
     while heap and len(found) < k:
+        if deadline is not None and not expansions & 255 and time.perf_counter() > deadline:
+            limit = expansions  # out of time: end as when the budget runs out
+            timed_out = True
         if expansions >= limit:
             if found and limit < settings.budget:
                 break  # the alternatives' share of the search is spent
             found.sort(key=lambda p: p.cost)
-            status = PlanStatus.SOLVED if found else PlanStatus.BUDGET_EXHAUSTED
+            out_of = PlanStatus.TIMED_OUT if timed_out else PlanStatus.BUDGET_EXHAUSTED
+            status = PlanStatus.SOLVED if found else out_of
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
         node = heappop(heap)
         node_tasks = node.tasks
@@ -364,10 +407,13 @@ def _search(
                     continue
                 child_g = g + c
                 h = h_of(rest_t, dyn, None)
+                if h == _INF:
+                    continue
                 step = (action, c, record)
+                f = node.f - 1.0 if dfs else child_g * wg + h
                 heappush(
                     heap,
-                    _new(_Node, (child_g + h, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
+                    _new(_Node, (f, -child_g, next(counter), dyn, rest_t, rest_r, step, node)),
                 )
             continue
         st = State(static, dynamic, dyn_preds)
@@ -383,10 +429,13 @@ def _search(
                 rec = _new(_Pending, (task, method_name, record))
                 child_tasks = subtasks + rest_t
                 h = h_of(child_tasks, dynamic, st)
+                if h == _INF:
+                    continue
                 child_records = (rec,) * len(subtasks) + rest_r
+                f = node.f - 1.0 if dfs else g * wg + h
                 heappush(
                     heap,
-                    _new(_Node, (g + h, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+                    _new(_Node, (f, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
                 )
     # Tidying (rollback(A), A -> resume(A)) can make a later plan cheaper.
     found.sort(key=lambda p: p.cost)

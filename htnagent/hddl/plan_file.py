@@ -22,11 +22,14 @@ parentheses, ``0 (move a b)``.  Names are case-insensitive as in HDDL
 an ID that is not a whole number or is given twice, no ``==>`` or no ``root``
 -- as one :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
 Whether the plan is a *valid* one is :mod:`htnagent.hddl.check`'s business.
+:func:`format_plan` writes a plan in the format, with the names spelled as the
+HDDL files spell them (:func:`spellings`).
 """
 
 from __future__ import annotations
 
 import re
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -34,7 +37,7 @@ from htnagent.errors import HddlError, shown
 from htnagent.hddl.reader import read_file
 from htnagent.terms import Atom
 
-__all__ = ["Decomposition", "IpcPlan", "Step", "parse_plan", "read_plan"]
+__all__ = ["Decomposition", "IpcPlan", "Step", "format_plan", "parse_plan", "read_plan"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -142,3 +145,38 @@ def _number(file: str, line: int, word: str, at: int) -> int:
     if _INT.fullmatch(word) is None:
         raise HddlError(file, f"expected an ID (a whole number), got {shown(word)}", line, at + 1)
     return int(word)
+
+
+def format_plan(plan: IpcPlan, spelling: Mapping[str, str] | None = None) -> str:
+    """The plan in the IPC 2020 plan format (what :func:`parse_plan` reads), ending in a newline.
+
+    ``spelling`` gives each (lower-case) name as the HDDL files write it (see
+    :func:`spellings`): HDDL is case-insensitive, the IPC verifier is not.
+    """
+    spell = spelling or {}
+
+    def words(*names: object) -> str:
+        return " ".join(spell.get(str(n), str(n)) for n in names)
+
+    lines = ["==>"]
+    lines += [f"{s.id} {words(s.action.name, *s.action.args)}" for s in plan.steps]
+    lines.append(" ".join(("root", *map(str, plan.root))))
+    for d in plan.decompositions:
+        tail = " ".join(map(str, d.subtasks))
+        lines.append(f"{d.id} {words(d.task.name, *d.task.args)} -> {words(d.method)}{' ' if tail else ''}{tail}")
+    lines.append("<==")
+    return "\n".join(lines) + "\n"
+
+
+_WORD = re.compile(r";[^\n]*|[A-Za-z][A-Za-z0-9_\-]*")
+
+
+def spellings(*texts: str) -> dict[str, str]:
+    """Each name of the HDDL texts, lower case, to its spelling where it first appears."""
+    out: dict[str, str] = {}
+    for text in texts:
+        for found in _WORD.finditer(text):
+            word = found.group()
+            if word[0] != ";":
+                out.setdefault(word.lower(), word)
+    return out

@@ -1,0 +1,523 @@
+"""An HDDL domain and problem as an htnagent :class:`~htnagent.domain.Domain` to plan with.
+
+The HDDL model (:mod:`htnagent.hddl`) keeps what the files say; this module makes
+of it what the planner (:mod:`htnagent.planner`) reads (docs/design.md §7):
+
+- **Types** become static facts, one predicate per type (``__type_truck(t1)``),
+  true of every object of that type or a subtype.  A parameter's type is a literal
+  of its method or action: a check when something else binds the variable, an
+  enumeration of the type's objects when nothing else does.
+- **Equality** is the static predicate ``__eq``, true of every object with itself.
+- **Quantifiers and disjunction**: ``forall`` (and ``exists`` under a negation)
+  are expanded over the problem's objects; ``exists`` elsewhere becomes fresh
+  variables with their type; ``or`` and ``imply`` are multiplied out, a method or
+  operator per disjunct (same name).  Conditional effects (``when``) give an
+  operator per truth value of their conditions.
+- **The problem**: the initial task network is the one method ``__root`` of the
+  task ``__top()``; a ``:goal`` is the compound task ``__goal()`` after it, whose
+  methods (one per disjunct) do nothing and hold only where the goal does.
+- **Methods with no subtasks** do the zero-cost action ``__done()``, so that their
+  decomposition appears in the plan's records (the IPC plan format lists it).
+- **The estimate**: :attr:`Domain.task_costs` holds the least number of actions each
+  task takes whatever the state (over the method tree), which the planner sums over
+  the task list.
+
+:func:`ipc_plan` turns a plan back into the IPC plan format's model
+(:class:`~htnagent.hddl.plan_file.IpcPlan`), without the additions above.
+"""
+
+from __future__ import annotations
+
+import itertools
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from dataclasses import dataclass
+
+from htnagent.domain import Domain as PlanningDomain
+from htnagent.hddl import model as m
+from htnagent.hddl.plan_file import Decomposition as IpcDecomposition
+from htnagent.hddl.plan_file import IpcPlan
+from htnagent.hddl.plan_file import Step as IpcStep
+from htnagent.plan import Decomposition, Plan
+from htnagent.preconditions import Literal
+from htnagent.state import State
+from htnagent.terms import Atom, Bindings, substitute
+
+TOP = "__top"
+"""The task whose one method is the problem's initial task network."""
+ROOT_METHOD = "__root"
+"""The method of :data:`TOP`."""
+GOAL = "__goal"
+"""The task checking the problem's ``:goal`` after the initial task network."""
+DONE = "__done"
+"""The zero-cost action a method with no subtasks does (so its decomposition is recorded)."""
+EQ = "__eq"
+"""The static predicate of equality."""
+TYPE = "__type_"
+"""The prefix of the type predicates."""
+
+MARKERS = frozenset({DONE})
+"""Actions the translation adds: not HDDL actions, left out of an IPC plan."""
+
+MAX_DISJUNCTS = 256
+"""The most methods or operators one HDDL method or action may become (``or``, ``when``)."""
+
+_Conjunct = tuple[Literal, ...]
+_FALSE: list[_Conjunct] = []
+_TRUE: list[_Conjunct] = [()]
+
+
+@dataclass(frozen=True, slots=True)
+class HddlPlanning:
+    """A problem ready for the planner: the domain, the start state and the task list."""
+
+    domain: PlanningDomain
+    state: State
+    tasks: tuple[Atom, ...]
+    hddl: m.Domain
+    problem: m.Problem
+
+    @property
+    def ground_objects(self) -> int:
+        """How many objects and constants the problem has."""
+        return len({o.name for o in (*self.hddl.constants, *self.problem.objects)})
+
+
+def translate(domain: m.Domain, problem: m.Problem) -> HddlPlanning:
+    """The planning domain, start state and tasks of an HDDL domain and problem.
+
+    Raises :class:`~htnagent.errors.HddlError` (with the file and place) for what the
+    translation cannot take: a formula that multiplies out past :data:`MAX_DISJUNCTS`.
+    """
+    return _Translator(domain, problem).run()
+
+
+def is_marker(action: Atom) -> bool:
+    """Whether the action is one the translation added (never an HDDL action)."""
+    return action.name in MARKERS
+
+
+def actions_of(plan: Plan) -> list[Atom]:
+    """The plan's HDDL actions, in order (the translation's markers left out)."""
+    return [s.action for s in plan.steps if s.action.name not in MARKERS]
+
+
+def ipc_plan(plan: Plan) -> IpcPlan:
+    """The plan in the IPC format's terms: its actions, the initial task network's tasks
+    (``root``) and each decomposed task with its method and subtasks, in order.
+
+    The plan's steps carry their decomposition records (docs/design.md §1): the tree is
+    read off them.  A record's subtasks are, in order, the steps and records whose parent
+    it is, as they first appear along the plan (HDDL's methods are totally ordered).
+    """
+    ids: dict[int, int] = {}  # id(record) -> plan id
+    records: list[Decomposition] = []
+    children: dict[int, list[int]] = {}
+    steps: list[IpcStep] = []
+    top: Decomposition | None = None
+    next_id = itertools.count()
+    for s in plan.steps:
+        if s.action.name not in MARKERS:
+            steps.append(IpcStep(next(next_id), s.action))
+    # Records get ids after the actions; walk each step's chain of records up to the top.
+    n = 0
+    for s in plan.steps:
+        own: int | None = None
+        if s.action.name not in MARKERS:
+            own = steps[n].id
+            n += 1
+        record = s.record
+        child = own
+        while record is not None:
+            if record.task.name == TOP:
+                top = record
+            known = id(record) in ids
+            if not known:
+                ids[id(record)] = next(next_id)
+                records.append(record)
+                children[id(record)] = []
+            if child is not None and child not in children[id(record)]:
+                children[id(record)].append(child)
+            if known:
+                break
+            child = ids[id(record)]
+            record = record.parent
+    root: tuple[int, ...] = tuple(children[id(top)]) if top is not None else ()
+    decompositions = tuple(
+        IpcDecomposition(ids[id(r)], r.task, r.method, tuple(children[id(r)]))
+        for r in records
+        if r.task.name not in (TOP, GOAL)
+    )
+    return IpcPlan("<plan>", tuple(steps), root, decompositions)
+
+
+class _Translator:
+    def __init__(self, domain: m.Domain, problem: m.Problem) -> None:
+        self.hddl = domain
+        self.problem = problem
+        self.out = PlanningDomain(domain.name)
+        self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
+        for o in (*domain.constants, *problem.objects):
+            kinds: set[str] = set(self.objects.get(o.name, ()))
+            for t in o.types:
+                kinds |= domain.supertypes(t)
+            self.objects[o.name] = frozenset(kinds)
+        self.type_predicates: dict[tuple[str, ...], str] = {}
+        self.fresh = itertools.count()
+
+    # -- the whole ---------------------------------------------------------------------------
+
+    def run(self) -> HddlPlanning:
+        for action in self.hddl.actions.values():
+            self.action(action)
+        self.out.operator(f"{DONE}", cost=0.0)
+        for method in self.hddl.methods.values():
+            self.method(method)
+        p = self.problem
+        root = m.Method(
+            ROOT_METHOD, p.htn_params, Atom(TOP), m.TRUE, p.htn, p.htn_constraints, at=p.domain_at
+        )
+        self.method(root, source=p.source)
+        tasks = [Atom(TOP)]
+        if p.goal != m.TRUE:
+            conjuncts = self.dnf(p.goal, {}, True, p.source, p.domain_at)
+            for i, conjunct in enumerate(conjuncts):
+                pre = self.order(conjunct, (), set())
+                self.out.method(f"{GOAL}()", f"goal{i}", when=[str(lit) for lit in pre], do=[f"{DONE}()"])
+            if not conjuncts:
+                self.out.method(f"{GOAL}()", "goal", when=[f"{EQ}(a,b)"], do=[])  # false
+            tasks.append(Atom(GOAL))
+        facts: list[Atom] = list(p.init)
+        for name, kinds in self.objects.items():
+            facts.append(Atom(EQ, (name, name)))
+            for types, predicate in self.type_predicates.items():
+                if kinds & set(types):
+                    facts.append(Atom(predicate, (name,)))
+        self.out.facts = tuple(facts)
+        self.out.task_costs = _least_costs(self.out)
+        state = State.from_facts(self.out.facts, self.out)
+        return HddlPlanning(self.out, state, tuple(tasks), self.hddl, p)
+
+    # -- actions and methods -----------------------------------------------------------------
+
+    def action(self, a: m.Action) -> None:
+        src = self.hddl.source
+        head = Atom(a.name, tuple(p.name for p in a.params))
+        typing = tuple(self.type_literal(p.name, p.types) for p in a.params)
+        pre = self.dnf(a.precondition, {}, True, src, a.at)
+        effects = list(self.effects(a.effect, {}, ()))
+        conditions = list(dict.fromkeys(c for c, _, _ in effects if c))
+        if len(conditions) > 8:
+            raise src.error(a.at, f"action {a.name}: more than 8 conditional effects, which htnagent does not take")
+        for truth in itertools.product((True, False), repeat=len(conditions)):
+            holds = dict(zip(conditions, truth, strict=True))
+            variant = pre
+            for cs, value in holds.items():
+                variant = self.product(variant, self.dnf(m.And(cs), {}, value, src, a.at), src, a.at)
+            add = [str(atom) for c, atom, positive in effects if positive and (not c or holds[c])]
+            delete = [str(atom) for c, atom, positive in effects if not positive and (not c or holds[c])]
+            for conjunct in variant:
+                lits = [*(t for t in typing if t is not None), *conjunct]
+                ordered = self.order(tuple(lits), a.params, set(head.variables()))
+                self.out.operator(str(head), pre=[str(x) for x in ordered], add=add, delete=delete, cost=1.0)
+
+    def method(self, method: m.Method, source: m.Source | None = None) -> None:
+        src = source or self.hddl.source
+        head = method.task
+        formula = m.And((method.precondition, method.constraints))
+        calls = [s.call for s in method.subtasks] or [Atom(DONE)]
+        declared = self.hddl.tasks.get(head.name)
+        typing: list[Literal] = []
+        for p in method.params:
+            if not any(p.name in c.variables() for c in (*calls, head)) and not _mentions(formula, p.name):
+                continue  # a parameter used nowhere (any object of its type would do)
+            if declared is not None and self.implied(p.types, p.name, head, declared.params):
+                continue
+            lit = self.type_literal(p.name, p.types)
+            if lit is not None:
+                typing.append(lit)
+        # The task's own parameter types hold of its arguments too (where the method's
+        # parameter type does not already say so).
+        kinds = {p.name: p.types for p in method.params}
+        for arg, d in zip(head.args, declared.params if declared is not None else (), strict=False):
+            if isinstance(arg, str) and arg.startswith("?"):
+                own = kinds.get(arg, (m.OBJECT,))
+                if all(set(d.types) & self.hddl.supertypes(t) for t in own):
+                    continue
+                lit = self.type_literal(arg, d.types)
+                if lit is not None and lit not in typing:
+                    typing.append(lit)
+        for conjunct in self.dnf(formula, {}, True, src, method.at):
+            ordered = self.order((*conjunct, *typing), method.params, set(head.variables()))
+            self.out.method(str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls])
+
+    def implied(self, types: tuple[str, ...], var: str, head: Atom, declared: Sequence[m.Typed]) -> bool:
+        """Whether the task's own parameter type already makes ``var`` of one of ``types``."""
+        wanted = set(types)
+        for arg, d in zip(head.args, declared, strict=False):
+            if arg == var and all(wanted & self.hddl.supertypes(t) for t in d.types):
+                return True
+        return False
+
+    def type_literal(self, term: str, types: tuple[str, ...], positive: bool = True) -> Literal | None:
+        """The literal "``term`` is of one of ``types``"; None when every object is."""
+        if m.OBJECT in types:
+            return None
+        key = tuple(sorted(set(types)))
+        name = self.type_predicates.get(key)
+        if name is None:
+            name = self.type_predicates[key] = TYPE + "_or_".join(key)
+        return Literal(Atom(name, (term,)), positive)
+
+    def of_type(self, types: tuple[str, ...]) -> list[str]:
+        wanted = set(types)
+        return [o for o, kinds in self.objects.items() if kinds & wanted]
+
+    # -- formulas ----------------------------------------------------------------------------
+
+    def dnf(self, f: m.Formula, b: Mapping[str, str], positive: bool, src: m.Source, at: int) -> list[_Conjunct]:
+        """``f`` (or its negation) as a disjunction of conjunctions of literals."""
+        match f:
+            case m.Pred(atom=a):
+                return [(Literal(_sub(a, b), positive),)]
+            case m.Equals(left=left, right=right):
+                x, y = b.get(left, left), b.get(right, right)
+                if x == y:
+                    return _TRUE if positive else _FALSE
+                if not x.startswith("?") and not y.startswith("?"):
+                    return _FALSE if positive else _TRUE
+                return [(Literal(Atom(EQ, (x, y)), positive),)]
+            case m.SortOf(var=v, types=types):
+                t = b.get(v, v)
+                if not t.startswith("?"):
+                    fits = bool(self.objects.get(t, frozenset()) & set(types)) or m.OBJECT in types
+                    return _TRUE if fits == positive else _FALSE
+                lit = self.type_literal(t, types, positive)
+                return (_TRUE if positive else _FALSE) if lit is None else [(lit,)]
+            case m.Not(arg=inner):
+                return self.dnf(inner, b, not positive, src, at)
+            case m.And(args=args):
+                parts = [self.dnf(x, b, positive, src, at) for x in args]
+                return self.all_of(parts, src, at) if positive else self.any_of(parts, src, at)
+            case m.Or(args=args):
+                parts = [self.dnf(x, b, positive, src, at) for x in args]
+                return self.any_of(parts, src, at) if positive else self.all_of(parts, src, at)
+            case m.Imply(cond=cond, then=then):
+                parts = [self.dnf(cond, b, not positive, src, at), self.dnf(then, b, positive, src, at)]
+                return self.any_of(parts, src, at) if positive else self.all_of(parts, src, at)
+            case m.Forall(params=params, body=body):
+                parts = [self.dnf(body, {**b, **g}, positive, src, at) for g in self.groundings(params)]
+                return self.all_of(parts, src, at) if positive else self.any_of(parts, src, at)
+            case m.Exists(params=params, body=body):
+                if not positive:
+                    parts = [self.dnf(body, {**b, **g}, False, src, at) for g in self.groundings(params)]
+                    return self.all_of(parts, src, at)
+                # Some objects: fresh variables of their types, bound when matched.
+                fresh = {p.name: f"?__{next(self.fresh)}_{p.name.lstrip('?')}" for p in params}
+                typing = tuple(
+                    lit for p in params if (lit := self.type_literal(fresh[p.name], p.types)) is not None
+                )
+                return [(*c, *typing) for c in self.dnf(body, {**b, **fresh}, True, src, at)]
+        raise AssertionError(f"not a formula: {f!r}")  # pragma: no cover
+
+    def groundings(self, params: Sequence[m.Typed]) -> Iterator[dict[str, str]]:
+        domains = [self.of_type(p.types) for p in params]
+        for values in itertools.product(*domains):
+            yield {p.name: v for p, v in zip(params, values, strict=True)}
+
+    def all_of(self, parts: Iterable[list[_Conjunct]], src: m.Source, at: int) -> list[_Conjunct]:
+        out = _TRUE
+        for part in parts:
+            out = self.product(out, part, src, at)
+            if not out:
+                return _FALSE
+        return out
+
+    def product(self, xs: list[_Conjunct], ys: list[_Conjunct], src: m.Source, at: int) -> list[_Conjunct]:
+        if len(xs) * len(ys) > MAX_DISJUNCTS:
+            raise src.error(at, f"this formula multiplies out to over {MAX_DISJUNCTS} alternatives")
+        out = []
+        for x in xs:
+            for y in ys:
+                merged = _merge(x, y)
+                if merged is not None:
+                    out.append(merged)
+        return out
+
+    def any_of(self, parts: Iterable[list[_Conjunct]], src: m.Source, at: int) -> list[_Conjunct]:
+        out: list[_Conjunct] = []
+        for part in parts:
+            for c in part:
+                if c not in out:
+                    out.append(c)
+        if len(out) > MAX_DISJUNCTS:
+            raise src.error(at, f"this formula multiplies out to over {MAX_DISJUNCTS} alternatives")
+        return out
+
+    def order(self, conjunct: _Conjunct, params: Sequence[m.Typed], bound: set[str]) -> tuple[Literal, ...]:
+        """The literals in the order SHOP should match them: those that bind by facts first
+        (in the file's order), equalities once one side is bound, then types, enumerating
+        the objects of variables still free, then the negative literals (which bind nothing)."""
+        bound = set(bound)
+        positive = [x for x in conjunct if x.positive]
+        negative = [x for x in conjunct if not x.positive]
+        facts = [x for x in positive if x.atom.name != EQ and not x.atom.name.startswith(TYPE)]
+        equal = [x for x in positive if x.atom.name == EQ]
+        typing = [x for x in positive if x.atom.name.startswith(TYPE)]
+        out: list[Literal] = []
+        for x in facts:
+            out.append(x)
+            bound |= x.variables
+        # Equalities bind one side from the other; types check or enumerate what is left.
+        while equal:
+            ready = [x for x in equal if x.variables & bound]
+            if not ready:
+                # Nothing binds either side yet: enumerate one side by its type (or any object).
+                x = equal[0]
+                first = next(iter(sorted(x.variables)))
+                kind = next((t for t in typing if t.atom.args[0] == first), None)
+                if kind is not None:
+                    typing.remove(kind)
+                    out.append(kind)
+                else:
+                    out.append(Literal(Atom(EQ, (first, first))))
+                bound.add(first)
+                continue
+            for x in ready:
+                equal.remove(x)
+                out.append(x)
+                bound |= x.variables
+        free = [x for x in typing if not x.variables <= bound]
+        checks = [x for x in typing if x.variables <= bound]
+        for x in free:
+            out.append(x)
+            bound |= x.variables
+        out.extend(checks)
+        # A variable still free (only in negative literals or subtasks, with type object):
+        # any object will do.
+        for p in params:
+            if p.name not in bound and any(p.name in x.variables for x in negative):
+                out.append(Literal(Atom(EQ, (p.name, p.name))))
+                bound.add(p.name)
+        out.extend(negative)
+        return tuple(out)
+
+    # -- effects -----------------------------------------------------------------------------
+
+    def effects(
+        self, e: m.Effect, b: Mapping[str, str], conditions: tuple[m.Formula, ...]
+    ) -> Iterator[tuple[tuple[m.Formula, ...], Atom, bool]]:
+        """Each effect literal with the conditions it is under (``when``), quantifiers expanded."""
+        match e:
+            case m.Literal(atom=a, positive=positive):
+                yield conditions, _sub(a, b), positive
+            case m.AndEffect(args=args):
+                for x in args:
+                    yield from self.effects(x, b, conditions)
+            case m.ForallEffect(params=params, body=body):
+                for g in self.groundings(params):
+                    yield from self.effects(body, {**b, **g}, conditions)
+            case m.When(cond=cond, body=body):
+                yield from self.effects(body, b, (*conditions, _bound_formula(cond, b)))
+
+
+def _sub(a: Atom, b: Mapping[str, str]) -> Atom:
+    if not b:
+        return a
+    bindings: Bindings = dict(b)
+    return substitute(a, bindings)
+
+
+def _bound_formula(f: m.Formula, b: Mapping[str, str]) -> m.Formula:
+    """``f`` with the quantified variables of ``b`` replaced (for a condition kept for later)."""
+    if not b:
+        return f
+    match f:
+        case m.Pred(atom=a):
+            return m.Pred(_sub(a, b))
+        case m.Equals(left=x, right=y):
+            return m.Equals(b.get(x, x), b.get(y, y))
+        case m.SortOf(var=v, types=t):
+            return m.SortOf(b.get(v, v), t)
+        case m.Not(arg=x):
+            return m.Not(_bound_formula(x, b))
+        case m.And(args=xs):
+            return m.And(tuple(_bound_formula(x, b) for x in xs))
+        case m.Or(args=xs):
+            return m.Or(tuple(_bound_formula(x, b) for x in xs))
+        case m.Imply(cond=c, then=t):
+            return m.Imply(_bound_formula(c, b), _bound_formula(t, b))
+        case m.Forall(params=ps, body=x):
+            inner = {k: v for k, v in b.items() if k not in {p.name for p in ps}}
+            return m.Forall(ps, _bound_formula(x, inner))
+        case m.Exists(params=ps, body=x):
+            inner = {k: v for k, v in b.items() if k not in {p.name for p in ps}}
+            return m.Exists(ps, _bound_formula(x, inner))
+    raise AssertionError(f"not a formula: {f!r}")  # pragma: no cover
+
+
+def _mentions(f: m.Formula, var: str) -> bool:
+    match f:
+        case m.Pred(atom=a):
+            return var in a.variables()
+        case m.Equals(left=x, right=y):
+            return var in (x, y)
+        case m.SortOf(var=v):
+            return v == var
+        case m.Not(arg=x):
+            return _mentions(x, var)
+        case m.And(args=xs) | m.Or(args=xs):
+            return any(_mentions(x, var) for x in xs)
+        case m.Imply(cond=c, then=t):
+            return _mentions(c, var) or _mentions(t, var)
+        case m.Forall(params=ps, body=x) | m.Exists(params=ps, body=x):
+            return var not in {p.name for p in ps} and _mentions(x, var)
+    return False
+
+
+def _merge(x: _Conjunct, y: _Conjunct) -> _Conjunct | None:
+    """The conjunction of two conjunctions; None when one literal contradicts another."""
+    out = list(x)
+    seen = {(lit.atom, lit.positive) for lit in x}
+    for lit in y:
+        if (lit.atom, not lit.positive) in seen and not lit.variables:
+            return None
+        if (lit.atom, lit.positive) not in seen:
+            seen.add((lit.atom, lit.positive))
+            out.append(lit)
+    return tuple(out)
+
+
+def _least_costs(domain: PlanningDomain) -> dict[str, float]:
+    """The least cost of each task name over the method tree, whatever the state: a
+    primitive task costs its operator's least cost, a compound one its cheapest method's
+    subtasks' sum (a fixed point; ``inf`` for a task no method ever finishes)."""
+    inf = float("inf")
+    costs: dict[str, float] = {}
+    for name, ops in domain.operators.items():
+        costs[name] = min(float(op.cost) if isinstance(op.cost, int | float) else 0.0 for op in ops)
+    for name in domain.methods:
+        costs[name] = inf
+    changed = True
+    while changed:
+        changed = False
+        for name, methods in domain.methods.items():
+            best = min(
+                (sum(costs.get(t.name, inf) for t in method.subtasks) for method in methods), default=inf
+            )
+            if best < costs[name]:
+                costs[name] = best
+                changed = True
+    return costs
+
+
+__all__ = [
+    "DONE",
+    "GOAL",
+    "MARKERS",
+    "TOP",
+    "HddlPlanning",
+    "actions_of",
+    "ipc_plan",
+    "is_marker",
+    "translate",
+]
