@@ -35,7 +35,7 @@ import itertools
 import time
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import Enum
 
 import anyio
@@ -186,12 +186,7 @@ class Agent(ExecutorActor):
         if child is not None and ROLLBACK not in child.methods:
             # §5: a rollback(A) of an action a child agent carries out is offered only as a
             # task the child can plan.
-            self.settings = PlannerSettings(
-                alternatives=config.settings.alternatives,
-                budget=config.settings.budget,
-                alternatives_effort=config.settings.alternatives_effort,
-                rollbacks=False,
-            )
+            self.settings = replace(config.settings, rollbacks=False)
         self.stats = PlanningStats()
         self.waiting: deque[GoalEntry] = deque()
         self.emergencies: list[GoalEntry] = []

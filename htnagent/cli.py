@@ -18,6 +18,7 @@ written) is only noted.  Either way the exit code is 130 and stderr says
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import functools
 import json
 import os
@@ -36,17 +37,18 @@ from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
-from htnagent.hddl.plan_file import read_plan
+from htnagent.hddl.plan_file import format_plan, read_plan, spellings
 from htnagent.hddl.reader import read_domain, read_problem
+from htnagent.hddl_domain import actions_of, ipc_plan, solve
 from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
-from htnagent.planner import PlanStatus, plan
+from htnagent.planner import PlanStatus, Search, plan
 from htnagent.plot import check_plot_target, draw_run
 from htnagent.report import write_report
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import parse
+from htnagent.terms import Atom, parse
 from htnagent.timeline import draw_timeline
 from htnagent.trace import Observer
 from htnagent.trace_file import read_trace
@@ -84,6 +86,17 @@ def _speed(text: str) -> float:
     return value
 
 
+def _seconds(text: str) -> float:
+    """``--timeout``: a positive, finite number of seconds."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
+    if not 0 < value < 1e9:  # also refuses nan and inf
+        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
+    return value
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``htnagent`` command."""
     parser = _Parser(
@@ -109,11 +122,32 @@ def build_parser() -> argparse.ArgumentParser:
         "--timeline", metavar="FILE", help="draw goals, suspensions and the stack depth over time into FILE"
     )
 
-    pl = sub.add_parser("plan", help="print the plan an agent would make, without executing it")
-    pl.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
-    pl.add_argument("--agent", required=True, metavar="NAME", help="the agent that plans")
-    pl.add_argument("--task", required=True, metavar="TASK", help='the task, e.g. "goto(n1)"')
+    pl = sub.add_parser(
+        "plan",
+        help="print the plan an agent would make (or solve an HDDL problem), without executing it",
+        usage=(
+            f"{PROG} plan SCENARIO --agent NAME --task TASK [--json] [--search NAME] | "
+            f"{PROG} plan --hddl DOMAIN PROBLEM [--format text|json|ipc] [--timeout S] [--search NAME]"
+        ),
+    )
+    pl.add_argument("files", nargs="+", metavar="FILE", help="SCENARIO, or with --hddl DOMAIN PROBLEM")
+    pl.add_argument("--hddl", action="store_true", help="solve an HDDL domain and problem")
+    pl.add_argument("--agent", metavar="NAME", help="the agent that plans (a scenario)")
+    pl.add_argument("--task", metavar="TASK", help='the task, e.g. "goto(n1)" (a scenario)')
     pl.add_argument("--json", action="store_true", help='one JSON line: {"plan", "cost", "alternatives"}')
+    pl.add_argument(
+        "--format",
+        choices=("text", "json", "ipc"),
+        default=None,
+        help="with --hddl: the actions (text), one JSON line, or the IPC plan format (default text)",
+    )
+    pl.add_argument("--timeout", type=_seconds, metavar="S", help="give up after S seconds (exit 1, timeout)")
+    pl.add_argument(
+        "--search",
+        choices=[s.value for s in Search],
+        help="the search order: astar (cost-optimal; a scenario's default), gbfs (greedy; "
+        "--hddl's default) or dfs (depth-first in method order)",
+    )
 
     check = sub.add_parser(
         "check",
@@ -252,7 +286,25 @@ def _verify(args: argparse.Namespace) -> int:
 
 
 def _plan(args: argparse.Namespace) -> int:
-    scenario = load_scenario(args.scenario)
+    files: list[str] = args.files
+    if args.hddl:
+        if len(files) != 2:
+            given = f"{len(files)} file{'s' * (len(files) != 1)}"
+            return _fail(f"plan --hddl takes DOMAIN PROBLEM, not {given} (see {PROG} plan --help)")
+        if args.agent is not None or args.task is not None:
+            return _fail(
+                "plan --hddl takes no --agent or --task: the problem gives the tasks"
+            )
+        return _plan_hddl(args, files[0], files[1])
+    if len(files) != 1:
+        return _fail(f"plan takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} plan --help)")
+    for option in ("format", "timeout"):
+        if getattr(args, option) is not None:
+            return _fail(f"--{option} is for plan --hddl (see {PROG} plan --help)")
+    for option in ("agent", "task"):
+        if getattr(args, option) is None:
+            return _fail(f"plan SCENARIO needs --{option} (see {PROG} plan --help)")
+    scenario = load_scenario(files[0])
     file = scenario.file
     if args.agent not in scenario.agent_names:
         raise ScenarioError(
@@ -266,8 +318,11 @@ def _plan(args: argparse.Namespace) -> int:
         raise ScenarioError(file, "--task", str(e)) from None
     scenario.check_task(args.agent, task, "--task")
     domain = scenario.domain_for(args.agent)
+    settings = scenario.settings
+    if args.search is not None:
+        settings = dataclasses.replace(settings, search=Search(args.search))
     try:
-        result = plan(domain, scenario.initial_state(args.agent), [task], scenario.settings)
+        result = plan(domain, scenario.initial_state(args.agent), [task], settings)
     except HtnAgentError:
         raise
     except Exception as e:  # a user's domain code failed while planning
@@ -291,6 +346,51 @@ def _plan(args: argparse.Namespace) -> int:
         return EXIT_OK
     _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans)
     return EXIT_OK
+
+
+def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> int:
+    if args.json and args.format not in (None, "json"):
+        return _fail(f"--json and --format {args.format} disagree (see {PROG} plan --help)")
+    form = "json" if args.json else args.format or "text"
+    search = Search(args.search) if args.search is not None else Search.GBFS
+    domain, problem = _read_hddl(domain_file, problem_file)
+    solved = solve(domain, problem, search=search, timeout=args.timeout)
+    result = solved.result
+    best = result.best
+    if best is None:
+        why = {
+            PlanStatus.UNSOLVABLE: "unsolvable (the whole search space holds no plan)",
+            PlanStatus.TIMED_OUT: f"timeout (no plan within {args.timeout:g} s)",
+            PlanStatus.BUDGET_EXHAUSTED: f"budget (no plan within {solved.settings.budget:,} expansions)",
+        }.get(result.status, result.status.value)
+        print(f"{PROG}: no plan: {why}", file=sys.stderr)
+        return EXIT_FAILED
+    spelling = spellings(domain.source.text, problem.source.text)
+    if form == "ipc":
+        sys.stdout.write(format_plan(ipc_plan(best), spelling))
+        return EXIT_OK
+    actions = [_spelled(a, spelling) for a in actions_of(best)]
+    if form == "json":
+        line = {
+            "plan": actions,
+            "cost": best.cost,
+            "alternatives": len(result.plans),
+            "search": search.value,
+            "expansions": result.expansions,
+            "seconds": round(result.seconds, 3),
+        }
+        print(json.dumps(line))
+        return EXIT_OK
+    for action in actions:
+        print(action)
+    return EXIT_OK
+
+
+def _spelled(action: Atom, spelling: dict[str, str]) -> str:
+    """``name(arg,...)``, each name as the HDDL files spell it."""
+    words = [spelling.get(str(a), str(a)) for a in action.args]
+    name = spelling.get(action.name, action.name)
+    return f"{name}({','.join(words)})" if words else name
 
 
 def _report(args: argparse.Namespace) -> int:

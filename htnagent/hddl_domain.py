@@ -38,6 +38,7 @@ from htnagent.hddl.plan_file import Decomposition as IpcDecomposition
 from htnagent.hddl.plan_file import IpcPlan
 from htnagent.hddl.plan_file import Step as IpcStep
 from htnagent.plan import Decomposition, Plan
+from htnagent.planner import PlannerSettings, PlanResult, Search, plan
 from htnagent.preconditions import Literal
 from htnagent.state import State
 from htnagent.terms import Atom, Bindings, substitute
@@ -89,6 +90,34 @@ def translate(domain: m.Domain, problem: m.Problem) -> HddlPlanning:
     translation cannot take: a formula that multiplies out past :data:`MAX_DISJUNCTS`.
     """
     return _Translator(domain, problem).run()
+
+
+HDDL_BUDGET = 20_000_000
+"""The expansions :func:`solve` allows by default: a limit on memory more than on time."""
+
+
+@dataclass(frozen=True, slots=True)
+class Solved:
+    """What :func:`solve` found: the translated problem, the settings used, the result."""
+
+    planning: HddlPlanning
+    settings: PlannerSettings
+    result: PlanResult
+
+
+def solve(
+    domain: m.Domain,
+    problem: m.Problem,
+    *,
+    search: Search = Search.GBFS,
+    timeout: float | None = None,
+    budget: int = HDDL_BUDGET,
+) -> Solved:
+    """Translate the problem and plan it: one plan (K = 1), by ``search``, within
+    ``timeout`` seconds and ``budget`` expansions."""
+    planning = translate(domain, problem)
+    settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=timeout)
+    return Solved(planning, settings, plan(planning.domain, planning.state, planning.tasks, settings))
 
 
 def is_marker(action: Atom) -> bool:
@@ -207,7 +236,9 @@ class _Translator:
         effects = list(self.effects(a.effect, {}, ()))
         conditions = list(dict.fromkeys(c for c, _, _ in effects if c))
         if len(conditions) > 8:
-            raise src.error(a.at, f"action {a.name}: more than 8 conditional effects, which htnagent does not take")
+            raise src.error(
+                a.at, f"action {a.name}: more than 8 conditional effects, which htnagent does not take"
+            )
         for truth in itertools.product((True, False), repeat=len(conditions)):
             holds = dict(zip(conditions, truth, strict=True))
             variant = pre
@@ -248,7 +279,9 @@ class _Translator:
                     typing.append(lit)
         for conjunct in self.dnf(formula, {}, True, src, method.at):
             ordered = self.order((*conjunct, *typing), method.params, set(head.variables()))
-            self.out.method(str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls])
+            self.out.method(
+                str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls]
+            )
 
     def implied(self, types: tuple[str, ...], var: str, head: Atom, declared: Sequence[m.Typed]) -> bool:
         """Whether the task's own parameter type already makes ``var`` of one of ``types``."""
@@ -274,7 +307,9 @@ class _Translator:
 
     # -- formulas ----------------------------------------------------------------------------
 
-    def dnf(self, f: m.Formula, b: Mapping[str, str], positive: bool, src: m.Source, at: int) -> list[_Conjunct]:
+    def dnf(
+        self, f: m.Formula, b: Mapping[str, str], positive: bool, src: m.Source, at: int
+    ) -> list[_Conjunct]:
         """``f`` (or its negation) as a disjunction of conjunctions of literals."""
         match f:
             case m.Pred(atom=a):
@@ -471,7 +506,6 @@ def _mentions(f: m.Formula, var: str) -> bool:
             return _mentions(c, var) or _mentions(t, var)
         case m.Forall(params=ps, body=x) | m.Exists(params=ps, body=x):
             return var not in {p.name for p in ps} and _mentions(x, var)
-    return False
 
 
 def _merge(x: _Conjunct, y: _Conjunct) -> _Conjunct | None:
@@ -516,8 +550,10 @@ __all__ = [
     "MARKERS",
     "TOP",
     "HddlPlanning",
+    "Solved",
     "actions_of",
     "ipc_plan",
     "is_marker",
+    "solve",
     "translate",
 ]

@@ -57,7 +57,7 @@ class PlanStatus(Enum):
 
 
 class Search(Enum):
-    """The order in which the search expands its nodes (docs/design.md §1.2)."""
+    """The order in which the search expands its nodes (docs/design.md §1.1)."""
 
     ASTAR = "astar"
     """Cost-optimal A*: the lowest ``g + h`` first (the default; the museum's)."""
@@ -258,7 +258,7 @@ def _search(
     operators = domain.operators
     search = settings.search
     # f = wg * g + h: A* weighs the cost so far, greedy best-first does not; depth-first
-    # ignores both and takes the deepest node (f falls by one a level; docs/design.md §1.2).
+    # ignores both and takes the deepest node (f falls by one a level; docs/design.md §1.1).
     wg = 1.0 if search is Search.ASTAR else 0.0
     dfs = search is Search.DFS
     task_costs = domain.task_costs

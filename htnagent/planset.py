@@ -40,7 +40,7 @@ from __future__ import annotations
 
 import time
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
@@ -524,12 +524,7 @@ class OnlinePlanSet(PlanSet):
         if k <= 1 or len(self.plans) >= k:
             return
         with self._timed():
-            wanted = PlannerSettings(
-                alternatives=k + (failed is not None),
-                budget=self.settings.budget,
-                alternatives_effort=self.settings.alternatives_effort,
-                rollbacks=self.settings.rollbacks,
-            )
+            wanted = replace(self.settings, alternatives=k + (failed is not None))
             result = plan(self.domain, state, [self.goal], wanted, avoid=self._avoided(state))
             self.stats.from_scratch += 1
             self.stats.expansions += result.expansions

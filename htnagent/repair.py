@@ -16,7 +16,7 @@ searches of one update between all the plan sets of an agent.
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
 from htnagent.domain import Domain
@@ -44,7 +44,7 @@ class SearchMemo:
 
 def one_plan(settings: PlannerSettings) -> PlannerSettings:
     """The settings for one plan (repairs, fresh comparisons, naive mode)."""
-    return PlannerSettings(alternatives=1, budget=settings.budget, rollbacks=settings.rollbacks)
+    return replace(settings, alternatives=1)
 
 
 _REPAIR_LEVELS = 3
@@ -127,9 +127,7 @@ class Repairer:
             tasks: list[TaskEntry] = [(record.task, record.parent)]
             tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
             spent = self._stats.expansions
-            local = PlannerSettings(
-                alternatives=1, budget=self.local_left, rollbacks=self._settings.rollbacks
-            )
+            local = replace(self._settings, alternatives=1, budget=self.local_left)
             result = self.search(states[start], tasks, local)
             self.local_left -= self._stats.expansions - spent
             if result is not None:

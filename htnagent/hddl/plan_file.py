@@ -163,7 +163,9 @@ def format_plan(plan: IpcPlan, spelling: Mapping[str, str] | None = None) -> str
     lines.append(" ".join(("root", *map(str, plan.root))))
     for d in plan.decompositions:
         tail = " ".join(map(str, d.subtasks))
-        lines.append(f"{d.id} {words(d.task.name, *d.task.args)} -> {words(d.method)}{' ' if tail else ''}{tail}")
+        lines.append(
+            f"{d.id} {words(d.task.name, *d.task.args)} -> {words(d.method)}{' ' if tail else ''}{tail}"
+        )
     lines.append("<==")
     return "\n".join(lines) + "\n"
 
