@@ -358,11 +358,12 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
     result = solved.result
     best = result.best
     if best is None:
-        why = {
-            PlanStatus.UNSOLVABLE: "unsolvable (the whole search space holds no plan)",
-            PlanStatus.TIMED_OUT: f"timeout (no plan within {args.timeout:g} s)",
-            PlanStatus.BUDGET_EXHAUSTED: f"budget (no plan within {solved.settings.budget:,} expansions)",
-        }.get(result.status, result.status.value)
+        if result.status is PlanStatus.TIMED_OUT:
+            why = f"timeout (no plan within {args.timeout:g} s)"
+        elif result.status is PlanStatus.BUDGET_EXHAUSTED:
+            why = f"budget (no plan within {solved.settings.budget:,} expansions)"
+        else:
+            why = "unsolvable (the whole search space holds no plan)"
         print(f"{PROG}: no plan: {why}", file=sys.stderr)
         return EXIT_FAILED
     spelling = spellings(domain.source.text, problem.source.text)

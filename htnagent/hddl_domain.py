@@ -161,7 +161,9 @@ def ipc_plan(plan: Plan) -> IpcPlan:
                 top = record
             known = id(record) in ids
             if not known:
-                ids[id(record)] = next(next_id)
+                # The translation's own tasks are not in the plan: they take no ID.
+                hidden = record.task.name in (TOP, GOAL)
+                ids[id(record)] = -1 - len(ids) if hidden else next(next_id)
                 records.append(record)
                 children[id(record)] = []
             if child is not None and child not in children[id(record)]:

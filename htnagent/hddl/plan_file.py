@@ -170,14 +170,14 @@ def format_plan(plan: IpcPlan, spelling: Mapping[str, str] | None = None) -> str
     return "\n".join(lines) + "\n"
 
 
-_WORD = re.compile(r";[^\n]*|[A-Za-z][A-Za-z0-9_\-]*")
+_NAME = re.compile(r";[^\n]*|[A-Za-z][A-Za-z0-9_\-]*")
 
 
 def spellings(*texts: str) -> dict[str, str]:
     """Each name of the HDDL texts, lower case, to its spelling where it first appears."""
     out: dict[str, str] = {}
     for text in texts:
-        for found in _WORD.finditer(text):
+        for found in _NAME.finditer(text):
             word = found.group()
             if word[0] != ";":
                 out.setdefault(word.lower(), word)
