@@ -37,10 +37,12 @@ from htnagent.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction
 from htnagent.errors import DomainError
 from htnagent.preconditions import (
     Decomposer,
+    LazyDecomposer,
     Literal,
     all_satisfiers,
     bound_by,
     compile_method,
+    compile_method_lazy,
     literals,
     satisfiers,
 )
@@ -182,6 +184,9 @@ class Method:
     _compiled: dict[frozenset[str], Decomposer] = field(
         default_factory=dict, init=False, repr=False, compare=False
     )
+    _lazy: dict[frozenset[str], LazyDecomposer] = field(
+        default_factory=dict, init=False, repr=False, compare=False
+    )
 
     def __post_init__(self) -> None:
         known = self.head.variables() | bound_by(self.pre)
@@ -211,6 +216,19 @@ class Method:
         run = self._compiled.get(dynamic_predicates)
         if run is None:
             run = self._compiled[dynamic_predicates] = compile_method(
+                self.head,
+                self.pre,
+                self.subtasks,
+                dynamic_predicates,
+                label=f"method {self.name} of {self.head}",
+            )
+        return run
+
+    def compiled_lazy(self, dynamic_predicates: frozenset[str]) -> LazyDecomposer:
+        """:meth:`compiled` as a generator (see :func:`~htnagent.preconditions.compile_method_lazy`)."""
+        run = self._lazy.get(dynamic_predicates)
+        if run is None:
+            run = self._lazy[dynamic_predicates] = compile_method_lazy(
                 self.head,
                 self.pre,
                 self.subtasks,

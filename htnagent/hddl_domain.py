@@ -194,6 +194,12 @@ class _Translator:
             self.objects[o.name] = frozenset(kinds)
         self.type_predicates: dict[tuple[str, ...], str] = {}
         self.fresh = itertools.count()
+        self.changes: dict[str, frozenset[str]] = {
+            a.name: frozenset(atom.name for _, atom, _ in self.effects(a.effect, {}, ()))
+            for a in domain.actions.values()
+        }
+        self.dynamic = frozenset().union(*self.changes.values())
+        self.requires: dict[str, tuple[Literal, ...] | None] = {}
 
     # -- the whole ---------------------------------------------------------------------------
 
@@ -279,11 +285,51 @@ class _Translator:
                 lit = self.type_literal(arg, d.types)
                 if lit is not None and lit not in typing:
                     typing.append(lit)
+        early = self.early(calls)
         for conjunct in self.dnf(formula, {}, True, src, method.at):
-            ordered = self.order((*conjunct, *typing), method.params, set(head.variables()))
+            ordered = self.order((*conjunct, *early, *typing), method.params, set(head.variables()))
             self.out.method(
                 str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls]
             )
+
+    def early(self, calls: Sequence[Atom]) -> tuple[Literal, ...]:
+        """What the subtasks' actions require that must already hold when the method is chosen.
+
+        A literal of a primitive subtask's precondition whose predicate neither an earlier
+        subtask of the method changes nor, after a compound subtask, anything can (a static
+        one), holds when the action runs exactly when it holds now.  Checked at the
+        decomposition, such literals bind the method's parameters by facts (the breads
+        in the kitchen) instead of by their type (every bread), and drop decompositions
+        that would fail later -- without changing which plans exist.
+        """
+        out: list[Literal] = []
+        changed: set[str] = set()
+        anything = False  # after a compound subtask, any dynamic predicate may have changed
+        for call in calls:
+            action = self.hddl.actions.get(call.name)
+            if action is None:
+                anything = True
+                continue
+            mapping = {p.name: arg for p, arg in zip(action.params, call.args, strict=False)}
+            for lit in self.required(action):
+                name = lit.atom.name
+                if lit.variables - mapping.keys() or name in changed or (anything and name in self.dynamic):
+                    continue
+                out.append(Literal(substitute(lit.atom, mapping), lit.positive))
+            changed |= self.changes[action.name]
+        return tuple(dict.fromkeys(out))
+
+    def required(self, action: m.Action) -> tuple[Literal, ...]:
+        """The literals every way of running the action requires (none for a disjunction)."""
+        found = self.requires.get(action.name)
+        if found is None:
+            typing = tuple(
+                lit for p in action.params if (lit := self.type_literal(p.name, p.types)) is not None
+            )
+            conjuncts = self.dnf(action.precondition, {}, True, self.hddl.source, action.at)
+            found = (*typing, *conjuncts[0]) if len(conjuncts) == 1 else typing
+            self.requires[action.name] = found
+        return found
 
     def implied(self, types: tuple[str, ...], var: str, head: Atom, declared: Sequence[m.Typed]) -> bool:
         """Whether the task's own parameter type already makes ``var`` of one of ``types``."""
@@ -391,51 +437,43 @@ class _Translator:
         return out
 
     def order(self, conjunct: _Conjunct, params: Sequence[m.Typed], bound: set[str]) -> tuple[Literal, ...]:
-        """The literals in the order SHOP should match them: those that bind by facts first
-        (in the file's order), equalities once one side is bound, then types, enumerating
-        the objects of variables still free, then the negative literals (which bind nothing)."""
+        """The literals in the order SHOP should match them.
+
+        Binders in turn -- literals matching facts (in the file's order), then equalities
+        with one side bound, then types (enumerating a type's objects) -- and after each,
+        every literal whose variables are now all bound, as a check: a negative literal
+        prunes as soon as it can, never after the loops of later variables.
+        """
         bound = set(bound)
-        positive = [x for x in conjunct if x.positive]
-        negative = [x for x in conjunct if not x.positive]
-        facts = [x for x in positive if x.atom.name != EQ and not x.atom.name.startswith(TYPE)]
-        equal = [x for x in positive if x.atom.name == EQ]
-        typing = [x for x in positive if x.atom.name.startswith(TYPE)]
+        todo = list(dict.fromkeys(conjunct))
         out: list[Literal] = []
-        for x in facts:
-            out.append(x)
-            bound |= x.variables
-        # Equalities bind one side from the other; types check or enumerate what is left.
-        while equal:
-            ready = [x for x in equal if x.variables & bound]
-            if not ready:
-                # Nothing binds either side yet: enumerate one side by its type (or any object).
-                x = equal[0]
-                first = next(iter(sorted(x.variables)))
-                kind = next((t for t in typing if t.atom.args[0] == first), None)
-                if kind is not None:
-                    typing.remove(kind)
-                    out.append(kind)
-                else:
-                    out.append(Literal(Atom(EQ, (first, first))))
-                bound.add(first)
-                continue
-            for x in ready:
-                equal.remove(x)
+
+        def flush() -> None:
+            for x in [x for x in todo if x.variables <= bound]:
+                todo.remove(x)
                 out.append(x)
-                bound |= x.variables
-        free = [x for x in typing if not x.variables <= bound]
-        checks = [x for x in typing if x.variables <= bound]
-        for x in free:
+
+        def binder() -> Literal | None:
+            for wanted in ("fact", "equal", "type"):
+                for x in todo:
+                    if x.positive and _kind(x) == wanted and (wanted != "equal" or x.variables & bound):
+                        return x
+            return None
+
+        flush()
+        while todo:
+            x = binder()
+            if x is None:
+                # Left: negative literals, or equalities, of free variables: any object will
+                # do for one of them (of its type, when it is a parameter).
+                var = min(v for y in todo for v in y.variables - bound)
+                kinds = next((p.types for p in params if p.name == var), (m.OBJECT,))
+                x = self.type_literal(var, kinds) or Literal(Atom(EQ, (var, var)))
+                todo.insert(0, x)
+            todo.remove(x)
             out.append(x)
             bound |= x.variables
-        out.extend(checks)
-        # A variable still free (only in negative literals or subtasks, with type object):
-        # any object will do.
-        for p in params:
-            if p.name not in bound and any(p.name in x.variables for x in negative):
-                out.append(Literal(Atom(EQ, (p.name, p.name))))
-                bound.add(p.name)
-        out.extend(negative)
+            flush()
         return tuple(out)
 
     # -- effects -----------------------------------------------------------------------------
@@ -508,6 +546,11 @@ def _mentions(f: m.Formula, var: str) -> bool:
             return _mentions(c, var) or _mentions(t, var)
         case m.Forall(params=ps, body=x) | m.Exists(params=ps, body=x):
             return var not in {p.name for p in ps} and _mentions(x, var)
+
+
+def _kind(lit: Literal) -> str:
+    name = lit.atom.name
+    return "equal" if name == EQ else "type" if name.startswith(TYPE) else "fact"
 
 
 def _merge(x: _Conjunct, y: _Conjunct) -> _Conjunct | None:

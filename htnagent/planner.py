@@ -22,7 +22,7 @@ import gc
 import heapq
 import itertools
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
@@ -31,7 +31,7 @@ from htnagent.actions import ROLLBACK, Actions
 from htnagent.domain import Domain, Estimate
 from htnagent.errors import PlanningError, SettingsError
 from htnagent.plan import Decomposition, Plan, Step, tidy
-from htnagent.preconditions import Decomposer, satisfiers
+from htnagent.preconditions import Decomposer, LazyDecomposer, satisfiers
 from htnagent.state import State
 from htnagent.terms import Atom, Bindings, substitute, unify
 
@@ -137,6 +137,22 @@ class _Node(NamedTuple):
     step: tuple[Atom, float, _Record] | None
     """The action that led here, its cost and record (a :class:`Step` once a plan is read off)."""
     parent: _Node | None
+
+
+class _More(NamedTuple):
+    """The ways of one method not yet made into nodes (a lazy expansion): on the open list
+    with the f its nodes all share, made into the next node each time it is popped."""
+
+    f: float
+    neg_g: float
+    seq: int
+    ways: Iterator[tuple[Atom, ...]]
+    parent: _Node
+    task: Atom
+    method: str
+    record: _Record
+    rest_tasks: tuple[Atom, ...]
+    rest_records: tuple[_Record, ...]
 
 
 class _Pending(NamedTuple):
@@ -246,7 +262,7 @@ def _search(
     static_facts = static.facts
     dyn_preds = state.dynamic_predicates
     counter = itertools.count()
-    heap: list[_Node] = []
+    heap: list[_Node | _More] = []
     heappush, heappop = heapq.heappush, heapq.heappop
     k = settings.alternatives
     check_loops = k > 1
@@ -262,6 +278,11 @@ def _search(
     wg = 1.0 if search is Search.ASTAR else 0.0
     dfs = search is Search.DFS
     task_costs = domain.task_costs
+    # Where h reads only the task names, all the ways of one method share their f: they are
+    # made into nodes one at a time, as the search reaches them (_More) -- a method with
+    # thousands of bindings costs only those the search takes.
+    lazy = task_costs is not None and k == 1
+    lazy_methods: dict[str, list[tuple[str, LazyDecomposer]]] = {}
     deadline = started + settings.time_limit if settings.time_limit is not None else None
     # What each task name means to h (heuristic below): its estimate, None for a compound
     # task without one (h is 0), absent for a primitive task (h looks further).
@@ -357,7 +378,27 @@ def _search(
             out_of = PlanStatus.TIMED_OUT if timed_out else PlanStatus.BUDGET_EXHAUSTED
             status = PlanStatus.SOLVED if found else out_of
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
-        node = heappop(heap)
+        popped_entry = heappop(heap)
+        if isinstance(popped_entry, _More):
+            more = popped_entry
+            way = next(more.ways, None)
+            if way is not None:
+                up = more.parent
+                rec = _new(_Pending, (more.task, more.method, more.record))
+                child = (
+                    more.f,
+                    more.neg_g,
+                    next(counter),
+                    up.dynamic,
+                    way + more.rest_tasks,
+                    (rec,) * len(way) + more.rest_records,
+                    None,
+                    up,
+                )
+                heappush(heap, _new(_Node, child))
+                heappush(heap, more._replace(seq=next(counter)))
+            continue
+        node = popped_entry
         node_tasks = node.tasks
         if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
@@ -417,6 +458,31 @@ def _search(
                 )
             continue
         st = State(static, dynamic, dyn_preds)
+        if lazy:
+            runs = lazy_methods.get(task.name)
+            if runs is None:
+                runs = lazy_methods[task.name] = [
+                    (m.name, m.compiled_lazy(dyn_preds)) for m in methods.get(task.name, ())
+                ]
+            for method_name, run in runs:
+                ways = run(task, st)
+                first_way = next(ways, None)
+                if first_way is None:
+                    continue
+                child_tasks = first_way + rest_t
+                h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
+                if h == _INF:
+                    continue
+                f = node.f - 1.0 if dfs else g * wg + h
+                rec = _new(_Pending, (task, method_name, record))
+                child_records = (rec,) * len(first_way) + rest_r
+                heappush(
+                    heap,
+                    _new(_Node, (f, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+                )
+                more_entry = (f, -g, next(counter), ways, node, task, method_name, record, rest_t, rest_r)
+                heappush(heap, _new(_More, more_entry))
+            continue
         if reuse:
             cache_key = (dynamic, task)
             decompositions = compound_cache.get(cache_key)
@@ -424,8 +490,8 @@ def _search(
                 decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled)
         else:
             decompositions = _methods_ways(domain, st, task, compiled)
-        for method_name, ways in decompositions:
-            for subtasks in ways:
+        for method_name, listed in decompositions:
+            for subtasks in listed:
                 rec = _new(_Pending, (task, method_name, record))
                 child_tasks = subtasks + rest_t
                 h = h_of(child_tasks, dynamic, st)

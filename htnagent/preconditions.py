@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
+from typing import cast
 
 from htnagent.state import FactBase, State
 from htnagent.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
@@ -181,12 +182,26 @@ def bound_by(pre: Sequence[Literal]) -> set[str]:
 
 Decomposer = Callable[[Atom, State], list[tuple[Atom, ...]]]
 """A compiled method: the subtask lists of a task in a state (none if the head does not match)."""
+LazyDecomposer = Callable[[Atom, State], Iterator[tuple[Atom, ...]]]
+"""A compiled method as a generator of the same subtask lists (:func:`compile_method_lazy`)."""
+
+
+_last_named: list[tuple[frozenset[Atom] | None, dict[str, list[Atom]]]] = [(None, {})]
+"""The dynamic facts of the last state met, by name: a method's nested loops ask for them
+again and again.  One slot, replaced whole (never half), so threads at worst miss it."""
 
 
 def _dynamic_named(dynamic: frozenset[Atom], name: str) -> list[Atom]:
-    found = [f for f in dynamic if f.name == name]
-    if len(found) > 1:
-        found.sort(key=str)  # a frozenset's order changes with the hash seed
+    kept, by_name = _last_named[0]
+    if kept is not dynamic:
+        by_name = {}
+        _last_named[0] = (dynamic, by_name)
+    found = by_name.get(name)
+    if found is None:
+        found = [f for f in dynamic if f.name == name]
+        if len(found) > 1:
+            found.sort(key=str)  # a frozenset's order changes with the hash seed
+        by_name[name] = found
     return found
 
 
@@ -247,7 +262,33 @@ def compile_method(
     dynamic predicates: for every satisfier of ``pre`` after the head is matched with the
     task, in the order of :func:`all_satisfiers`, the subtasks made ground.  ``label`` names
     the function in tracebacks and profiles."""
+    return cast(Decomposer, _compile(head, pre, subtasks, dynamic_predicates, label, lazy=False))
+
+
+def compile_method_lazy(
+    head: Atom,
+    pre: Sequence[Literal],
+    subtasks: Sequence[Atom],
+    dynamic_predicates: frozenset[str],
+    *,
+    label: str = "",
+) -> LazyDecomposer:
+    """:func:`compile_method` as a generator: the same subtask lists in the same order, one
+    at a time, so that a search may take only the first few of a great many."""
+    return cast(LazyDecomposer, _compile(head, pre, subtasks, dynamic_predicates, label, lazy=True))
+
+
+def _compile(
+    head: Atom,
+    pre: Sequence[Literal],
+    subtasks: Sequence[Atom],
+    dynamic_predicates: frozenset[str],
+    label: str,
+    *,
+    lazy: bool,
+) -> object:
     src = _Source()
+    fail = "return" if lazy else "return []"
     src.line(0, "def decompose(task, st):")
     src.line(1, "args = task.args")
     bound: set[str] = set()
@@ -266,16 +307,16 @@ def compile_method(
                 bound.add(a)
         # Conditions in order: a later one may read a variable bound by an earlier one's line.
         src.line(1, f"if {checks[0]} or {checks[1]}:")
-        src.line(2, "return []")
+        src.line(2, fail)
         for text in binds:
             src.line(1, text)
         for text in checks[2:]:
             src.line(1, f"if {text}:")
-            src.line(2, "return []")
+            src.line(2, fail)
     else:
         src.line(1, f"b = unify({src.value(head)}, task, {{}})")
         src.line(1, "if b is None:")
-        src.line(2, "return []")
+        src.line(2, fail)
         for v in sorted(head.variables()):
             src.slot_of[v] = f"s{len(src.slot_of)}"
             src.line(1, f"{src.slot_of[v]} = b[{src.value(v)}]")
@@ -283,7 +324,8 @@ def compile_method(
     src.line(1, "dynamic = st.dynamic")
     src.line(1, "static = st.static")
     src.line(1, "facts = static.facts")
-    src.line(1, "out = []")
+    if not lazy:
+        src.line(1, "out = []")
     depth = 1
     for n, lit in enumerate(pre):
         depth = _literal(src, n, lit, bound, dynamic_predicates, depth)
@@ -292,8 +334,9 @@ def compile_method(
     # A subtask that is the head again (goto(?n) ... goto(?n)) is the task itself: equal to it
     # once the head matched, and not made anew.
     made = ", ".join("task" if t == head else src.ground(t) for t in subtasks)
-    src.line(depth, f"out.append(({made}{',' if len(subtasks) == 1 else ''}))")
-    src.line(1, "return out")
+    made = f"({made}{',' if len(subtasks) == 1 else ''})"
+    src.line(depth, f"yield {made}" if lazy else f"out.append({made})")
+    src.line(1, "return" if lazy else "return out")
     namespace: dict[str, object] = {
         "Atom": Atom,
         "new": tuple.__new__,
@@ -306,12 +349,12 @@ def compile_method(
     except (SyntaxError, RecursionError, MemoryError):
         # Python nests at most 20 loops (and 100 indents) in one function: a precondition
         # that long is matched the generic way.
-        return _generic(head, pre, subtasks)
+        return _generic(head, pre, subtasks, lazy)
     exec(code, namespace)  # text of our own: see above
-    return namespace["decompose"]  # type: ignore[return-value]
+    return namespace["decompose"]
 
 
-def _generic(head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom]) -> Decomposer:
+def _generic(head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom], lazy: bool) -> object:
     """:func:`compile_method`'s answers by :func:`all_satisfiers` and substitution."""
 
     def decompose(task: Atom, st: State) -> list[tuple[Atom, ...]]:
@@ -320,7 +363,10 @@ def _generic(head: Atom, pre: Sequence[Literal], subtasks: Sequence[Atom]) -> De
             return []
         return [tuple(substitute(t, found) for t in subtasks) for found in all_satisfiers(pre, st, b)]
 
-    return decompose
+    def each(task: Atom, st: State) -> Iterator[tuple[Atom, ...]]:
+        yield from decompose(task, st)
+
+    return each if lazy else decompose
 
 
 def _literal(src: _Source, n: int, lit: Literal, bound: set[str], dyn: frozenset[str], depth: int) -> int:
@@ -390,10 +436,12 @@ def _nested(src: _Source, n: int, lit: Literal, bound: set[str], depth: int) -> 
 
 __all__ = [
     "Decomposer",
+    "LazyDecomposer",
     "Literal",
     "all_satisfiers",
     "bound_by",
     "compile_method",
+    "compile_method_lazy",
     "literals",
     "satisfiers",
 ]
