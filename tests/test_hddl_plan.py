@@ -277,8 +277,9 @@ def test_random_couriers_every_order_agrees_and_every_plan_checks(courier: Domai
         assert [str(v) for v in check_plan(courier, problem, ipc_plan(result.best))] == []
         found[search] = len(actions_of(result.best))
     assert len({n is None for n in found.values()}) == 1, found
-    if found[Search.ASTAR] is not None:
-        assert all(n is not None and n >= found[Search.ASTAR] for n in found.values()), found
+    shortest = found[Search.ASTAR]
+    if shortest is not None:
+        assert all(n is not None and n >= shortest for n in found.values()), found
 
 
 # -- the IPC verifier, where built ---------------------------------------------------------------

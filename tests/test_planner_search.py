@@ -1,0 +1,193 @@
+"""The search orders, the time limit, whole-list estimates and lazy decomposition (docs/design.md §1.1).
+
+Written with the Python :class:`~htnagent.domain.Domain` builder, so that each
+behaviour is seen apart from HDDL.
+"""
+
+from __future__ import annotations
+
+import itertools
+import time
+from collections.abc import Iterator
+
+import pytest
+
+from htnagent.domain import Domain, Method
+from htnagent.hddl import parse_domain, parse_problem
+from htnagent.hddl_domain import solve, translate
+from htnagent.planner import PlannerSettings, PlanStatus, Search, plan
+from htnagent.preconditions import compile_method, compile_method_lazy, literals
+from htnagent.state import State
+from htnagent.terms import Atom, atom
+
+
+def _choice_domain(task_costs: bool = False) -> Domain:
+    """``get`` has a long way (first) and a short way (second)."""
+    d = Domain("choice")
+    d.operator("a", cost=1.0)
+    d.operator("b", cost=1.0)
+    d.method("get", "long", do=["a", "a", "a"])
+    d.method("get", "short", do=["b"])
+    if task_costs:
+        d.task_costs = {"a": 1.0, "b": 1.0, "get": 1.0}
+    return d
+
+
+def _actions(d: Domain, search: Search, **kw: object) -> list[str]:
+    settings = PlannerSettings(alternatives=1, search=search, **kw)  # type: ignore[arg-type]
+    result = plan(d, State.from_facts([], d), [atom("get")], settings)
+    assert result.best is not None
+    return result.best.text()
+
+
+def test_depth_first_takes_the_first_method_astar_the_cheapest() -> None:
+    d = _choice_domain()
+    assert _actions(d, Search.DFS) == ["a", "a", "a"]
+    assert _actions(d, Search.ASTAR) == ["b"]
+
+
+def test_greedy_follows_the_estimate_of_the_whole_task_list() -> None:
+    # With the least costs of the task names, h of [a, a, a] is 3 and of [b] is 1.
+    assert _actions(_choice_domain(task_costs=True), Search.GBFS) == ["b"]
+    assert _actions(_choice_domain(task_costs=True), Search.ASTAR) == ["b"]
+
+
+def test_a_task_no_method_ever_finishes_is_dropped_at_once() -> None:
+    d = Domain("never")
+    d.operator("a")
+    d.method("t", "again", do=["a", "t"])  # always one more t
+    d.task_costs = {"a": 1.0, "t": float("inf")}
+    result = plan(d, State.from_facts([], d), [atom("t")], PlannerSettings(alternatives=1))
+    assert result.status is PlanStatus.UNSOLVABLE
+    assert result.expansions <= 1
+
+
+@pytest.mark.parametrize("search", list(Search))
+def test_the_time_limit_ends_an_endless_search(search: Search) -> None:
+    # t -> t a: the task list grows without end, and no state repeats with the same list.
+    d = Domain("endless")
+    d.operator("a", add=["p"])
+    d.method("t", "grow", do=["t", "a"])
+    d.method("t", "stop", when=["q"], do=[])
+    started = time.perf_counter()
+    settings = PlannerSettings(alternatives=1, budget=10**9, search=search, time_limit=0.2)
+    result = plan(d, State.from_facts([], d), [atom("t")], settings)
+    assert result.status is PlanStatus.TIMED_OUT
+    assert time.perf_counter() - started < 5  # generous: only that it stopped
+
+
+def test_the_time_limit_is_checked() -> None:
+    with pytest.raises(Exception, match="time_limit"):
+        PlannerSettings(time_limit=0)
+
+
+# -- lazy decomposition ----------------------------------------------------------------------------
+
+
+def test_a_lazy_method_gives_the_same_ways_in_the_same_order() -> None:
+    head = atom("pick(?x)")
+    pre = literals(["item(?x,?y)", "not bad(?y)", "near(?y,?z)"])
+    subtasks = (atom("take(?x,?y)"), atom("go(?z)"))
+    facts = [atom(f"item(x,y{i})") for i in range(6)] + [atom(f"near(y{i},z{i % 3})") for i in range(6)]
+    facts += [atom("bad(y2)"), atom("near(y1,z9)")]
+    d = Domain("lazy")
+    d.operator("take(?x,?y)")
+    d.operator("go(?z)")
+    st = State.from_facts(facts, d)
+    eager = compile_method(head, pre, subtasks, st.dynamic_predicates)
+    lazy = compile_method_lazy(head, pre, subtasks, st.dynamic_predicates)
+    task = atom("pick(x)")
+    assert list(lazy(task, st)) == eager(task, st)
+    assert len(eager(task, st)) == 6
+    assert list(lazy(atom("pick(nobody)"), st)) == []
+
+
+def test_the_search_draws_only_the_ways_it_needs(monkeypatch: pytest.MonkeyPatch) -> None:
+    # take(?x) for any of 1,000 items: the first way is a plan.
+    d = Domain("many")
+    d.operator("take(?x)", pre=["item(?x)"])
+    d.method("get", "any", when=["item(?x)"], do=["take(?x)"])
+    d.task_costs = {"take": 1.0, "get": 1.0}
+    drawn = itertools.count()
+    real = Method.compiled_lazy
+
+    def counting(self: Method, dynamic: frozenset[str]):  # type: ignore[no-untyped-def]
+        run = real(self, dynamic)
+
+        def each(task: Atom, st: State) -> Iterator[tuple[Atom, ...]]:
+            for way in run(task, st):
+                next(drawn)
+                yield way
+
+        return each
+
+    eager = Method.compiled
+
+    def counting_eager(self: Method, dynamic: frozenset[str]):  # type: ignore[no-untyped-def]
+        run = eager(self, dynamic)
+
+        def all_ways(task: Atom, st: State) -> list[tuple[Atom, ...]]:
+            ways = run(task, st)
+            for _ in ways:
+                next(drawn)
+            return ways
+
+        return all_ways
+
+    monkeypatch.setattr(Method, "compiled_lazy", counting)
+    monkeypatch.setattr(Method, "compiled", counting_eager)
+    state = State.from_facts([atom(f"item(i{n})") for n in range(1000)], d)
+    for search in Search:
+        result = plan(d, state, [atom("get")], PlannerSettings(alternatives=1, search=search))
+        assert result.best is not None and result.best.text() == ["take(i0)"]
+    assert 1 <= next(drawn) <= 2 * len(Search)
+
+
+# -- preconditions of the subtasks checked when the method is chosen (docs/design.md §7) --------------
+
+BAKERY = """
+(define (domain bakery) (:requirements :typing :hierarchy :negative-preconditions)
+  (:types bread)
+  (:predicates (fresh ?b - bread) (sold ?b - bread) (open))
+  (:task sell-one :parameters ())
+  (:method m :parameters (?b - bread) :task (sell-one) :ordered-subtasks (and (wrap ?b) (sell ?b)))
+  (:action wrap :parameters (?b - bread) :precondition (fresh ?b) :effect ())
+  (:action sell :parameters (?b - bread) :precondition (and (open) (not (sold ?b))) :effect (sold ?b)))
+"""
+
+
+def _bakery(fresh: str, opened: bool = True) -> tuple[object, object]:
+    domain = parse_domain(BAKERY, "bakery.hddl")
+    breads = " ".join(f"b{i}" for i in range(40))
+    problem = parse_problem(
+        f"(define (problem p) (:domain bakery) (:objects {breads} - bread)"
+        f" (:htn :ordered-subtasks (sell-one)) (:init (fresh {fresh}) {'(open)' if opened else ''}))",
+        domain,
+        "p.hddl",
+    )
+    return domain, problem
+
+
+def test_the_subtasks_preconditions_bind_the_methods_parameters() -> None:
+    domain, problem = _bakery("b39")
+    planning = translate(domain, problem)  # type: ignore[arg-type]
+    (method,) = planning.domain.methods["sell-one"]
+    texts = [str(lit) for lit in method.pre]
+    # wrap's precondition binds ?b by the fresh breads; sell's, whose predicates wrap does
+    # not change, are checked too.
+    assert texts.index("fresh(?b)") < texts.index("__type_bread(?b)")
+    assert "open" in texts
+    assert "not sold(?b)" in texts
+    for search in Search:
+        result = solve(domain, problem, search=search).result  # type: ignore[arg-type]
+        assert result.best is not None
+        assert [str(s.action) for s in result.best.steps] == ["wrap(b39)", "sell(b39)"]
+        # Without the early check, every one of the 40 breads would be tried in turn.
+        assert result.expansions <= 6
+
+
+def test_an_early_check_that_fails_makes_the_method_fail_at_once() -> None:
+    domain, problem = _bakery("b3", opened=False)
+    result = solve(domain, problem).result  # type: ignore[arg-type]
+    assert result.status is PlanStatus.UNSOLVABLE
+    assert result.expansions <= 3
