@@ -24,6 +24,7 @@ from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, parse_plan, spellings
 from htnagent.hddl_domain import actions_of, ipc_plan, solve
 from htnagent.planner import PlanStatus, Search
+from htnagent.terms import Atom
 
 HERE = Path(__file__).resolve().parent / "hddl"
 MUSEUM = str(Path(__file__).resolve().parents[1] / "scenarios" / "museum.yaml")
@@ -233,6 +234,28 @@ def test_a_method_with_no_subtasks_is_in_the_ipc_plan_and_names_keep_their_spell
     ]
 
 
+def test_the_default_portfolio_solves_in_depth_first_order_or_else_greedily(courier: Domain) -> None:
+    solved = solve(courier, read_problem(HERE / "courier.hddl", courier))
+    assert solved.result.status is PlanStatus.SOLVED
+    assert solved.search is Search.DFS
+    held = solve(courier, read_problem(HERE / "courier-held.hddl", courier))
+    assert held.result.status is PlanStatus.UNSOLVABLE  # depth-first search saw every node
+    # The first method recurses without end: depth-first search never leaves it, the greedy
+    # search (told by the estimate that "done" is cheaper) takes the second at once.
+    domain, problem = _hddl(
+        "(define (domain deep) (:requirements :hierarchy) (:predicates (p))"
+        " (:task t :parameters ()) (:method grow :parameters () :task (t) :ordered-subtasks (and (t) (a)))"
+        " (:method done :parameters () :task (t) :ordered-subtasks (a))"
+        " (:action a :parameters () :effect (p)))",
+        "(define (problem p) (:domain deep) (:htn :ordered-subtasks (t)) (:init))",
+    )
+    for timeout in (None, 0.5):
+        solved = solve(domain, problem, timeout=timeout)
+        assert solved.search is Search.GBFS
+        assert solved.result.best is not None
+        assert actions_of(solved.result.best) == [Atom("a")]
+
+
 # -- random problems: every order agrees on whether a plan exists; A* is never longer -------------
 
 
@@ -385,7 +408,8 @@ def test_plan_hddl_bad_input_names_file_line_and_column(
 ) -> None:
     bad = tmp_path / "bad.hddl"
     bad.write_text(
-        "(define (problem p) (:domain courier)\n  (:objects r1 - robot)\n  (:htn :ordered-subtasks (fly r1))\n  (:init))"
+        "(define (problem p) (:domain courier)\n  (:objects r1 - robot)\n"
+        "  (:htn :ordered-subtasks (fly r1))\n  (:init))"
     )
     assert main(["plan", "--hddl", str(HERE / "courier-domain.hddl"), str(bad)]) == 2
     err = capsys.readouterr().err
