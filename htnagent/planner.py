@@ -261,7 +261,9 @@ def _search(
     static = state.static
     static_facts = static.facts
     dyn_preds = state.dynamic_predicates
-    counter = itertools.count()
+    # Ties in f go to the first node pushed, or, in greedy search, to the last: on a plateau
+    # of h it then goes on from where it just was, depth first, instead of widening.
+    counter = itertools.count(0, -1) if settings.search is Search.GBFS else itertools.count()
     heap: list[_Node | _More] = []
     heappush, heappop = heapq.heappush, heapq.heappop
     k = settings.alternatives
@@ -385,10 +387,12 @@ def _search(
             if way is not None:
                 up = more.parent
                 rec = _new(_Pending, (more.task, more.method, more.record))
+                # The node before the ways still to come, whichever way ties are broken.
+                seq, later = sorted((next(counter), next(counter)))
                 child = (
                     more.f,
                     more.neg_g,
-                    next(counter),
+                    seq,
                     up.dynamic,
                     way + more.rest_tasks,
                     (rec,) * len(way) + more.rest_records,
@@ -396,7 +400,7 @@ def _search(
                     up,
                 )
                 heappush(heap, _new(_Node, child))
-                heappush(heap, more._replace(seq=next(counter)))
+                heappush(heap, more._replace(seq=later))
             continue
         node = popped_entry
         node_tasks = node.tasks
@@ -476,11 +480,12 @@ def _search(
                 f = node.f - 1.0 if dfs else g * wg + h
                 rec = _new(_Pending, (task, method_name, record))
                 child_records = (rec,) * len(first_way) + rest_r
+                seq, later = sorted((next(counter), next(counter)))
                 heappush(
                     heap,
-                    _new(_Node, (f, -g, next(counter), dynamic, child_tasks, child_records, None, node)),
+                    _new(_Node, (f, -g, seq, dynamic, child_tasks, child_records, None, node)),
                 )
-                more_entry = (f, -g, next(counter), ways, node, task, method_name, record, rest_t, rest_r)
+                more_entry = (f, -g, later, ways, node, task, method_name, record, rest_t, rest_r)
                 heappush(heap, _new(_More, more_entry))
             continue
         if reuse:
