@@ -26,7 +26,7 @@ time; ``valid`` the verifier's verdict on it, the peers' plans too (``null``: no
 verified -- the verifier is missing or gave no verdict); ``reason`` why not solved
 (``timeout``, ``unsolvable``, ``budget``, ``refused by unified-planning: ...``), or
 why not valid; ``timeout`` the limit; ``read_s`` (peers) the seconds
-unified-planning took to read the files, part of ``seconds``.
+before unified-planning had read the files (its import included), part of ``seconds``.
 ``bench/results/ipc.md``: per domain and planner, problems solved, plans verified,
 median seconds and median plan length of the solved ones.
 """
@@ -396,8 +396,8 @@ def markdown(rows: Sequence[dict[str, Any]], timeout: float, machine: str) -> st
         t[0] += s["solved"]
         t[1] += s["problems"]
         t[2] += s["verified"]
-    for planner, (solved, problems, verified) in totals.items():
-        lines.append(f"| **all** | {planner} | {solved}/{problems} | {verified}/{solved} | | |")
+    for planner, (n_solved, n_problems, n_verified) in totals.items():
+        lines.append(f"| **all** | {planner} | {n_solved}/{n_problems} | {n_verified}/{n_solved} | | |")
     return "\n".join(lines) + "\n"
 
 

@@ -52,6 +52,15 @@ def spellings(*files: str) -> dict[str, str]:
     return out
 
 
+def flat_actions(plan: Any) -> list[Any]:
+    """The plan's primitive actions in execution order (Aries returns an empty plan as a
+    ``TimeTriggeredPlan``, the others as a ``SequentialPlan``)."""
+    flat = getattr(plan, "action_plan", plan)
+    if hasattr(flat, "timed_actions"):
+        return [a for _, a, _ in sorted(flat.timed_actions, key=lambda timed: timed[0])]
+    return list(flat.actions)
+
+
 def ipc_plan(problem: Any, plan: Any, spelling: dict[str, str]) -> str:
     """A unified-planning ``HierarchicalPlan`` in the IPC 2020 plan format."""
 
@@ -65,7 +74,7 @@ def ipc_plan(problem: Any, plan: Any, spelling: dict[str, str]) -> str:
         total = network.total_order()
         return list(total) if total is not None else [s.identifier for s in network.subtasks]
 
-    actions = list(plan.action_plan.actions)
+    actions = flat_actions(plan)
     ids = {id(a): i for i, a in enumerate(actions)}
     lines = ["==>"]
     lines += [
@@ -139,7 +148,7 @@ def main(argv: list[str] | None = None) -> int:
     status = result.status.name.lower()
     plan = result.plan
     if plan is not None and status.startswith("solved"):
-        actions = getattr(plan, "action_plan", plan).actions
+        actions = flat_actions(plan)
         try:
             text: str | None = ipc_plan(problem, plan, spellings(args.domain, args.problem))
             why = None
@@ -155,7 +164,9 @@ def main(argv: list[str] | None = None) -> int:
         )
         return 0
     kind = "unsolvable" if status.startswith("unsolvable") else status
-    _emit(status=kind, read_s=round(read_s, 3), solve_s=round(solve_s, 3), reason=status)
+    said = [m.message for m in result.log_messages or () if m.message.strip()]
+    why = said[0].strip().splitlines()[0][:200] if said else status
+    _emit(status=kind, read_s=round(read_s, 3), solve_s=round(solve_s, 3), reason=why)
     return 1
 
 

@@ -8,6 +8,7 @@ has been built.
 
 from __future__ import annotations
 
+import importlib.util
 import json
 import os
 import shutil
@@ -246,7 +247,7 @@ def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: P
 def test_peers_without_the_extra_is_one_clear_error(
     suite: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    monkeypatch.setattr(ipc.importlib.util, "find_spec", lambda name: None)
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
     code, rows = run(tmp_path, "--suite", str(suite), "--peers")
     assert code == 2
     assert rows == []
@@ -318,3 +319,49 @@ def test_the_real_verifier_judges_the_plans(suite: Path, fake: Path, tmp_path: P
     bad = HDDL / "precondition-fails.plan"
     _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {bad}")
     assert (rows[0]["solved"], rows[0]["valid"]) == (True, False)
+
+
+def test_a_unified_planning_plan_is_written_in_the_ipc_format() -> None:
+    # bench/ipc_peer.py's writer on stand-ins shaped like unified-planning's plan objects
+    # (the real ones need the peers extra): the courier's deliver p1 as m-deliver, its gotos
+    # as m-goto-step / m-goto-here.
+    from types import SimpleNamespace as NS
+
+    from bench.ipc_peer import ipc_plan
+
+    def obj(name: str) -> NS:
+        return NS(is_object_exp=lambda: True, object=lambda: NS(name=name))
+
+    def act(name: str, *args: str) -> NS:
+        return NS(action=NS(name=name), actual_parameters=[obj(a) for a in args])
+
+    def method(name: str, task: str, params: list[str], task_params: list[str], order: list[str]) -> NS:
+        return NS(
+            name=name,
+            parameters=[NS(name=p) for p in params],
+            achieved_task=NS(task=NS(name=task), parameters=[NS(name=p) for p in task_params]),
+            total_order=lambda: order,
+        )
+
+    def instance(m: NS, args: list[str], subtasks: dict[str, object]) -> NS:
+        return NS(method=m, parameters=[obj(a) for a in args], decomposition=NS(subtasks=subtasks))
+
+    move, pick = act("move", "r1", "hall", "kitchen"), act("pick", "r1", "p1", "kitchen")
+    here = method("m-goto-here", "goto", ["r", "to"], ["r", "to"], [])
+    step = method("m-goto-step", "goto", ["r", "to", "from", "mid"], ["r", "to"], ["s1", "s2"])
+    deliver = method("m-deliver", "deliver", ["x", "to", "from", "r"], ["x", "to"], ["t1", "t2"])
+    goto = instance(
+        step,
+        ["r1", "kitchen", "hall", "kitchen"],
+        {"s2": instance(here, ["r1", "kitchen"], {}), "s1": move},
+    )
+    top = instance(deliver, ["p1", "kitchen", "kitchen", "r1"], {"t2": pick, "t1": goto})
+    plan = NS(action_plan=NS(actions=[move, pick]), decomposition=NS(subtasks={"task0": top}))
+    problem = NS(task_network=NS(total_order=lambda: ["task0"]))
+    text = ipc_plan(problem, plan, {"r1": "R1"})
+    assert text == (
+        "==>\n0 move R1 hall kitchen\n1 pick R1 p1 kitchen\nroot 2\n"
+        "2 deliver p1 kitchen -> m-deliver 3 1\n3 goto R1 kitchen -> m-goto-step 0 4\n"
+        "4 goto R1 kitchen -> m-goto-here\n<==\n"
+    )
+    assert ipc.plan_length(text) == 2
