@@ -20,8 +20,9 @@ itself) is killed with its whole process group; an answer that comes after ``S``
 counts as a timeout.
 
 Rows (``bench/results/ipc.json``, rewritten after every attempt so that an
-interrupted run keeps what it measured): ``{domain, problem, planner, solved,
-seconds, plan_length, valid, reason, timeout}`` -- ``solved`` a plan came back in
+interrupted run keeps what it measured; Ctrl-C kills the attempt under way and
+exits 130): ``{domain, problem, planner, solved, seconds, plan_length, valid,
+reason, timeout, read_s}`` -- ``solved`` a plan came back in
 time; ``valid`` the verifier's verdict on it, the peers' plans too (``null``: not
 verified -- the verifier is missing or gave no verdict); ``reason`` why not solved
 (``timeout``, ``unsolvable``, ``budget``, ``refused by unified-planning: ...``), or
@@ -144,17 +145,17 @@ def run_process(argv: Sequence[str], limit: float, grace: float = GRACE_S) -> Ou
             cwd=ROOT,  # python -m bench.ipc_peer is found from the repository root
             start_new_session=True,
         )
-        code: int | None
+        code: int | None = None
         try:
             code = proc.wait(timeout=limit + grace)
-            seconds = time.perf_counter() - start
         except subprocess.TimeoutExpired:
-            seconds = time.perf_counter() - start
             code = None
-        # The whole group goes, also what the planner started (Aries runs a server process).
-        with contextlib.suppress(ProcessLookupError, PermissionError):
-            os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
+        finally:  # also on Ctrl-C: nothing the bench started outlives it
+            seconds = time.perf_counter() - start
+            # The whole group goes, also what the planner started (Aries runs a server process).
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
         out.seek(0)
         err.seek(0)
         return Outcome(code, seconds, out.read(), err.read())
@@ -483,24 +484,30 @@ def main(argv: Sequence[str] | None = None) -> int:
         + f"; rows to {args.out}",
         file=sys.stderr,
     )
-    for i, problem in enumerate(problems, 1):
-        for planner in ([] if args.peers_only else [ours_name]) + (["aries"] if with_peers else []):
-            if planner == "aries":
-                argv_peer = peer_command(args.peer_cmd, problem, args.timeout, "aries")
-                row = peer(problem, planner, argv_peer, args.timeout, verifier, args.grace)
-            else:
-                argv_ours = our_command(args.planner_cmd, problem, args.timeout, args.search)
-                row = ours(problem, planner, argv_ours, args.timeout, verifier, args.grace)
-            rows.append(row)
-            write(args.out, rows)
-            verdict = {True: "valid", False: "INVALID", None: "not verified"}[row["valid"]]
-            status = (
-                f"solved in {row['seconds']:.2f} s, {row['plan_length']} actions, {verdict}"
-                if row["solved"]
-                else f"not solved ({row['reason']}) after {row['seconds']:.2f} s"
-            )
-            where = f"[{i}/{len(problems)}] {problem.domain}/{problem.name}"
-            print(f"{where} {planner}: {status}", file=sys.stderr)
+    write(args.out, rows)  # this run's file from the start, even if it is stopped before a row
+    try:
+        for i, problem in enumerate(problems, 1):
+            for planner in ([] if args.peers_only else [ours_name]) + (["aries"] if with_peers else []):
+                if planner == "aries":
+                    argv_peer = peer_command(args.peer_cmd, problem, args.timeout, "aries")
+                    row = peer(problem, planner, argv_peer, args.timeout, verifier, args.grace)
+                else:
+                    argv_ours = our_command(args.planner_cmd, problem, args.timeout, args.search)
+                    row = ours(problem, planner, argv_ours, args.timeout, verifier, args.grace)
+                rows.append(row)
+                write(args.out, rows)
+                verdict = {True: "valid", False: "INVALID", None: "not verified"}[row["valid"]]
+                status = (
+                    f"solved in {row['seconds']:.2f} s, {row['plan_length']} actions, {verdict}"
+                    if row["solved"]
+                    else f"not solved ({row['reason']}) after {row['seconds']:.2f} s"
+                )
+                where = f"[{i}/{len(problems)}] {problem.domain}/{problem.name}"
+                print(f"{where} {planner}: {status}", file=sys.stderr)
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; {len(rows)} rows kept in {args.out}", file=sys.stderr)
+        args.out.with_suffix(".md").write_text(markdown(rows, args.timeout, machine_line()))
+        return 130
     table = markdown(rows, args.timeout, machine_line())
     args.out.with_suffix(".md").write_text(table)
     print(table, file=sys.stderr)

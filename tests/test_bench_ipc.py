@@ -12,6 +12,7 @@ import importlib.util
 import json
 import os
 import shutil
+import signal
 import subprocess
 import sys
 import time
@@ -250,7 +251,7 @@ def test_peers_without_the_extra_is_one_clear_error(
     monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
     code, rows = run(tmp_path, "--suite", str(suite), "--peers")
     assert code == 2
-    assert rows == []
+    assert rows == []  # not even written
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
         "python -m bench ipc: error: --peers needs unified_planning, up_aries: "
@@ -365,3 +366,30 @@ def test_a_unified_planning_plan_is_written_in_the_ipc_format() -> None:
         "4 goto R1 kitchen -> m-goto-here\n<==\n"
     )
     assert ipc.plan_length(text) == 2
+
+
+def test_ctrl_c_keeps_the_rows_and_leaves_no_planner_running(suite: Path, fake: Path, tmp_path: Path) -> None:
+    pid_file = tmp_path / "child.pid"
+    out = tmp_path / "ipc.json"
+    command = [sys.executable, "-m", "bench", "ipc", "--suite", str(suite), "--out", str(out)]
+    command += ["--verifier", str(tmp_path / "none"), "--planner-cmd", f"{{python}} {fake} sleep {pid_file}"]
+    bench = subprocess.Popen(
+        command,
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 20
+    while not (pid_file.is_file() and pid_file.read_text()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    bench.send_signal(signal.SIGINT)
+    _, err = bench.communicate(timeout=20)
+    assert bench.returncode == 130, err
+    assert "interrupted; 0 rows kept" in err
+    assert json.loads(out.read_text()) == []
+    assert "Traceback" not in err
+    child = int(pid_file.read_text())
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and _alive(child):
+        time.sleep(0.05)
+    assert not _alive(child), "the planner's own child outlived Ctrl-C"
