@@ -3,12 +3,17 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, replanning, scaling, step
 
 
 def main() -> int:
+    if sys.argv[1:2] == ["ipc"]:  # its own options: python -m bench ipc --help
+        from bench import ipc
+
+        return ipc.main(sys.argv[2:])
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
     parser.add_argument(
         "study",
@@ -25,7 +30,9 @@ def main() -> int:
             "step",
             "hddl-read",
             "remote",
+            "ipc",
         ),
+        help="a study (ipc: python -m bench ipc --help)",
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
@@ -36,6 +43,8 @@ def main() -> int:
         help="hddl-read: the folder of HDDL domains (default ../shared/data/ipc)",
     )
     args = parser.parse_args()
+    if args.study == "ipc":
+        parser.error("ipc takes its options after it: python -m bench ipc --suite DIR (see --help)")
     if args.study == "hddl-read":
         return hddl_read.main(args.suite)
     if args.study == "step":

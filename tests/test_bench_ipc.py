@@ -1,0 +1,395 @@
+"""``python -m bench ipc``: the harness, with stand-in planners (fast; no network, no Aries).
+
+A small suite is made here from the courier files of ``tests/hddl/``; the planner is
+a little script that prints a known plan, sleeps, or says why it found none.  The
+verifier is a stand-in too (exit 0 or 1), and the real one (``hddl-verify``) where it
+has been built.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from bench import ipc
+
+HDDL = Path(__file__).resolve().parent / "hddl"
+ROOT = Path(__file__).resolve().parent.parent
+VERIFY = ipc.DEFAULT_VERIFIER
+VERIFIER_BUILT = (
+    Path(os.environ.get("HDDL_VERIFY_HOME", Path.home() / ".cache" / "hddl-verify")) / "pandaPIparser"
+)
+
+FAKE_PLANNER = """\
+import subprocess, sys, time
+mode = sys.argv[1]
+if mode == "plan":
+    print("searching...")
+    print(open(sys.argv[2]).read())
+elif mode == "sleep":
+    child = subprocess.Popen([sys.executable, "-c", "import time; time.sleep(60)"])
+    open(sys.argv[2], "w").write(str(child.pid))
+    time.sleep(60)
+elif mode == "unsolvable":
+    print("unsolvable", file=sys.stderr)
+    sys.exit(1)
+elif mode == "noplan":
+    print("nothing here")
+elif mode == "crash":
+    print("Traceback (most recent call last):", file=sys.stderr)
+    print("ValueError: boom", file=sys.stderr)
+    sys.exit(3)
+"""
+
+FAKE_PEER = """\
+import json, sys, time
+mode = sys.argv[1]
+if mode == "solved":
+    print("read 0.01", flush=True)
+    plan = open(sys.argv[2]).read()
+    print(json.dumps({"status": "solved", "plan_length": 6, "read_s": 0.01, "reason": None, "plan": plan}))
+elif mode == "refused":
+    print(json.dumps({"status": "refused", "read_s": 0.01, "reason": "UPException: no"}))
+    sys.exit(1)
+elif mode == "slow-read":
+    time.sleep(60)
+"""
+
+FAKE_VERIFIER = """\
+#!/bin/sh
+# a stand-in verifier: tests/hddl/valid.plan is valid, precondition-fails.plan (hall to office first) not
+if grep -q "switch-off" "$3" && ! grep -q "2 move r1 hall office" "$3"; then echo VALID; exit 0; fi
+echo INVALID; exit 1
+"""
+
+
+@pytest.fixture
+def suite(tmp_path: Path) -> Path:
+    root = tmp_path / "suite"
+    courier = root / "Courier"
+    courier.mkdir(parents=True)
+    shutil.copy(HDDL / "courier-domain.hddl", courier / "domain.hddl")
+    for name in ("p1.hddl", "p2.hddl", "p10.hddl"):
+        shutil.copy(HDDL / "courier.hddl", courier / name)
+    (courier / "other").mkdir()
+    shutil.copy(HDDL / "courier.hddl", courier / "other" / "p0.hddl")  # not a benchmark problem
+    (courier / "README.md").write_text("not a problem\n")
+    (root / "feature-tests").mkdir()  # no domain.hddl: not a domain
+    shutil.copy(HDDL / "courier.hddl", root / "feature-tests" / "x.hddl")
+    return root
+
+
+@pytest.fixture
+def fake(tmp_path: Path) -> Path:
+    path = tmp_path / "fake_planner.py"
+    path.write_text(FAKE_PLANNER)
+    return path
+
+
+@pytest.fixture
+def fake_verifier(tmp_path: Path) -> Path:
+    path = tmp_path / "verify.sh"
+    path.write_text(FAKE_VERIFIER)
+    path.chmod(0o755)
+    return path
+
+
+def run(tmp_path: Path, *args: str) -> tuple[int, list[dict[str, Any]]]:
+    out = tmp_path / "ipc.json"
+    code = ipc.main([*args, "--out", str(out)])
+    rows = json.loads(out.read_text()) if out.is_file() else []
+    return code, rows
+
+
+def test_the_problems_are_the_domain_folders_files_in_natural_order(suite: Path) -> None:
+    found = ipc.find_problems(suite)
+    assert [(p.domain, p.name) for p in found] == [
+        ("Courier", "p1.hddl"),
+        ("Courier", "p2.hddl"),
+        ("Courier", "p10.hddl"),
+    ]
+    assert all(p.domain_file == suite / "Courier" / "domain.hddl" for p in found)
+    assert [p.name for p in ipc.find_problems(suite, ["courier"], 2)] == ["p1.hddl", "p2.hddl"]
+
+
+def test_a_valid_plan_is_solved_measured_and_verified(
+    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "2", "--verifier", str(fake_verifier)),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
+    )
+    assert code == 0
+    assert [r["problem"] for r in rows] == ["p1.hddl", "p2.hddl"]
+    for row in rows:
+        assert row["domain"] == "Courier"
+        assert row["planner"] == "htnagent"
+        assert row["solved"] is True
+        assert row["valid"] is True
+        assert row["plan_length"] == 6
+        assert 0 < row["seconds"] < 30
+        assert row["reason"] is None
+        assert row["timeout"] == 60
+    err = capsys.readouterr().err
+    assert "[1/2] Courier/p1.hddl htnagent: solved" in err
+    assert "[2/2] Courier/p2.hddl htnagent: solved" in err
+    table = (tmp_path / "ipc.md").read_text()
+    assert "| Courier | htnagent | 2/2 | 2/2 |" in table
+
+
+def test_an_invalid_plan_is_solved_but_not_valid(
+    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path
+) -> None:
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier)),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'precondition-fails.plan'}"),
+    )
+    assert rows[0]["solved"] is True
+    assert rows[0]["valid"] is False
+    assert rows[0]["reason"] == "verifier: INVALID"
+    assert "(1 invalid)" in (tmp_path / "ipc.md").read_text()
+
+
+def test_no_plan_found_is_recorded_with_the_planners_reason(suite: Path, fake: Path, tmp_path: Path) -> None:
+    common = ("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none"))
+    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} unsolvable")
+    assert rows[0]["solved"] is False
+    assert rows[0]["reason"] == "unsolvable"
+    assert rows[0]["plan_length"] is None
+    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} noplan")
+    assert rows[0]["solved"] is False
+    assert "no plan between ==> and <==" in rows[0]["reason"]
+    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} crash")
+    assert rows[0]["reason"] == "exit 3: ValueError: boom"
+
+
+def test_a_planner_past_the_limit_is_killed_with_what_it_started(
+    suite: Path, fake: Path, tmp_path: Path
+) -> None:
+    pid_file = tmp_path / "child.pid"
+    start = time.perf_counter()
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
+        *("--timeout", "1", "--grace", "0.5", "--planner-cmd", f"{{python}} {fake} sleep {pid_file}"),
+    )
+    assert time.perf_counter() - start < 10
+    assert rows[0]["solved"] is False
+    assert rows[0]["reason"] == "timeout"
+    assert 1.4 <= rows[0]["seconds"] < 10
+    child = int(pid_file.read_text())
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and _alive(child):
+        time.sleep(0.05)
+    assert not _alive(child), "the planner's own child outlived the kill"
+
+
+def _alive(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except OSError:
+        return False
+    return "\nState:\tZ" not in status
+
+
+def test_the_verifier_missing_is_said_and_the_plan_left_unverified(
+    suite: Path, fake: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "nowhere")),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
+    )
+    assert rows[0]["solved"] is True
+    assert rows[0]["valid"] is None
+    assert rows[0]["reason"] == "not verified: no verifier"
+    assert f"no verifier at {tmp_path / 'nowhere'}" in capsys.readouterr().err
+
+
+def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path) -> None:
+    peer = tmp_path / "fake_peer.py"
+    peer.write_text(FAKE_PEER)
+    common = ("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier))
+    ours = ("--planner-cmd", f"{{python}} {fake} unsolvable")
+    _, rows = run(
+        tmp_path, *common, *ours, "--peers", "--peer-cmd", f"{{python}} {peer} solved {HDDL / 'valid.plan'}"
+    )
+    assert [r["planner"] for r in rows] == ["htnagent", "aries"]
+    aries = rows[1]
+    assert aries["solved"] is True
+    assert aries["plan_length"] == 6
+    assert aries["valid"] is True
+    assert aries["read_s"] == 0.01
+    _, rows = run(tmp_path, *common, "--peers-only", "--peer-cmd", f"{{python}} {peer} refused")
+    assert [r["planner"] for r in rows] == ["aries"]
+    assert rows[0]["solved"] is False
+    assert rows[0]["reason"] == "refused by unified-planning: UPException: no"
+    _, rows = run(
+        tmp_path,
+        *common,
+        *("--peers-only", "--timeout", "0.5", "--grace", "0.5"),
+        *("--peer-cmd", f"{{python}} {peer} slow-read"),
+    )
+    assert rows[0]["reason"] == "timeout while reading (unified-planning)"
+
+
+def test_peers_without_the_extra_is_one_clear_error(
+    suite: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
+    code, rows = run(tmp_path, "--suite", str(suite), "--peers")
+    assert code == 2
+    assert rows == []  # not even written
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "python -m bench ipc: error: --peers needs unified_planning, up_aries: "
+        "pip install -e '.[peers]' (the peers extra)"
+    ]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--suite", "{tmp}/missing"], "--suite {tmp}/missing: no such folder"),
+        (["--suite", "{tmp}/suite/Courier/p1.hddl"], "not a folder"),
+        (["--suite", "{tmp}/suite/feature-tests"], "no domain folders"),
+        (["--suite", "{tmp}/suite", "--domains", "Nope"], "--domains: no domain Nope in"),
+    ],
+)
+def test_a_bad_suite_is_one_line_and_exit_2(
+    suite: Path, tmp_path: Path, args: list[str], message: str
+) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "bench", "ipc", *(a.format(tmp=tmp_path) for a in args)],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=30,
+    )
+    assert done.returncode == 2
+    lines = done.stderr.strip().splitlines()
+    assert len(lines) == 1, done.stderr
+    assert message.format(tmp=tmp_path) in lines[0]
+    assert "Traceback" not in done.stderr
+
+
+def test_our_planners_command_line() -> None:
+    problem = ipc.Problem("D", Path("d/domain.hddl"), Path("d/p1.hddl"))
+    argv = ipc.our_command(None, problem, 60.0, "gbfs")
+    assert argv[1:] == [
+        *("-m", "htnagent", "plan", "--hddl", "d/domain.hddl", "d/p1.hddl"),
+        *("--format", "ipc", "--timeout", "60", "--search", "gbfs"),
+    ]
+    assert ipc.our_command(None, problem, 2.5, None)[-2:] == ["--timeout", "2.5"]
+
+
+def test_the_search_strategy_names_the_planner(suite: Path, fake: Path, tmp_path: Path) -> None:
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
+        *("--search", "gbfs", "--planner-cmd", f"{{python}} {fake} unsolvable"),
+    )
+    assert rows[0]["planner"] == "htnagent-gbfs"
+
+
+def test_plan_length_counts_the_primitive_actions() -> None:
+    block = ipc.plan_block("noise\n" + (HDDL / "valid.plan").read_text() + "more noise\n")
+    assert block is not None
+    assert block.startswith("==>\n") and block.endswith("<==\n")
+    assert ipc.plan_length(block) == 6
+    assert ipc.plan_block("==>\n0 a\n") is None
+
+
+@pytest.mark.skipif(not VERIFIER_BUILT.is_file() or not VERIFY.is_file(), reason="hddl-verify is not built")
+def test_the_real_verifier_judges_the_plans(suite: Path, fake: Path, tmp_path: Path) -> None:
+    common = ("--suite", str(suite), "--problems", "1", "--verifier", str(VERIFY))
+    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}")
+    assert (rows[0]["solved"], rows[0]["valid"]) == (True, True)
+    bad = HDDL / "precondition-fails.plan"
+    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {bad}")
+    assert (rows[0]["solved"], rows[0]["valid"]) == (True, False)
+
+
+def test_a_unified_planning_plan_is_written_in_the_ipc_format() -> None:
+    # bench/ipc_peer.py's writer on stand-ins shaped like unified-planning's plan objects
+    # (the real ones need the peers extra): the courier's deliver p1 as m-deliver, its gotos
+    # as m-goto-step / m-goto-here.
+    from types import SimpleNamespace as NS
+
+    from bench.ipc_peer import ipc_plan
+
+    def obj(name: str) -> NS:
+        return NS(is_object_exp=lambda: True, object=lambda: NS(name=name))
+
+    def act(name: str, *args: str) -> NS:
+        return NS(action=NS(name=name), actual_parameters=[obj(a) for a in args])
+
+    def method(name: str, task: str, params: list[str], task_params: list[str], order: list[str]) -> NS:
+        return NS(
+            name=name,
+            parameters=[NS(name=p) for p in params],
+            achieved_task=NS(task=NS(name=task), parameters=[NS(name=p) for p in task_params]),
+            total_order=lambda: order,
+        )
+
+    def instance(m: NS, args: list[str], subtasks: dict[str, object]) -> NS:
+        return NS(method=m, parameters=[obj(a) for a in args], decomposition=NS(subtasks=subtasks))
+
+    move, pick = act("move", "r1", "hall", "kitchen"), act("pick", "r1", "p1", "kitchen")
+    here = method("m-goto-here", "goto", ["r", "to"], ["r", "to"], [])
+    step = method("m-goto-step", "goto", ["r", "to", "from", "mid"], ["r", "to"], ["s1", "s2"])
+    deliver = method("m-deliver", "deliver", ["x", "to", "from", "r"], ["x", "to"], ["t1", "t2"])
+    goto = instance(
+        step,
+        ["r1", "kitchen", "hall", "kitchen"],
+        {"s2": instance(here, ["r1", "kitchen"], {}), "s1": move},
+    )
+    top = instance(deliver, ["p1", "kitchen", "kitchen", "r1"], {"t2": pick, "t1": goto})
+    plan = NS(action_plan=NS(actions=[move, pick]), decomposition=NS(subtasks={"task0": top}))
+    problem = NS(task_network=NS(total_order=lambda: ["task0"]))
+    text = ipc_plan(problem, plan, {"r1": "R1"})
+    assert text == (
+        "==>\n0 move R1 hall kitchen\n1 pick R1 p1 kitchen\nroot 2\n"
+        "2 deliver p1 kitchen -> m-deliver 3 1\n3 goto R1 kitchen -> m-goto-step 0 4\n"
+        "4 goto R1 kitchen -> m-goto-here\n<==\n"
+    )
+    assert ipc.plan_length(text) == 2
+
+
+def test_ctrl_c_keeps_the_rows_and_leaves_no_planner_running(suite: Path, fake: Path, tmp_path: Path) -> None:
+    pid_file = tmp_path / "child.pid"
+    out = tmp_path / "ipc.json"
+    command = [sys.executable, "-m", "bench", "ipc", "--suite", str(suite), "--out", str(out)]
+    command += ["--verifier", str(tmp_path / "none"), "--planner-cmd", f"{{python}} {fake} sleep {pid_file}"]
+    bench = subprocess.Popen(
+        command,
+        cwd=ROOT,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 20
+    while not (pid_file.is_file() and pid_file.read_text()) and time.monotonic() < deadline:
+        time.sleep(0.05)
+    bench.send_signal(signal.SIGINT)
+    _, err = bench.communicate(timeout=20)
+    assert bench.returncode == 130, err
+    assert "interrupted; 0 rows kept" in err
+    assert json.loads(out.read_text()) == []
+    assert "Traceback" not in err
+    child = int(pid_file.read_text())
+    deadline = time.monotonic() + 5
+    while time.monotonic() < deadline and _alive(child):
+        time.sleep(0.05)
+    assert not _alive(child), "the planner's own child outlived Ctrl-C"
