@@ -201,14 +201,28 @@ def _steps(end: _Node, made: dict[int, tuple[object, object]]) -> list[Step]:
 
 
 def _record(record: _Record, made: dict[int, tuple[object, object]]) -> Decomposition | None:
-    if not isinstance(record, _Pending):
-        return record
-    known = made.get(id(record))
-    if known is None:
-        done = Decomposition(record.task, record.method, _record(record.parent, made))
-        known = made[id(record)] = (record, done)
-    assert isinstance(known[1], Decomposition)
-    return known[1]
+    """The decomposition record of a pending one, made once (``made``, as in :func:`_steps`).
+
+    A loop, not a recursion: a record's chain of parents is as deep as the decomposition,
+    thousands of levels in a recursive HDDL domain (Towers).
+    """
+    chain: list[_Pending] = []
+    at: _Record = record
+    base: Decomposition | None = None
+    while isinstance(at, _Pending):
+        known = made.get(id(at))
+        if known is not None:
+            assert isinstance(known[1], Decomposition)
+            base = known[1]
+            break
+        chain.append(at)
+        at = at.parent
+    else:
+        base = at
+    for pending in reversed(chain):
+        base = Decomposition(pending.task, pending.method, base)
+        made[id(pending)] = (pending, base)
+    return base
 
 
 def plan(
