@@ -316,6 +316,12 @@ def _fleet(robots: int) -> dict[str, Any]:
         "all_succeeded": report.succeeded,
         "same_as_one_process": all(same),
         "distance_m": sorted({s.distance for s in summaries}),
+        "failed": [
+            {"robot": i, "goal": g.goal, "reason": g.reason}
+            for i, s in enumerate(summaries)
+            for g in s.goals
+            if g.status != "success"
+        ],
     }
 
 
