@@ -73,7 +73,9 @@ def test_every_robot_of_a_fleet_ends_as_the_museum_in_one_process(tmp_path: Path
     with serving_all(files, SPEED):
         report = anyio.run(parent, backend=backend)
     expected = alone()
-    assert report.succeeded and len(report.runs) == 2
+    assert len(report.runs) == 2
+    failed = [(i, g.goal, g.reason) for i, r in enumerate(report.runs) for g in r.summary.goals if g.reason]
+    assert report.succeeded, failed
     for run in report.runs:
         assert_as_alone(run.summary, expected)
 
