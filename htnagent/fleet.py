@@ -23,7 +23,7 @@ from dataclasses import dataclass
 
 import anyio
 
-from htnagent.errors import ScenarioError
+from htnagent.errors import HtnAgentError, ScenarioError
 from htnagent.scenario import Scenario
 from htnagent.simulation import RunReport, run_scenario
 from htnagent.trace import Observer
@@ -83,8 +83,9 @@ async def run_fleet(
     ``observers(i)`` gives the observers of the ``i``-th robot's run.  Setting
     ``stop`` stops every run as :func:`~htnagent.simulation.run_scenario` does.
     An error at start-up (a serving process not reached within the scenario's
-    ``peer_wait``) ends the whole fleet with that error: a fleet is started
-    whole or not at all.
+    ``peer_wait``: :class:`~htnagent.errors.RemoteError`) ends the whole fleet and
+    is raised as it is (the first, if several robots could not start): a fleet
+    is started whole or not at all.
     """
     check_fleet(scenarios)
     reports: list[RunReport | None] = [None] * len(scenarios)
@@ -100,11 +101,27 @@ async def run_fleet(
         )
         reports[index] = await run()
 
-    async with anyio.create_task_group() as tg:
-        for index in range(len(scenarios)):
-            tg.start_soon(one, index)
+    try:
+        async with anyio.create_task_group() as tg:
+            for index in range(len(scenarios)):
+                tg.start_soon(one, index)
+    except BaseExceptionGroup as group:
+        # A robot that could not start (its serving process not reached): raised as
+        # run_scenario raises it, not wrapped in this task group's group.  Anything else
+        # (a bug, a KeyboardInterrupt) stays the group it is.
+        errors, rest = group.split(HtnAgentError)
+        if errors is None or rest is not None:
+            raise
+        raise _first(errors) from None
     # Every task ended without raising (else the group would have): every report is in.
     return FleetReport(runs=tuple(r for r in reports if r is not None))
+
+
+def _first(group: BaseExceptionGroup[HtnAgentError]) -> HtnAgentError:
+    first: HtnAgentError | BaseExceptionGroup[HtnAgentError] = group.exceptions[0]
+    while isinstance(first, BaseExceptionGroup):
+        first = first.exceptions[0]
+    return first
 
 
 __all__ = ["FleetReport", "check_fleet", "run_fleet"]

@@ -132,3 +132,18 @@ def test_a_killed_serving_process_fails_only_its_robot_and_the_fleet_ends_within
         assert (emergency.goal, emergency.status) == ("goto(n28)", "success")
         assert [(e.agent, e.side) for e in lost] == [("navigator", "serving")]
     assert not report.succeeded and not report.interrupted
+
+
+def test_a_fleet_with_a_robot_nobody_serves_is_a_start_up_error_not_a_hang(tmp_path: Path) -> None:
+    from htnagent.errors import RemoteError
+
+    paths = [remote_scenario(tmp_path, free_port(), robot=f"robot{i}", peer_wait=1) for i in range(2)]
+    scenarios = [load_scenario(path) for path in paths]
+
+    async def parent() -> FleetReport:
+        with anyio.fail_after(GUARD):
+            return await run_fleet(scenarios, speed=SPEED)
+
+    # Raised as itself, as run_scenario raises it (not inside the fleet's exception group).
+    with pytest.raises(RemoteError, match="no process serves agent navigator"):
+        anyio.run(parent)
