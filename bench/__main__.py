@@ -9,6 +9,17 @@ from pathlib import Path
 from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, replanning, scaling, step
 
 
+def _robots(text: str) -> tuple[int, ...]:
+    """``--robots 1,4,8``: fleet sizes, each at least 1."""
+    try:
+        sizes = tuple(int(part) for part in text.split(","))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected sizes like 1,4,8, got {text!r}") from None
+    if not sizes or min(sizes) < 1:
+        raise argparse.ArgumentTypeError(f"every size must be at least 1, got {text!r}")
+    return sizes
+
+
 def main() -> int:
     if sys.argv[1:2] == ["ipc"]:  # its own options: python -m bench ipc --help
         from bench import ipc
@@ -42,6 +53,13 @@ def main() -> int:
         default=None,
         help="hddl-read: the folder of HDDL domains (default ../shared/data/ipc)",
     )
+    parser.add_argument(
+        "--robots",
+        type=_robots,
+        default=None,
+        metavar="N,N,...",
+        help="remote: the fleet sizes, serving processes each (default 1,4,8)",
+    )
     args = parser.parse_args()
     if args.study == "ipc":
         parser.error("ipc takes its options after it: python -m bench ipc --suite DIR (see --help)")
@@ -52,7 +70,7 @@ def main() -> int:
     if args.study == "remote":
         from bench import remote  # needs the zenoh extra
 
-        return remote.main()
+        return remote.main() if args.robots is None else remote.main(args.robots)
     if args.study == "fuzz":
         return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":

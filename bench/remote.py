@@ -8,9 +8,17 @@
   token's loss seen in the event loop, ms;
 - the museum run with the navigator served by another process (``serve``),
   against the same run in one process: the summary's goals, visited nodes
-  and distance, and the wall time.
+  and distance, and the wall time;
+- a fleet (``--robots 1,4,8``): this process runs one guide per robot
+  (:func:`htnagent.fleet.run_fleet`), N ``serve`` processes each run one
+  navigator and its simulated robot, every robot the museum scenario (its goal,
+  its emergency) in a scenario file of its own (its endpoint, its namespace):
+  the wall time until every goal ended, per robot, orders and messages a second
+  (paced by the simulated clock at ``SPEED``: not a throughput limit), and
+  whether every robot ended with the goals, nodes and distance of the run in one
+  process.
 
-Writes ``bench/results/remote.json`` (one object).
+Writes ``bench/results/remote.json`` (one object; the fleet's rows under ``fleet``).
 """
 
 from __future__ import annotations
@@ -40,6 +48,10 @@ ROUND_TRIPS = 5000
 BURST = 10_000
 TRIALS = 5
 SPEED = 40.0
+ROBOTS = (1, 4, 8)
+"""Serving processes in the fleet measurement (each a Python process with a Zenoh session:
+on the two cores measured, more would measure the scheduler)."""
+ORDERS = frozenset({"execute", "suspend", "resume", "clear"})
 
 
 def _free_port() -> int:
@@ -220,7 +232,100 @@ def _museum() -> dict[str, Any]:
     }
 
 
-def main() -> int:
+def _robot_scenario(folder: Path, index: int, port: int) -> Path:
+    """Robot ``index`` of a fleet: the museum scenario, its navigator served at the port,
+    under a namespace of its own (its keys are its own, whatever the endpoints)."""
+    scenarios = REPO / "scenarios"
+    text = (scenarios / "museum.yaml").read_text()
+    text = text.replace("name: museum guide", f"name: robot {index}, museum guide")
+    text = text.replace("map: museum_map.yaml", f"map: {scenarios / 'museum_map.yaml'}")
+    text = text.replace("executor: robot}", f'executor: robot, remote: "tcp/127.0.0.1:{port}"}}')
+    text += f"namespace: bench/fleet/robot{index}\npeer_wait: 30\n"
+    path = folder / f"robot{index}.yaml"
+    path.write_text(text)
+    return path
+
+
+def _serve(path: Path, port: int) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [
+            *(sys.executable, "-m", "htnagent", "serve", str(path), "--agent", "navigator"),
+            *("--listen", f"tcp/127.0.0.1:{port}", "--speed", str(SPEED)),
+        ],
+        stdout=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+    )
+
+
+def _fleet(robots: int) -> dict[str, Any]:
+    """One guide per robot here, ``robots`` serving processes: the fleet's figures."""
+    from htnagent.events import MessageSent, PeerJoined, TraceEvent
+    from htnagent.fleet import run_fleet
+    from htnagent.scenario import load_scenario
+    from htnagent.simulation import run_scenario
+    from htnagent.trace import Observer
+
+    alone = anyio.run(run_scenario, load_scenario(REPO / "scenarios" / "museum.yaml")).summary
+    counts = {"orders": 0, "messages": 0}
+    joined: list[float] = []
+
+    def count(event: TraceEvent) -> None:
+        # The parent's trace holds the serving processes' events too: both levels' messages.
+        if isinstance(event, PeerJoined):
+            joined.append(time.perf_counter())
+        elif isinstance(event, MessageSent):
+            counts["messages"] += 1
+            counts["orders"] += event.kind in ORDERS
+
+    def observers(index: int) -> list[Observer]:
+        return [count]
+
+    with tempfile.TemporaryDirectory() as tmp:
+        ports = [_free_port() for _ in range(robots)]
+        paths = [_robot_scenario(Path(tmp), i, port) for i, port in enumerate(ports)]
+        # All started at once, then waited for: their start-ups overlap.
+        hosts = [_serve(path, port) for path, port in zip(paths, ports, strict=True)]
+        try:
+            for host in hosts:
+                assert host.stdout is not None and host.stdout.readline().startswith("serving")
+            scenarios = [load_scenario(path) for path in paths]
+            start = time.perf_counter()
+            report = anyio.run(functools.partial(run_fleet, scenarios, speed=SPEED, observers=observers))
+            wall = time.perf_counter() - start
+        finally:
+            for host in hosts:
+                host.kill()
+                host.wait()
+    summaries = [run.summary for run in report.runs]
+    same = [
+        (s.goals, s.visited, s.robot) == (alone.goals, alone.visited, alone.robot)
+        and abs(s.distance - alone.distance) < 1e-6
+        for s in summaries
+    ]
+    simulated = max(s.t for s in summaries)
+    return {
+        "robots": robots,
+        "speed": SPEED,
+        "wall_s": round(wall, 3),
+        "setup_s": round(max(joined) - start, 3),
+        "paced_s": round(simulated / SPEED, 3),
+        "per_robot_ms": round(wall / robots * 1000, 1),
+        "orders_per_s": round(counts["orders"] / wall, 1),
+        "messages_per_s": round(counts["messages"] / wall, 1),
+        "all_succeeded": report.succeeded,
+        "same_as_one_process": all(same),
+        "distance_m": sorted({s.distance for s in summaries}),
+        "failed": [
+            {"robot": i, "goal": g.goal, "reason": g.reason}
+            for i, s in enumerate(summaries)
+            for g in s.goals
+            if g.status != "success"
+        ],
+    }
+
+
+def main(robots: tuple[int, ...] = ROBOTS) -> int:
     endpoint = f"tcp/127.0.0.1:{_free_port()}"
     proc = _start_echo(endpoint)
     try:
@@ -234,6 +339,11 @@ def main() -> int:
     print(f"killed: {killed}\nfrozen: {frozen}", file=sys.stderr)
     museum = _museum()
     print(f"museum: {museum}", file=sys.stderr)
+    fleet = []
+    for n in robots:
+        row = _fleet(n)
+        print(f"fleet: {row}", file=sys.stderr)
+        fleet.append(row)
     out = {
         "machine": machine_line(),
         **link,
@@ -241,11 +351,15 @@ def main() -> int:
         "notice_frozen_ms": {"median": round(statistics.median(frozen), 1), "max": round(max(frozen), 1)},
         "trials": TRIALS,
         "museum": museum,
+        "fleet": fleet,
     }
     RESULTS.mkdir(exist_ok=True)
     (RESULTS / "remote.json").write_text(json.dumps(out, indent=2) + "\n")
     print(json.dumps(out, indent=2))
-    return 0
+    ok = museum["same_goals_visited_distance"] and all(
+        r["all_succeeded"] and r["same_as_one_process"] for r in fleet
+    )
+    return 0 if ok else 1
 
 
 if __name__ == "__main__":

@@ -29,9 +29,17 @@ def free_port() -> int:
 
 
 def remote_scenario(
-    tmp: Path, port: int, *, base: str = "museum.yaml", goals: str | None = None, peer_wait: float = 5
+    tmp: Path,
+    port: int,
+    *,
+    base: str = "museum.yaml",
+    goals: str | None = None,
+    peer_wait: float = 5,
+    robot: str | None = None,
 ) -> Path:
-    """A copy of a shipped scenario whose navigator is served at ``tcp/127.0.0.1:PORT``."""
+    """A copy of a shipped scenario whose navigator is served at ``tcp/127.0.0.1:PORT``.
+
+    ``robot``: one robot of a fleet, with a file and a namespace of its own."""
     text = (SCENARIOS / base).read_text()
     text = text.replace("map: museum_map.yaml", f"map: {SCENARIOS / 'museum_map.yaml'}")
     text, n = re.subn(
@@ -40,8 +48,9 @@ def remote_scenario(
     assert n == 1, "the scenario's last agent is not written {name: ..., executor: robot}"
     if goals is not None:
         text = text[: text.index("\ngoals:")] + "\ngoals:\n" + goals
-    text += f"\npeer_wait: {peer_wait}\nnamespace: test/{tmp.name}\n"
-    path = tmp / f"remote_{base}"
+    namespace = f"test/{tmp.name}" if robot is None else f"test/{tmp.name}/{robot}"
+    text += f"\npeer_wait: {peer_wait}\nnamespace: {namespace}\n"
+    path = tmp / (f"remote_{base}" if robot is None else f"remote_{robot}_{base}")
     path.write_text(text)
     return path
 
@@ -103,22 +112,31 @@ def htnagent(*args: str) -> subprocess.Popen[str]:
 @contextmanager
 def serving(scenario: Path, port: int, speed: float) -> Iterator[subprocess.Popen[str]]:
     """A process serving the navigator of ``scenario`` at the port, ready; killed at the end."""
-    proc = htnagent(
-        "serve",
-        str(scenario),
-        "--agent",
-        "navigator",
-        "--listen",
-        f"tcp/127.0.0.1:{port}",
-        "--speed",
-        str(speed),
-    )
+    with serving_all([(scenario, port)], speed) as procs:
+        yield procs[0]
+
+
+@contextmanager
+def serving_all(robots: list[tuple[Path, int]], speed: float) -> Iterator[list[subprocess.Popen[str]]]:
+    """A process per ``(scenario, port)`` serving its navigator, all ready; killed at the end.
+
+    They are all started before any is waited for: their start-ups overlap."""
+    procs: list[subprocess.Popen[str]] = []
     try:
-        assert proc.stdout is not None
-        Lines(proc.stdout).until("serving navigator", timeout=15)
-        yield proc
+        for scenario, port in robots:
+            procs.append(
+                htnagent(
+                    *("serve", str(scenario), "--agent", "navigator"),
+                    *("--listen", f"tcp/127.0.0.1:{port}", "--speed", str(speed)),
+                )
+            )
+        for proc in procs:
+            assert proc.stdout is not None
+            Lines(proc.stdout).until("serving navigator", timeout=15)
+        yield procs
     finally:
-        stop(proc)
+        for proc in procs:
+            stop(proc)
 
 
 def stop(proc: subprocess.Popen[str]) -> None:

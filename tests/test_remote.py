@@ -261,3 +261,38 @@ def test_every_item_crosses_the_wire_unchanged() -> None:
     ]:
         with pytest.raises(CodecError):
             decode(bad)
+
+
+def test_an_order_before_the_parents_token_counts_as_the_parent_having_joined(tmp_path: Path) -> None:
+    # Zenoh hands the parent's token and its first order to the event loop from different
+    # threads: the order may come first (seen under load).  The serving side must then
+    # send up at once what the order causes -- the robot's progress drives the parent's
+    # triggers -- and trace the join once, not again when the token comes.
+    from htnagent.events import PeerJoined, TraceEvent
+    from htnagent.messages import Prepare
+    from htnagent.remote.codec import encode
+    from htnagent.remote.host import Host
+    from htnagent.remote.link import Keys
+    from htnagent.simulation import build_runtime
+    from htnagent.terms import parse
+
+    scenario = load_scenario(remote_scenario(tmp_path, free_port()))
+
+    async def main() -> tuple[bool, list[str]]:
+        runtime, world = build_runtime(scenario, speed=1.0, first="navigator")
+        keys = Keys(scenario.key_space, "navigator")
+        host = Host(runtime, world, "navigator", "guide", keys, "tcp/127.0.0.1:7447")
+        joined: list[str] = []
+
+        def watch(event: TraceEvent) -> None:
+            if isinstance(event, PeerJoined):
+                joined.append(event.side)
+
+        runtime.subscribe(watch)
+        host._arrived(encode(0.0, Prepare(action=parse("move_area(area8,area7)"))))
+        up = host.parent_up
+        host._liveliness(True)  # the token, late
+        return up, joined
+
+    up, joined = anyio.run(main)
+    assert up and joined == ["parent"]

@@ -14,7 +14,7 @@ import pytest
 
 from htnagent.cli import main
 from htnagent.errors import ScenarioError
-from htnagent.scenario import load_scenario, parse_scenario
+from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from tests.remote_support import SCENARIOS, remote_scenario
 
 MAP = str(SCENARIOS / "museum_map.yaml")
@@ -97,6 +97,23 @@ def test_remote_settings_are_checked(change: dict[str, object], where: str) -> N
     with pytest.raises(ScenarioError) as caught:
         parse_scenario(data, "s.yaml")
     assert caught.value.where == where
+
+
+def test_a_fleet_whose_robots_would_share_a_served_agents_keys_is_refused() -> None:
+    from htnagent.fleet import check_fleet
+
+    def robot(file: str, port: int, namespace: str) -> Scenario:
+        data = {**scenario_data(remote=f"tcp/127.0.0.1:{port}"), "namespace": namespace}
+        return parse_scenario(data, file)
+
+    # Told apart by endpoint or by namespace: each robot's keys are its own.
+    check_fleet([robot("a.yaml", 7447, "fleet/a"), robot("b.yaml", 7448, "fleet/a")])
+    check_fleet([robot("a.yaml", 7447, "fleet/a"), robot("b.yaml", 7447, "fleet/b")])
+    with pytest.raises(ScenarioError) as caught:
+        check_fleet([robot("a.yaml", 7447, "fleet/a"), robot("b.yaml", 7447, "fleet/a")])
+    assert (caught.value.file, caught.value.where) == ("b.yaml", "agents[1].remote")
+    assert "another robot's too (a.yaml)" in str(caught.value)
+    assert "\n" not in str(caught.value)
 
 
 def test_serving_the_first_agent_is_refused(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

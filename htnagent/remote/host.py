@@ -117,6 +117,12 @@ class Host:
         except CodecError as e:
             log.warning("%s: dropping a payload: %s", self.agent.name, e)
             return
+        # A payload from the parent proves it is there, and its subscriber (declared before
+        # anything it sends) is known here.  Its liveliness token comes through another of
+        # Zenoh's threads and may reach the event loop after its first order: without this,
+        # what that order causes (the robot's progress, which the parent's triggers follow,
+        # and the trace) would not be sent up.  Seen under load, with several robots.
+        self._liveliness(True)
         self.runtime.clock.call_from_peer(t, functools.partial(self._handle, item))
 
     def _handle(self, item: Item) -> None:

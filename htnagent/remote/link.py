@@ -58,6 +58,11 @@ def zenoh_config(listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zen
         ),
         ("scouting/multicast/enabled", False),
         ("scouting/gossip/enabled", False),
+        # Opening a peer session may wait this long "for scouting" before it returns; with
+        # scouting off it waited for nothing, yet now and then did (its default, 0.5 s: seen
+        # when a fleet opens a link per robot at once).  Nothing here relies on the session
+        # being connected when it opens: the parent waits for the serving process's token.
+        ("scouting/delay", 0),
         ("transport/link/tx/lease", LEASE_MS),
         # A frozen peer accepts a connection and never answers: give up opening it soon
         # (the default, 10 s, would hold closing the session as long).
