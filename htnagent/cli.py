@@ -146,8 +146,7 @@ def build_parser() -> argparse.ArgumentParser:
         "--search",
         choices=[*(s.value for s in Search), "auto"],
         help="the search order: astar (cost-optimal; a scenario's default), gbfs (greedy), dfs "
-        "(depth-first in method order), or with --hddl auto (its default: dfs for a fifth of the "
-        "time, then gbfs)",
+        "(depth-first in method order), or with --hddl auto (its default: dfs for 2 s, then gbfs)",
     )
 
     check = sub.add_parser(
