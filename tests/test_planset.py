@@ -11,7 +11,7 @@ from htnagent.domain import Domain, State
 from htnagent.domains import areas_domain, nodes_domain
 from htnagent.maps import WorldMap
 from htnagent.plan import Plan, Step, replay, tidy
-from htnagent.planner import PlannerSettings, plan
+from htnagent.planner import PlannerSettings, Search, plan
 from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
 from htnagent.scenario import parse_map
 from htnagent.terms import Atom, parse
@@ -170,6 +170,26 @@ def test_belief_change_repairs_the_plan_around_a_closed_arc(nav: Domain) -> None
         "move(n18,n12,arc22)",
     ]
     assert replay(nav, closed, best.actions) is not None
+
+
+@pytest.mark.parametrize("search", list(Search))
+def test_repair_works_in_every_search_order(nav: Domain, search: Search) -> None:
+    # docs/design.md §1.1: the records are the same in every order, so is repair (§2.4).
+    belief = nav.initial_state("n40")
+    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1, search=search))
+    ps.make(belief)
+    best = ps.best
+    assert best is not None
+    closed_arc = next(
+        arc for action in best.actions if (arc := str(action.args[2])) and action.name == "move"
+    )
+    closed = belief.updated(add=[a(f"closed({closed_arc})")])
+    ps.belief_changed(belief, closed)
+    repaired = ps.best
+    assert repaired is not None
+    assert all(str(x.args[2]) != closed_arc for x in repaired.actions if x.name == "move")
+    assert replay(nav, closed, repaired.actions) is not None
+    assert all(s.record is not None for s in repaired.steps)
 
 
 def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> None:
