@@ -31,6 +31,7 @@ from __future__ import annotations
 import dataclasses
 import functools
 import itertools
+import math
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
@@ -61,6 +62,9 @@ TYPE = "__type_"
 
 MARKERS = frozenset({DONE})
 """Actions the translation adds: not HDDL actions, left out of an IPC plan."""
+
+MAX_GROUNDINGS = 20_000
+"""The most objects (or tuples of objects) one ``forall`` or negated ``exists`` may range over."""
 
 MAX_DISJUNCTS = 256
 """The most methods or operators one HDDL method or action may become (``or``, ``when``)."""
@@ -432,11 +436,15 @@ class _Translator:
                 parts = [self.dnf(cond, b, not positive, src, at), self.dnf(then, b, positive, src, at)]
                 return self.any_of(parts, src, at) if positive else self.all_of(parts, src, at)
             case m.Forall(params=params, body=body):
-                parts = [self.dnf(body, {**b, **g}, positive, src, at) for g in self.groundings(params)]
+                parts = [
+                    self.dnf(body, {**b, **g}, positive, src, at) for g in self.groundings(params, src, f.at)
+                ]
                 return self.all_of(parts, src, at) if positive else self.any_of(parts, src, at)
             case m.Exists(params=params, body=body):
                 if not positive:
-                    parts = [self.dnf(body, {**b, **g}, False, src, at) for g in self.groundings(params)]
+                    parts = [
+                        self.dnf(body, {**b, **g}, False, src, at) for g in self.groundings(params, src, f.at)
+                    ]
                     return self.all_of(parts, src, at)
                 # Some objects: fresh variables of their types, bound when matched.
                 fresh = {p.name: f"?__{next(self.fresh)}_{p.name.lstrip('?')}" for p in params}
@@ -446,8 +454,13 @@ class _Translator:
                 return [(*c, *typing) for c in self.dnf(body, {**b, **fresh}, True, src, at)]
         raise AssertionError(f"not a formula: {f!r}")  # pragma: no cover
 
-    def groundings(self, params: Sequence[m.Typed]) -> Iterator[dict[str, str]]:
+    def groundings(self, params: Sequence[m.Typed], src: m.Source, at: int) -> Iterator[dict[str, str]]:
+        """Every binding of a quantifier's variables to objects of their types."""
         domains = [self.of_type(p.types) for p in params]
+        if math.prod(len(d) for d in domains) > MAX_GROUNDINGS:
+            raise src.error(
+                at, f"this quantifier stands for over {MAX_GROUNDINGS:,} formulas (one per object)"
+            )
         for values in itertools.product(*domains):
             yield {p.name: v for p, v in zip(params, values, strict=True)}
 
@@ -532,8 +545,8 @@ class _Translator:
             case m.AndEffect(args=args):
                 for x in args:
                     yield from self.effects(x, b, conditions)
-            case m.ForallEffect(params=params, body=body):
-                for g in self.groundings(params):
+            case m.ForallEffect(params=params, body=body, at=at):
+                for g in self.groundings(params, self.hddl.source, at):
                     yield from self.effects(body, {**b, **g}, conditions)
             case m.When(cond=cond, body=body):
                 yield from self.effects(body, b, (*conditions, _bound_formula(cond, b)))

@@ -18,6 +18,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from htnagent.cli import main
+from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
@@ -415,3 +416,18 @@ def test_plan_hddl_bad_input_names_file_line_and_column(
     err = capsys.readouterr().err
     assert f"{bad}:3:" in err
     assert "fly" in err
+
+
+def test_a_quantifier_over_too_many_objects_is_refused_with_its_place(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    objects = " ".join(f"o{i}" for i in range(200))
+    domain, problem = _hddl(
+        "(define (domain wide) (:requirements :hierarchy :universal-preconditions)"
+        " (:predicates (p ?x ?y)) (:task t :parameters ())\n"
+        " (:method m :parameters () :task (t)\n"
+        "  :precondition (forall (?x ?y) (not (p ?x ?y))) :ordered-subtasks ()))",
+        f"(define (problem p) (:domain wide) (:objects {objects}) (:htn :ordered-subtasks (t)) (:init))",
+    )
+    with pytest.raises(HddlError, match=r"d\.hddl:3:17: this quantifier stands for over 20,000"):
+        solve(domain, problem)
