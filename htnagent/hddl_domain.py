@@ -242,12 +242,12 @@ class _Translator:
             self.objects[o.name] = frozenset(kinds)
         self.type_predicates: dict[tuple[str, ...], str] = {}
         self.fresh = itertools.count()
-        self.changes: dict[str, frozenset[str]] = {
-            a.name: frozenset(atom.name for _, atom, _ in self.effects(a.effect, {}, ()))
-            for a in domain.actions.values()
-        }
-        self.dynamic = frozenset().union(*self.changes.values())
-        self.requires: dict[str, tuple[Literal, ...] | None] = {}
+        # What the early checks of :meth:`early` work from, each made once.
+        self.requires: dict[str, tuple[Literal, ...]] = {}
+        self.needing: dict[str, tuple[tuple[str, ...], tuple[Literal, ...]] | None] = {}
+        self.reaching: dict[str, list[tuple[str, tuple[frozenset[str], ...]]]] = {}
+        self.patterns: dict[str, list[tuple[str, tuple[frozenset[str], ...]]]] = {}
+        self.typed_objects: dict[tuple[str, ...], frozenset[str]] = {}
 
     # -- the whole ---------------------------------------------------------------------------
 
@@ -333,39 +333,137 @@ class _Translator:
                 lit = self.type_literal(arg, d.types)
                 if lit is not None and lit not in typing:
                     typing.append(lit)
-        early = self.early(calls)
+        early = self.early(calls, {p.name: p.types for p in method.params})
         for conjunct in self.dnf(formula, {}, True, src, method.at):
             ordered = self.order((*conjunct, *early, *typing), method.params, set(head.variables()))
             self.out.method(
                 str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls]
             )
 
-    def early(self, calls: Sequence[Atom]) -> tuple[Literal, ...]:
-        """What the subtasks' actions require that must already hold when the method is chosen.
+    def early(self, calls: Sequence[Atom], kinds: Mapping[str, tuple[str, ...]]) -> tuple[Literal, ...]:
+        """What the subtasks require that must already hold when the method is chosen.
 
-        A literal of a primitive subtask's precondition whose predicate neither an earlier
-        subtask of the method changes nor, after a compound subtask, anything can (a static
-        one), holds when the action runs exactly when it holds now.  Checked at the
-        decomposition, such literals bind the method's parameters by facts (the breads
-        in the kitchen) instead of by their type (every bread), and drop decompositions
-        that would fail later -- without changing which plans exist.
+        A subtask requires, when it starts, its action's precondition -- or, for a compound
+        task with one method, that method's precondition and what its own subtasks require
+        early (:meth:`needs`).  Such a literal holds when the subtask starts exactly when it
+        holds now, if no earlier subtask of the method can change it: no action an earlier
+        subtask may come down to (:meth:`reach`) has an effect on its predicate for objects
+        of its arguments' types (a truck driving changes where trucks are, not where
+        packages are).  Checked at the decomposition, such literals bind the method's
+        parameters by facts (the package's place) instead of by their type (every place),
+        and drop decompositions that would fail later -- without changing which plans exist.
+        ``kinds``: the method's parameters' types.
         """
         out: list[Literal] = []
-        changed: set[str] = set()
-        anything = False  # after a compound subtask, any dynamic predicate may have changed
+        changing: list[tuple[str, tuple[frozenset[str], ...]]] = []
         for call in calls:
-            action = self.hddl.actions.get(call.name)
-            if action is None:
-                anything = True
-                continue
-            mapping = {p.name: arg for p, arg in zip(action.params, call.args, strict=False)}
-            for lit in self.required(action):
-                name = lit.atom.name
-                if lit.variables - mapping.keys() or name in changed or (anything and name in self.dynamic):
-                    continue
-                out.append(Literal(substitute(lit.atom, mapping), lit.positive))
-            changed |= self.changes[action.name]
+            need = self.needs(call.name)
+            if need is not None:
+                head, lits = need
+                mapping: dict[str, str] = {}
+                fits = len(head) == len(call.args)
+                for h, arg in zip(head, call.args, strict=False):
+                    if h.startswith("?"):
+                        mapping[h] = str(arg)
+                    elif h != arg:
+                        fits = False
+                for lit in lits if fits else ():
+                    if lit.variables - mapping.keys():
+                        continue
+                    ground = Literal(substitute(lit.atom, mapping), lit.positive)
+                    if not self.may_change(ground, changing, kinds):
+                        out.append(ground)
+            changing.extend(self.reach_effects(call.name))
         return tuple(dict.fromkeys(out))
+
+    def needs(self, name: str) -> tuple[tuple[str, ...], tuple[Literal, ...]] | None:
+        """What a task requires when it starts, over its head's terms: an action's
+        precondition, or the one method of a compound task's precondition and early
+        literals; None when that is not known (several methods, a disjunction)."""
+        if name in self.needing:
+            return self.needing[name]
+        self.needing[name] = None  # a recursion through this task learns nothing of it
+        found: tuple[tuple[str, ...], tuple[Literal, ...]] | None = None
+        action = self.hddl.actions.get(name)
+        if action is not None:
+            found = (tuple(p.name for p in action.params), self.required(action))
+        else:
+            methods = self.hddl.methods_for(name)
+            if len(methods) == 1:
+                method = methods[0]
+                formula = m.And((method.precondition, method.constraints))
+                conjuncts = self.dnf(formula, {}, True, self.hddl.source, method.at)
+                if len(conjuncts) == 1:
+                    kinds = {p.name: p.types for p in method.params}
+                    typing = [
+                        lit for p in method.params if (lit := self.type_literal(p.name, p.types)) is not None
+                    ]
+                    inner = self.early([s.call for s in method.subtasks], kinds)
+                    head = tuple(str(a) for a in method.task.args)
+                    known = {h for h in head if h.startswith("?")}
+                    lits = [x for x in (*conjuncts[0], *typing, *inner) if x.variables <= known]
+                    found = (head, tuple(dict.fromkeys(lits)))
+        self.needing[name] = found
+        return found
+
+    def reach_effects(self, name: str) -> list[tuple[str, tuple[frozenset[str], ...]]]:
+        """The effects of every action the task may come down to: each as its predicate
+        and, per argument, the objects it may name."""
+        if name not in self.reaching:
+            self.reaching[name] = []  # recursion: the fixed point is reached below
+            actions: set[str] = set()
+            todo = [name]
+            seen: set[str] = set()
+            while todo:
+                t = todo.pop()
+                if t in seen:
+                    continue
+                seen.add(t)
+                if t in self.hddl.actions:
+                    actions.add(t)
+                for method in self.hddl.methods_for(t):
+                    todo.extend(s.call.name for s in method.subtasks)
+            self.reaching[name] = [p for a in sorted(actions) for p in self.effect_patterns(a)]
+        return self.reaching[name]
+
+    def effect_patterns(self, action_name: str) -> list[tuple[str, tuple[frozenset[str], ...]]]:
+        found = self.patterns.get(action_name)
+        if found is None:
+            action = self.hddl.actions[action_name]
+            kinds = {p.name: p.types for p in action.params}
+            found = self.patterns[action_name] = [
+                (a.name, tuple(self.objects_of(str(x), kinds) for x in a.args))
+                for _, a, _ in self.effects(action.effect, {}, ())
+            ]
+        return found
+
+    def objects_of(self, term: str, kinds: Mapping[str, tuple[str, ...]]) -> frozenset[str]:
+        """The objects a term may name: a constant itself, a variable those of its type."""
+        if not term.startswith("?"):
+            return frozenset((term,))
+        types = kinds.get(term, (m.OBJECT,))
+        found = self.typed_objects.get(types)
+        if found is None:
+            found = self.typed_objects[types] = frozenset(self.of_type(types))
+        return found
+
+    def may_change(
+        self,
+        lit: Literal,
+        changing: Sequence[tuple[str, tuple[frozenset[str], ...]]],
+        kinds: Mapping[str, tuple[str, ...]],
+    ) -> bool:
+        """Whether one of the effects could make the literal's truth other than it is now."""
+        name = lit.atom.name
+        args: tuple[frozenset[str], ...] | None = None
+        for predicate, may_name in changing:
+            if predicate != name or len(may_name) != len(lit.atom.args):
+                continue
+            if args is None:
+                args = tuple(self.objects_of(str(x), kinds) for x in lit.atom.args)
+            if all(a & b for a, b in zip(args, may_name, strict=True)):
+                return True
+        return False
 
     def required(self, action: m.Action) -> tuple[Literal, ...]:
         """The literals every way of running the action requires (none for a disjunction)."""
