@@ -260,6 +260,9 @@ class Domain:
     """Facts the agent believes from the start, whatever the world."""
     world_facts: Callable[[str], Iterable[Atom]] | None = None
     """For map-based domains: the belief about a world whose robot stands at a node."""
+    goal_facts: tuple[Atom, ...] = ()
+    """Dynamic facts the problem's goal wants at the end (HDDL's ``:goal``): greedy search
+    adds the number still missing to its estimate."""
     task_costs: dict[str, float] | None = None
     """The least cost of each task name whatever the state (``inf``: the task can never be
     done).  When set, the planner's estimate of a task list is the sum over its tasks (in

@@ -271,6 +271,14 @@ class _Translator:
             if not conjuncts:
                 self.out.method(f"{GOAL}()", "goal", when=[f"{EQ}(a,b)"], do=[])  # false
             tasks.append(Atom(GOAL))
+            if len(conjuncts) == 1:
+                # Greedy search counts what is still missing of the goal (docs/design.md §7).
+                dynamic = self.out.dynamic_predicates
+                self.out.goal_facts = tuple(
+                    lit.atom
+                    for lit in conjuncts[0]
+                    if lit.positive and not lit.variables and lit.atom.name in dynamic
+                )
         facts: list[Atom] = list(p.init)
         for name, kinds in self.objects.items():
             facts.append(Atom(EQ, (name, name)))

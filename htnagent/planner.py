@@ -294,6 +294,7 @@ def _search(
     wg = 1.0 if search is Search.ASTAR else 0.0
     dfs = search is Search.DFS
     task_costs = domain.task_costs
+    goal_facts = domain.goal_facts if search is Search.GBFS else ()
     # Where h reads only the task names, all the ways of one method share their f: they are
     # made into nodes one at a time, as the search reaches them (_More) -- a method with
     # thousands of bindings costs only those the search takes.
@@ -311,7 +312,10 @@ def _search(
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if task_costs is not None:
             # Each task's least cost whatever the state: their sum never over-estimates.
-            return sum([task_costs.get(t.name, 0.0) for t in tasks])
+            h = sum([task_costs.get(t.name, 0.0) for t in tasks])
+            if goal_facts:
+                h += sum([f not in dynamic for f in goal_facts])
+            return h
         # The first compound task's estimate; the children of one node mostly share their
         # state and that task (often the very same objects), so it is worked out once for them.
         nonlocal last
