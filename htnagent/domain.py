@@ -32,6 +32,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from typing import TypeVar
 
 from htnagent.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
 from htnagent.errors import DomainError
@@ -48,6 +49,8 @@ from htnagent.preconditions import (
 )
 from htnagent.state import FactBase, State
 from htnagent.terms import Atom, Bindings, atom, is_variable, substitute
+
+_F = TypeVar("_F")
 
 CostSpec = float | int | Callable[[Atom], float]
 """An operator's cost: a number, or a function of the ground action."""
@@ -213,28 +216,22 @@ class Method:
     def compiled(self, dynamic_predicates: frozenset[str]) -> Decomposer:
         """:meth:`subtasks_in` for states with these dynamic predicates, as one function
         (made once; see :func:`~htnagent.preconditions.compile_method`)."""
-        run = self._compiled.get(dynamic_predicates)
-        if run is None:
-            run = self._compiled[dynamic_predicates] = compile_method(
-                self.head,
-                self.pre,
-                self.subtasks,
-                dynamic_predicates,
-                label=f"method {self.name} of {self.head}",
-            )
-        return run
+        return self._once(self._compiled, compile_method, dynamic_predicates)
 
     def compiled_lazy(self, dynamic_predicates: frozenset[str]) -> LazyDecomposer:
         """:meth:`compiled` as a generator (see :func:`~htnagent.preconditions.compile_method_lazy`)."""
-        run = self._lazy.get(dynamic_predicates)
+        return self._once(self._lazy, compile_method_lazy, dynamic_predicates)
+
+    def _once(
+        self,
+        made: dict[frozenset[str], _F],
+        compile_as: Callable[..., _F],
+        dynamic_predicates: frozenset[str],
+    ) -> _F:
+        run = made.get(dynamic)
         if run is None:
-            run = self._lazy[dynamic_predicates] = compile_method_lazy(
-                self.head,
-                self.pre,
-                self.subtasks,
-                dynamic_predicates,
-                label=f"method {self.name} of {self.head}",
-            )
+            label = f"method {self.name} of {self.head}"
+            run = made[dynamic] = compile_as(self.head, self.pre, self.subtasks, dynamic, label=label)
         return run
 
     def __str__(self) -> str:
