@@ -226,7 +226,7 @@ class Method:
         self,
         made: dict[frozenset[str], _F],
         compile_as: Callable[..., _F],
-        dynamic_predicates: frozenset[str],
+        dynamic: frozenset[str],
     ) -> _F:
         run = made.get(dynamic)
         if run is None:
