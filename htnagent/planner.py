@@ -387,8 +387,12 @@ def _search(
     expansions = 0
     limit = settings.budget
     timed_out = False
+    # The clock is read every 256 nodes taken off the open list -- not expansions: a long
+    # run of nodes already expanded (or of lazy ways) expands nothing.
+    ticks = 0
     while heap and len(found) < k:
-        if deadline is not None and not expansions & 255 and time.perf_counter() > deadline:
+        ticks += 1
+        if deadline is not None and not ticks & 255 and time.perf_counter() > deadline:
             limit = expansions  # out of time: end as when the budget runs out
             timed_out = True
         if expansions >= limit:
