@@ -110,8 +110,9 @@ def _draw(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
             )
             emergency_drawn |= red
             normal_drawn |= not red
-    start = world.nodes[scenario.robot.start]
-    ax.plot(start.x, start.y, "s", color="black", markersize=8, zorder=4, label="start")
+    start = world.nodes.get(scenario.robot.start or "")
+    if start is not None:  # an HDDL agent's robot has no map (docs/design.md §7.1)
+        ax.plot(start.x, start.y, "s", color="black", markersize=8, zorder=4, label="start")
     ax.set_aspect("equal")
     ax.invert_yaxis()
     ax.set_title(scenario.name)

@@ -336,7 +336,7 @@ def _map_svg(scenario: Scenario) -> str:
                 f'<text class="node-name" x="{node.x + unit:g}" y="{node.y - unit:g}" '
                 f'font-size="{unit * 1.7:.4g}">{_e(node.name)}</text>'
             )
-    start = world.nodes.get(scenario.robot.start)
+    start = world.nodes.get(scenario.robot.start or "")
     if start is not None:
         parts.append(
             f'<rect class="start" x="{start.x - unit * 1.2:g}" y="{start.y - unit * 1.2:g}" '
