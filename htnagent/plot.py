@@ -116,7 +116,8 @@ def _draw(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
     ax.set_aspect("equal")
     ax.invert_yaxis()
     ax.set_title(scenario.name)
-    ax.legend(loc="lower right", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # nothing to label on an HDDL agent's world (§7.1)
+        ax.legend(loc="lower right", fontsize=8)
     try:
         fig.savefig(file, dpi=120, bbox_inches="tight")
     except OSError as exc:
