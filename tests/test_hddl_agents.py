@@ -341,7 +341,7 @@ def test_a_suspended_move_is_rolled_back_when_the_emergency_makes_it_useless(tmp
     assert not any(a.startswith("resume(") for a, _ in finished)
 
 
-def test_a_false_precondition_in_the_world_is_a_reported_failure(tmp_path: Path) -> None:
+def test_a_fact_deleted_by_an_event_is_believed_and_the_goal_fails(tmp_path: Path) -> None:
     # The parcel is taken away while the robot walks to it; the agent learns it, as the
     # world changes, and its goal can no longer be done.
     path = scenario_file(
@@ -363,13 +363,9 @@ def test_the_robot_refuses_an_action_whose_precondition_is_false(tmp_path: Path)
         events=[],
     )
     s = load_scenario(path)
-    runtime: list[Runtime] = []
-
-    def moved(rt: Runtime) -> None:
-        runtime.append(rt)
 
     async def go() -> RunReport:
-        return await run_scenario(s, keep_events=True, on_start=moved)
+        return await run_scenario(s, keep_events=True)
 
     # Change the world only (not the belief) before anything runs.
     original = HddlRobot.__init__
@@ -415,3 +411,35 @@ def test_run_prints_a_live_trace_and_json_lines() -> None:
     changed = next(line for line in lines if line["event"] == "facts_changed")
     assert changed["agent"] == "world" and changed["t"] == 13.0
     assert (changed["add"], changed["delete"]) == ([], ["door(hall,office)", "door(office,hall)"])
+
+
+def test_beliefs_follow_actions_with_or_when_and_forall(tmp_path: Path) -> None:
+    # The tests' courier: a door either way (or), rooms lit on entry (when), every light
+    # switched off at the end (forall in an effect).
+    shutil.copy(REPO / "tests" / "hddl" / "courier-domain.hddl", tmp_path / "d.hddl")
+    shutil.copy(REPO / "tests" / "hddl" / "courier.hddl", tmp_path / "p.hddl")
+    data = {
+        "name": "courier with lights",
+        "robot": {"durations": {"move": 2}},
+        "agents": [{"name": "c", "domain": {"hddl": "d.hddl", "problem": "p.hddl"}, "executor": "robot"}],
+        "goals": [
+            {"agent": "c", "task": "deliver(p1,office)"},
+            {"agent": "c", "task": "goto(r1,kitchen)"},
+            {"agent": "c", "task": "tidy()"},
+        ],
+    }
+    path = tmp_path / "s.yaml"
+    path.write_text(yaml.safe_dump(data))
+    report, events, compared = run_checked(load_scenario(path))
+    assert report.succeeded
+    assert compared > 8
+    finished = [(e.action, e.result) for e in events if isinstance(e, ActionFinished)]
+    assert ("switch-off", "success") in finished
+
+
+def test_plan_names_the_problem_it_starts_from(capsys: pytest.CaptureFixture[str]) -> None:
+    scenario = str(SCENARIOS / "courier_hddl.yaml")
+    args = ["plan", scenario, "--agent", "courier", "--task", "deliver(p1,office)"]
+    assert main(args) == 0
+    out = capsys.readouterr().out
+    assert out.startswith("courier (courier) plans deliver(p1,office) from the :init of courier-ring:\n")

@@ -105,11 +105,6 @@ class RobotSpec(_Spec):
     """The node it starts at: needed on a map (not for an HDDL agent's robot, docs/design.md §7.1)."""
     speed: Annotated[float, Strict(), Field(ge=MIN_SPEED, le=MAX_SPEED, allow_inf_nan=False)] | None = None
     """Metres per simulated second: needed on a map (not for an HDDL agent's robot)."""
-
-    @property
-    def metres_per_second(self) -> float:
-        """:attr:`speed`, checked present for a robot on a map (1 for an HDDL agent's, unused)."""
-        return 1.0 if self.speed is None else self.speed
     failure_rate: Annotated[float, Strict(), Field(ge=0, le=1)] = 0.0
     """The chance that an action fails of itself (for failure experiments)."""
     seed: Annotated[int, Strict()] = 0
@@ -121,6 +116,11 @@ class RobotSpec(_Spec):
     time wherever the robot stands, and may be suspended half way and resumed.
     For an HDDL agent's robot, every action not named here takes 1 s.
     """
+
+    @property
+    def metres_per_second(self) -> float:
+        """:attr:`speed`, checked present for a robot on a map (1 for an HDDL agent's, unused)."""
+        return 1.0 if self.speed is None else self.speed
 
 
 class HddlDomainSpec(_Spec):
