@@ -14,7 +14,8 @@ failure, reported with the literal at fault.  The translation's marker
 A running action can be suspended half way: it has then had no effect, and the
 robot keeps the fraction done.  ``resume(A)`` does the rest (its time left) and
 gives A's effects, A's precondition checked anew; ``rollback(A)`` forgets the
-half done at once, and so does ``clear``.  Activities are traced as
+half done at once, and so does ``clear``.  With a ``failure_rate``, a fresh action
+also fails at random (seeded), as the museum robot's moves do.  Activities are traced as
 ``robot_acting`` and reported to the progress listeners (what triggers follow),
 as the museum robot's timed actions are (:mod:`htnagent.executors.robot`).
 """
@@ -22,6 +23,7 @@ as the museum robot's timed actions are (:mod:`htnagent.executors.robot`).
 from __future__ import annotations
 
 import functools
+import random
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
 
@@ -130,12 +132,16 @@ class HddlRobot(ExecutorActor):
         durations: Mapping[str, float] | None = None,
         markers: Iterable[str] = (),
         default_duration: float = 1.0,
+        failure_rate: float = 0.0,
+        seed: int = 0,
     ) -> None:
         super().__init__(name, clock, trace)
         self.world = world
         self.durations = dict(durations or {})
         self.markers = frozenset(markers)
         self.default_duration = default_duration
+        self.failure_rate = failure_rate
+        self._rng = random.Random(seed)
         self.running: _Running | None = None
         self.kept: dict[Atom, float] = {}  # suspended actions: the fraction already done
 
@@ -174,6 +180,9 @@ class HddlRobot(ExecutorActor):
             return
         if action.name in self.markers:
             self.reply(Success(action=action, seq=order.seq))  # the translation's no-op
+            return
+        if self.failure_rate and self._rng.random() < self.failure_rate:
+            self._fail(order, f"{action} failed (simulated fault)")
             return
         self._start(order, action, 0.0)
 

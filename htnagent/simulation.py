@@ -116,6 +116,8 @@ def build_runtime(
             scenario.robot.durations,
             markers=MARKERS,
             default_duration=DEFAULT_DURATION,
+            failure_rate=scenario.robot.failure_rate,
+            seed=scenario.robot.seed,
         )
 
     bottom: Callable[[Clock, Trace], ExecutorActor] = robot if hddl is None else hddl_robot

@@ -171,6 +171,18 @@ BROKEN = [
         "not both",
     ),
     (
+        "robot-start",
+        {"robot": {"start": "hall"}},
+        "robot.start",
+        "the robot of an HDDL agent is on no map: leave it out",
+    ),
+    (
+        "not-the-last-agent",
+        {"agent": {"executor": "helper"}},
+        "agents[0].executor",
+        "expected 'robot' (it is the last agent), got 'helper'",
+    ),
+    (
         "unknown-duration",
         {"robot": {"durations": {"fly": 2}}},
         "robot.durations.fly",
@@ -443,3 +455,15 @@ def test_plan_names_the_problem_it_starts_from(capsys: pytest.CaptureFixture[str
     assert main(args) == 0
     out = capsys.readouterr().out
     assert out.startswith("courier (courier) plans deliver(p1,office) from the :init of courier-ring:\n")
+
+
+def test_a_failure_rate_makes_actions_fail_at_random_and_runs_repeat(tmp_path: Path) -> None:
+    path = scenario_file(tmp_path, robot={"durations": {"move": 4}, "failure_rate": 0.5, "seed": 3})
+    s = load_scenario(path)
+    first = run_checked(s)[1]
+    failed = [e for e in first if isinstance(e, ActionFinished) and e.result == "failure"]
+    assert failed and all(e.reason.endswith("failed (simulated fault)") for e in failed)
+    again = run_checked(s)[1]
+    assert [(e.action, e.result) for e in again if isinstance(e, ActionFinished)] == [
+        (e.action, e.result) for e in first if isinstance(e, ActionFinished)
+    ]

@@ -82,6 +82,13 @@ def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) 
             raise ScenarioError(file, "robot.speed", "required: the robot's speed in metres per second")
         if s.robot.start not in world.nodes:
             raise ScenarioError(file, "robot.start", f"unknown node {s.robot.start!r}; it is not on the map")
+    else:
+        # A world of facts (§7.1): the robot stands on no node and travels no arc.
+        for key in ("start", "speed"):
+            if getattr(s.robot, key) is not None:
+                raise ScenarioError(
+                    file, f"robot.{key}", "the robot of an HDDL agent is on no map: leave it out"
+                )
     _check_durations(s)
     _check_timeout(s)
     names = s.agent_names
