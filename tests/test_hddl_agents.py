@@ -171,6 +171,36 @@ BROKEN = [
         "not both",
     ),
     (
+        "hddl-not-text",
+        {"agent": {"domain": {"hddl": 5, "problem": PROBLEM.name}}},
+        "agents[0].domain.hddl",
+        "expected text, got 5",
+    ),
+    (
+        "problem-missing",
+        {"agent": {"domain": {"hddl": DOMAIN.name}}},
+        "agents[0].domain.problem",
+        "required, but missing",
+    ),
+    (
+        "domain-unknown-key",
+        {"agent": {"domain": {"hddl": DOMAIN.name, "problem": PROBLEM.name, "plan": "x"}}},
+        "agents[0].domain.plan",
+        "unknown key; expected one of hddl, problem",
+    ),
+    (
+        "domain-a-list",
+        {"agent": {"domain": ["a", "b"]}},
+        "agents[0].domain",
+        "expected a domain name (museum.nodes, package.module:attribute) or {hddl: DOMAIN.hddl, ",
+    ),
+    (
+        "suspendable-not-a-list",
+        {"agent": {"suspendable": "move"}},
+        "agents[0].suspendable",
+        "expected a list",
+    ),
+    (
         "robot-start",
         {"robot": {"start": "hall"}},
         "robot.start",

@@ -16,11 +16,13 @@ from typing import TYPE_CHECKING, Annotated, Literal
 from pydantic import (
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
     PlainSerializer,
     PlainValidator,
     PrivateAttr,
     Strict,
+    Tag,
     model_validator,
 )
 
@@ -133,11 +135,35 @@ class HddlDomainSpec(_Spec):
     ``:init`` (its objects are what the goals may name; its task network is not used)."""
 
 
+def _domain_form(value: object) -> str | None:
+    """Which form a domain is written in: a name, ``{hddl: D, problem: P}``, or neither."""
+    if isinstance(value, str):
+        return _NAMED
+    return _HDDL if isinstance(value, Mapping) else None
+
+
+# The tags name the two forms; the translator leaves them out of key paths.
+_NAMED, _HDDL = "name", "{hddl, problem}"
+
+DomainForm = Annotated[
+    Annotated[Name, Tag(_NAMED)] | Annotated[HddlDomainSpec, Tag(_HDDL)],
+    Discriminator(
+        _domain_form,
+        custom_error_type="domain_form",
+        custom_error_message=(
+            "expected a domain name (museum.nodes, package.module:attribute) "
+            "or {hddl: DOMAIN.hddl, problem: PROBLEM.hddl}"
+        ),
+    ),
+]
+"""An agent's domain: a built-in or user's domain by name, or HDDL files."""
+
+
 class AgentSpec(_Spec):
     """One planning agent: its name, its domain and who executes its actions."""
 
     name: Name
-    domain: Name | HddlDomainSpec
+    domain: DomainForm
     """A built-in domain name, ``package.module:attribute``, or ``{hddl: D, problem: P}``."""
     suspendable: Annotated[tuple[Name, ...], Field(fail_fast=True)] = ()
     """For an HDDL domain: the actions that may be suspended half way (docs/design.md §7.1)."""
