@@ -497,3 +497,16 @@ def test_a_failure_rate_makes_actions_fail_at_random_and_runs_repeat(tmp_path: P
     assert [(e.action, e.result) for e in again if isinstance(e, ActionFinished)] == [
         (e.action, e.result) for e in first if isinstance(e, ActionFinished)
     ]
+
+
+def test_an_hddl_agent_is_the_one_on_the_robot(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = scenario_file(tmp_path)
+    data = read_yaml(path, "scenario")
+    below = {**data["agents"][0], "name": "helper"}
+    data["agents"] = [{**data["agents"][0], "executor": "helper"}, below]
+    path.write_text(yaml.safe_dump(data, sort_keys=False))
+    assert main(["check", str(path)]) == 2
+    assert capsys.readouterr().err == (
+        f"htnagent: error: {path}: agents[0].domain: an HDDL domain is for the agent on the robot "
+        "(executor: robot), the last of the chain\n"
+    )
