@@ -384,7 +384,9 @@ class Scenario(_Spec):
         if not self.domain_for(last).is_primitive(action):
             return False
         if self.hddl_robot is not None:
-            return action.name not in RECOVERY  # the robot carries out every HDDL action
+            # The robot carries out every HDDL action, in its time; the translation's own
+            # (``__done``) succeed at once, so no trigger follows them.
+            return action.name not in RECOVERY and not action.name.startswith("__")
         return action.name in self.info_for(last).robot_moves or action.name in self.robot.durations
 
     def check_task(self, agent_name: str, task: Atom, where: str) -> None:
