@@ -510,3 +510,37 @@ def test_an_hddl_agent_is_the_one_on_the_robot(tmp_path: Path, capsys: pytest.Ca
         f"htnagent: error: {path}: agents[0].domain: an HDDL domain is for the agent on the robot "
         "(executor: robot), the last of the chain\n"
     )
+
+
+def test_a_resumed_move_is_suspended_again_by_a_second_emergency(tmp_path: Path) -> None:
+    # Expect: move suspended at 2 s (half); p2 to the hall; the move resumed at 12 s and
+    # stopped again at 13 s (three quarters done) for p2 to the office; the first goal then
+    # goes on from the office -- the half move from the hall is of no use there.
+    path = scenario_file(
+        tmp_path,
+        goals=[
+            {"agent": "courier", "task": "deliver(p1,office)"},
+            {
+                "agent": "courier",
+                "task": "deliver(p2,hall)",
+                "emergency": True,
+                "when": {"action": "move(r1,hall,kitchen)", "progress": 0.5},
+            },
+            {"agent": "courier", "task": "deliver(p2,office)", "emergency": True, "when": {"time": 13}},
+        ],
+        events=[],
+    )
+    report, events, _ = run_checked(load_scenario(path))
+    assert report.succeeded
+    finished = [(e.t, e.action, e.result) for e in events if isinstance(e, ActionFinished)]
+    assert (2.0, "move(r1,hall,kitchen)", "suspended") in finished
+    assert (13.0, "resume(move(r1,hall,kitchen))", "suspended") in finished
+    assert not any(a.startswith("resume(") and r == "success" for _, a, r in finished)
+    resumed = [(e.t, e.done) for e in events if isinstance(e, RobotActing) and e.resumed]
+    assert resumed[0] == (12.0, 0.5)
+    goals = [(e.goal, e.status) for e in events if isinstance(e, GoalFinished)]
+    assert goals == [
+        ("deliver(p2,hall)", "success"),
+        ("deliver(p2,office)", "success"),
+        ("deliver(p1,office)", "success"),
+    ]
