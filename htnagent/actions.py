@@ -267,11 +267,20 @@ class Actions:
         """The state after an action reported done, even if the belief doubted it could run.
 
         The executor is the authority on what happened: the effects are applied
-        with the precondition's bindings when it holds, the head's otherwise.
+        with the precondition's bindings when it holds, the head's otherwise.  Of
+        several operators of the action (an HDDL ``or`` or ``when`` makes one per
+        case, docs/design.md §7.1), the first whose precondition holds gives the effects.
         """
         op, b = self.ground(action)
-        full = op.applicable(state, b) or b
-        return state.with_dynamic(op.effects_on(state.dynamic, full))
+        full = op.applicable(state, b)
+        if full is None:
+            for other in self._domain.operators.get(action.name, ()):
+                head = unify(other.head, action, {})
+                found = other.applicable(state, head) if head is not None else None
+                if found is not None:
+                    op, full = other, found
+                    break
+        return state.with_dynamic(op.effects_on(state.dynamic, full or b))
 
     def can_suspend(self, action: Atom) -> bool:
         """Whether the belief can follow the ground action being stopped half way.

@@ -336,7 +336,7 @@ def _plan(args: argparse.Namespace) -> int:
             PlanStatus.BUDGET_EXHAUSTED: f"the budget of {scenario.settings.budget} expansions ran out",
         }.get(result.status, result.status.value)
         print(
-            f"{PROG}: no plan: {args.agent} cannot do {task} from {scenario.robot.start} ({why})",
+            f"{PROG}: no plan: {args.agent} cannot do {task} from {_start_of(scenario)} ({why})",
             file=sys.stderr,
         )
         return EXIT_FAILED
@@ -403,10 +403,18 @@ def _report(args: argparse.Namespace) -> int:
     return EXIT_OK
 
 
+def _start_of(scenario: Scenario) -> str:
+    """Where the plans start: the robot's node, or an HDDL agent's problem (docs/design.md §7.1)."""
+    hddl = scenario.hddl_robot
+    if hddl is not None:
+        return f"the :init of {hddl.problem.name}"
+    return str(scenario.robot.start)
+
+
 def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan]) -> None:
     best = found[0]
     domain = scenario.domain_for(agent).name
-    print(f"{agent} ({domain}) plans {task} from {scenario.robot.start}:", file=out)
+    print(f"{agent} ({domain}) plans {task} from {_start_of(scenario)}:", file=out)
     width = len(str(len(best)))
     for i, action in enumerate(best.text(), start=1):
         print(f"  {i:>{width}}. {action}", file=out)

@@ -22,6 +22,7 @@ from htnagent.events import (
     AgentCrashed,
     ArcClosed,
     ArcOpened,
+    FactsChanged,
     GoalCleared,
     GoalFinished,
     GoalReceived,
@@ -114,6 +115,9 @@ def _describe(e: TraceEvent) -> Text | None:
             return Text(f"closed {e.arc}", style="bold red")
         case ArcOpened():
             return Text(f"opened {e.arc}", style="bold red")
+        case FactsChanged():
+            changes = [*(f"+{f}" for f in e.add), *(f"-{f}" for f in e.delete)]
+            return Text(f"world: {' '.join(changes)}", style="bold red")
         case SuspendRefused():
             return Text(f"  cannot suspend {e.action}: it goes on", style="yellow")
         case MessageSent() if e.kind in ("suspend", "resume", "clear", "suspended", "refused"):
@@ -134,7 +138,10 @@ def print_summary(console: Console, summary: Summary) -> None:
         table.add_row(g.agent, g.goal, Text(status, style="green" if g.status == "success" else "red"))
     console.print(table)
     where = summary.robot
-    place = f"at {where['at']}" if "at" in where else f"on {where.get('on')}"
-    console.print(f"robot {place}; travelled {summary.distance:.2f} m through {' '.join(summary.visited)}")
+    if where:  # a robot on a map (an HDDL agent's robot is on none)
+        place = f"at {where['at']}" if "at" in where else f"on {where.get('on')}"
+        console.print(
+            f"robot {place}; travelled {summary.distance:.2f} m through {' '.join(summary.visited)}"
+        )
     planning = ", ".join(f"{k} {v:.1f} ms" for k, v in summary.planning_ms.items())
     console.print(f"planning time: {planning}")

@@ -231,6 +231,15 @@ class ArcOpened(TraceEvent):
     arc: str
 
 
+@dataclass(slots=True, kw_only=True)
+class FactsChanged(TraceEvent):
+    """The world of an HDDL agent's robot changed: facts deleted, then added (a scenario event)."""
+
+    event: ClassVar[Literal["facts_changed"]] = "facts_changed"
+    add: tuple[str, ...] = ()
+    delete: tuple[str, ...] = ()
+
+
 # -- faults ------------------------------------------------------------------------------------
 
 
@@ -302,7 +311,7 @@ class Summary(TraceEvent):
     event: ClassVar[Literal["summary"]] = "summary"
     goals: tuple[GoalRow, ...]
     robot: dict[str, str]
-    """``{"at": node}`` or ``{"on": arc}``."""
+    """``{"at": node}`` or ``{"on": arc}``; ``{}`` for an HDDL agent's robot (on no map)."""
     visited: tuple[str, ...]
     distance: float
     planning_ms: dict[str, float]
@@ -330,6 +339,7 @@ EVENT_KINDS: dict[str, type[TraceEvent]] = {
         RobotActing,
         ArcClosed,
         ArcOpened,
+        FactsChanged,
         ExecutorError,
         AgentCrashed,
         EventsDropped,

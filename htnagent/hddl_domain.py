@@ -18,6 +18,11 @@ of it what the planner (:mod:`htnagent.planner`) reads (docs/design.md §7):
   methods (one per disjunct) do nothing and hold only where the goal does.
 - **Methods with no subtasks** do the zero-cost action ``__done()``, so that their
   decomposition appears in the plan's records (the IPC plan format lists it).
+- **Suspension** (docs/design.md §7.1): an action named in ``suspendable`` is declared
+  with a :class:`~htnagent.domain.Suspension`.  Stopped half way it has had no effect;
+  the fact ``__suspended_A(args)`` records it.  ``resume(A)`` requires that record and
+  A's own precondition (the rest of A is done now, so what A needs must hold now) and
+  gives A's effects; ``rollback(A)`` just drops the record.
 - **The estimate**: :attr:`Domain.task_costs` holds the least number of actions each
   task takes whatever the state (over the method tree), which the planner sums over
   the task list.
@@ -33,10 +38,11 @@ import functools
 import itertools
 import math
 import time
-from collections.abc import Iterable, Iterator, Mapping, Sequence
+from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from htnagent.domain import Domain as PlanningDomain
+from htnagent.domain import Effect, Suspension
 from htnagent.hddl import model as m
 from htnagent.hddl.plan_file import Decomposition as IpcDecomposition
 from htnagent.hddl.plan_file import IpcPlan
@@ -59,6 +65,10 @@ EQ = "__eq"
 """The static predicate of equality."""
 TYPE = "__type_"
 """The prefix of the type predicates."""
+SUSPENDED = "__suspended_"
+"""The prefix of the facts recording a suspended action (``__suspended_move(r1,hall,lab)``)."""
+RESERVED = "__"
+"""The prefix of every predicate, task and action the translation adds (never an HDDL name)."""
 
 MARKERS = frozenset({DONE})
 """Actions the translation adds: not HDDL actions, left out of an IPC plan."""
@@ -90,13 +100,40 @@ class HddlPlanning:
         return len({o.name for o in (*self.hddl.constants, *self.problem.objects)})
 
 
-def translate(domain: m.Domain, problem: m.Problem) -> HddlPlanning:
+def translate(domain: m.Domain, problem: m.Problem, suspendable: Collection[str] = ()) -> HddlPlanning:
     """The planning domain, start state and tasks of an HDDL domain and problem.
+
+    The actions named in ``suspendable`` can be stopped half way (see the module's
+    docstring); each must be an action of the domain that :func:`unsuspendable` accepts.
 
     Raises :class:`~htnagent.errors.HddlError` (with the file and place) for what the
     translation cannot take: a formula that multiplies out past :data:`MAX_DISJUNCTS`.
     """
-    return _Translator(domain, problem).run()
+    return _Translator(domain, problem, frozenset(suspendable)).run()
+
+
+def unsuspendable(domain: m.Domain, name: str) -> str | None:
+    """Why the domain's action ``name`` cannot be declared suspendable; None when it can.
+
+    A suspended action's ``resume`` has one precondition and one set of effects
+    (docs/design.md §7.1): an action whose precondition has alternatives (``or``,
+    ``imply``, ``exists`` under ``not``) or whose effects have conditions (``when``)
+    would need several.
+    """
+    action = domain.actions.get(name)
+    if action is None:
+        known = ", ".join(domain.actions) or "none"
+        return f"domain {domain.name} has no action {name} (its actions: {known})"
+    if _has_when(action.effect):
+        return f"action {name} has conditional effects (when), so a suspended one has no one resume"
+    if _has_choice(action.precondition, True):
+        return f"action {name}'s precondition has alternatives (or), so a suspended one has no one resume"
+    return None
+
+
+def suspended_fact(action: Atom) -> Atom:
+    """The fact recording that the ground (or lifted) ``action`` is suspended half way."""
+    return Atom(SUSPENDED + action.name, action.args)
 
 
 HDDL_BUDGET = 20_000_000
@@ -230,9 +267,10 @@ def ipc_plan(plan: Plan) -> IpcPlan:
 
 
 class _Translator:
-    def __init__(self, domain: m.Domain, problem: m.Problem) -> None:
+    def __init__(self, domain: m.Domain, problem: m.Problem, suspendable: frozenset[str]) -> None:
         self.hddl = domain
         self.problem = problem
+        self.suspendable = suspendable
         self.out = PlanningDomain(domain.name)
         self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
         for o in (*domain.constants, *problem.objects):
@@ -313,7 +351,25 @@ class _Translator:
             for conjunct in variant:
                 lits = [*(t for t in typing if t is not None), *conjunct]
                 ordered = self.order(tuple(lits), a.params, set(head.variables()))
-                self.out.operator(str(head), pre=[str(x) for x in ordered], add=add, delete=delete, cost=1.0)
+                text = [str(x) for x in ordered]
+                suspend = self.suspension(head, text, add, delete) if a.name in self.suspendable else None
+                self.out.operator(str(head), pre=text, add=add, delete=delete, cost=1.0, suspend=suspend)
+
+    @staticmethod
+    def suspension(head: Atom, pre: list[str], add: list[str], delete: list[str]) -> Suspension:
+        """How the action ``head`` is stopped half way, resumed and rolled back (docs/design.md §7.1).
+
+        Stopped, it has had no effect: only the record ``__suspended_A`` is added.
+        ``resume(A)`` does the rest of A now -- A's precondition must hold now -- and costs
+        half of A; ``rollback(A)`` forgets the half done, at no cost (nothing was changed).
+        """
+        record = str(suspended_fact(head))
+        return Suspension(
+            add=(record,),
+            resume=Effect(add=tuple(add), delete=(*delete, record), pre=(record, *pre), cost=0.5),
+            rollback=Effect(delete=(record,), cost=0.0),
+            cleared=(record,),
+        )
 
     def method(self, method: m.Method, source: m.Source | None = None) -> None:
         src = source or self.hddl.source
@@ -711,6 +767,35 @@ def _mentions(f: m.Formula, var: str) -> bool:
             return var not in {p.name for p in ps} and _mentions(x, var)
 
 
+def _has_when(e: m.Effect) -> bool:
+    match e:
+        case m.When():
+            return True
+        case m.AndEffect(args=args):
+            return any(_has_when(x) for x in args)
+        case m.ForallEffect(body=body):
+            return _has_when(body)
+    return False
+
+
+def _has_choice(f: m.Formula, positive: bool) -> bool:
+    """Whether ``f`` (or its negation) multiplies out to several conjunctions (see ``dnf``)."""
+    match f:
+        case m.Or(args=args):
+            return positive or any(_has_choice(x, positive) for x in args)
+        case m.And(args=args):
+            return not positive or any(_has_choice(x, positive) for x in args)
+        case m.Imply(cond=cond, then=then):
+            return positive or _has_choice(cond, True) or _has_choice(then, False)
+        case m.Not(arg=inner):
+            return _has_choice(inner, not positive)
+        case m.Forall(body=body):
+            return not positive or _has_choice(body, positive)
+        case m.Exists(body=body):
+            return _has_choice(body, positive)
+    return False
+
+
 def _kind(lit: Literal) -> str:
     name = lit.atom.name
     return "equal" if name == EQ else "type" if name.startswith(TYPE) else "fact"
@@ -756,6 +841,8 @@ __all__ = [
     "DONE",
     "GOAL",
     "MARKERS",
+    "RESERVED",
+    "SUSPENDED",
     "TOP",
     "HddlPlanning",
     "Solved",
@@ -763,5 +850,7 @@ __all__ = [
     "ipc_plan",
     "is_marker",
     "solve",
+    "suspended_fact",
     "translate",
+    "unsuspendable",
 ]

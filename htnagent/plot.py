@@ -110,12 +110,14 @@ def _draw(scenario: Scenario, events: list[TraceEvent], file: str) -> None:
             )
             emergency_drawn |= red
             normal_drawn |= not red
-    start = world.nodes[scenario.robot.start]
-    ax.plot(start.x, start.y, "s", color="black", markersize=8, zorder=4, label="start")
+    start = world.nodes.get(scenario.robot.start or "")
+    if start is not None:  # an HDDL agent's robot has no map (docs/design.md §7.1)
+        ax.plot(start.x, start.y, "s", color="black", markersize=8, zorder=4, label="start")
     ax.set_aspect("equal")
     ax.invert_yaxis()
     ax.set_title(scenario.name)
-    ax.legend(loc="lower right", fontsize=8)
+    if ax.get_legend_handles_labels()[0]:  # nothing to label on an HDDL agent's world (§7.1)
+        ax.legend(loc="lower right", fontsize=8)
     try:
         fig.savefig(file, dpi=120, bbox_inches="tight")
     except OSError as exc:

@@ -57,7 +57,7 @@ def write_report(history: History, file: str, *, scenario: Scenario | None = Non
 def page_data(history: History, scenario: Scenario | None = None, source: str = "") -> dict[str, JSONValue]:
     """What the page embeds: the history, the map (if known), a title."""
     world: JSONValue = None
-    if scenario is not None:
+    if scenario is not None and scenario.map is not None:  # an HDDL agent's world has no map (§7.1)
         w = scenario.world
         world = {
             "nodes": {n.name: [n.x, n.y] for n in w.nodes.values()},
@@ -76,7 +76,7 @@ def render(history: History, *, scenario: Scenario | None = None, source: str = 
         title=title,
         summary=_summary(history),
         timeline=_timeline_svg(history),
-        map=_map_svg(scenario) if scenario is not None else _NO_MAP,
+        map=_map_svg(scenario) if scenario is not None and scenario.map is not None else _NO_MAP,
         agents=_agent_panels(history),
         end=f"{history.end:.6f}",
         data=blob,
@@ -336,7 +336,7 @@ def _map_svg(scenario: Scenario) -> str:
                 f'<text class="node-name" x="{node.x + unit:g}" y="{node.y - unit:g}" '
                 f'font-size="{unit * 1.7:.4g}">{_e(node.name)}</text>'
             )
-    start = world.nodes.get(scenario.robot.start)
+    start = world.nodes.get(scenario.robot.start or "")
     if start is not None:
         parts.append(
             f'<rect class="start" x="{start.x - unit * 1.2:g}" y="{start.y - unit * 1.2:g}" '

@@ -22,14 +22,17 @@ import anyio
 
 from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.clock import Clock, TimerHandle
-from htnagent.events import ArcClosed, ArcOpened, GoalRow, Summary, TraceEvent
+from htnagent.events import ArcClosed, ArcOpened, FactsChanged, GoalRow, Summary, TraceEvent
 from htnagent.executor import ExecutorActor
+from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
+from htnagent.hddl_domain import MARKERS
 from htnagent.messages import BeliefUpdate
 from htnagent.planset import Replanning
 from htnagent.progress import Phase, Progress
 from htnagent.runtime import Runtime
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
+from htnagent.scenario.hddl_agent import DEFAULT_DURATION
 from htnagent.terms import Atom
 from htnagent.trace import Observer, Trace
 
@@ -75,6 +78,7 @@ def build_runtime(
     """
     mode = Replanning(replanning or scenario.replanning)
     world = RobotWorld(scenario.world, at=scenario.robot.start, keep_path=True)
+    hddl = scenario.hddl_robot
     local, remote = scenario.chain_from(first)
     configs = [
         AgentConfig(
@@ -94,13 +98,29 @@ def build_runtime(
             clock,
             trace,
             world,
-            scenario.robot.speed,
+            scenario.robot.metres_per_second,
             scenario.robot.failure_rate,
             scenario.robot.seed,
             scenario.robot.durations,
         )
 
-    bottom: Callable[[Clock, Trace], ExecutorActor] = robot
+    def hddl_robot(clock: Clock, trace: Trace) -> ExecutorActor:
+        # The simulated world is the robot's own copy of the facts, never a belief (§7.1).
+        assert hddl is not None
+        facts = FactWorld(hddl.domain, scenario.initial_state(scenario.agents[-1].name))
+        return HddlRobot(
+            ROBOT,
+            clock,
+            trace,
+            facts,
+            scenario.robot.durations,
+            markers=MARKERS,
+            default_duration=DEFAULT_DURATION,
+            failure_rate=scenario.robot.failure_rate,
+            seed=scenario.robot.seed,
+        )
+
+    bottom: Callable[[Clock, Trace], ExecutorActor] = robot if hddl is None else hddl_robot
     if remote is not None:
         from htnagent.remote.proxy import RemoteChild  # only now: zenoh is an optional extra
 
@@ -167,6 +187,18 @@ async def run_scenario(
         def give(index: int, goal: GoalSpec) -> None:
             tickets[index] = runtime.submit(goal.agent, goal.task, emergency=goal.emergency)
 
+        def change_facts(add: tuple[Atom, ...], delete: tuple[Atom, ...]) -> None:
+            # The generic world event (docs/design.md §7.1): the simulated world changes, and
+            # every agent learns it at once, as a shut door is known (§6).
+            bottom = runtime.executor
+            assert isinstance(bottom, HddlRobot)  # checked: add/delete only in an HDDL world
+            bottom.world.change(add, delete)
+            runtime.trace.emit(
+                FactsChanged(agent="world", add=tuple(map(str, add)), delete=tuple(map(str, delete)))
+            )
+            for agent in runtime.agents.values():
+                agent.inbox.send(BeliefUpdate(add=add, delete=delete))
+
         def apply_event(close: bool, arc: str) -> None:
             fact = Atom("closed", (arc,))
             if close:
@@ -195,7 +227,10 @@ async def run_scenario(
         for i, goal in enumerate(scenario.goals):
             schedule(goal.when, lambda i=i, goal=goal: give(i, goal))  # type: ignore[misc]
         for ev in scenario.events:
-            schedule(ev.when, lambda ev=ev: apply_event(ev.closes, ev.arc))  # type: ignore[misc]
+            if ev.changes_facts:
+                schedule(ev.when, lambda ev=ev: change_facts(ev.add, ev.delete))  # type: ignore[misc]
+            else:
+                schedule(ev.when, lambda ev=ev: apply_event(ev.closes, ev.arc))  # type: ignore[misc]
 
         def check_done() -> None:
             if all(t is not None and runtime.outcomes[t].done for t in tickets):
@@ -313,6 +348,8 @@ def robot_status(runtime: Runtime, world: RobotWorld) -> tuple[dict[str, str], t
     bottom = runtime.executor
     if isinstance(bottom, Robot):
         return world.where(), tuple(world.visited), bottom.travelled()
+    if isinstance(bottom, HddlRobot):
+        return {}, (), 0.0  # a world of facts: the robot is at no node and travels no arc
     from htnagent.remote.proxy import RemoteChild
 
     if isinstance(bottom, RemoteChild) and bottom.status is not None:

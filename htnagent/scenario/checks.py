@@ -24,7 +24,14 @@ from htnagent.domain import Domain
 from htnagent.domains import ROBOT_TRAVEL, DomainInfo
 from htnagent.errors import ScenarioError
 from htnagent.maps import WorldMap
-from htnagent.scenario.schema import ROBOT, Scenario, Trigger, no_agent
+from htnagent.scenario.hddl_agent import (
+    DEFAULT_DURATION,
+    RESERVED,
+    check_fact,
+    check_hddl_task,
+    load_hddl_agent,
+)
+from htnagent.scenario.schema import ROBOT, HddlDomainSpec, Scenario, Trigger, no_agent
 from htnagent.terms import Atom
 from htnagent.user_domains import resolve_domain
 
@@ -34,14 +41,54 @@ _PLANNER_ACTIONS = RECOVERY
 """Actions every domain has for suspended actions: never a goal's task, never timed by name."""
 
 
-def cross_check(s: Scenario, base_dir: Path) -> None:
+def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) -> None:
     """Check every reference of ``s`` against its map and build its agents' domains (in ``s``)."""
     file, world = s.file, s.world
-    if s.robot.start not in world.nodes:
-        raise ScenarioError(file, "robot.start", f"unknown node {s.robot.start!r}; it is not on the map")
     _check_chain(s)
     for i, a in enumerate(s.agents):
+        if isinstance(a.domain, HddlDomainSpec):
+            if a.executor != ROBOT:
+                raise ScenarioError(
+                    file,
+                    f"agents[{i}].domain",
+                    "an HDDL domain is for the agent on the robot (executor: robot), the last of the chain",
+                )
+            if a.remote is not None:
+                raise ScenarioError(
+                    file, f"agents[{i}].remote", "an agent on an HDDL domain runs in this process, not remote"
+                )
+            resolved, planning = load_hddl_agent(
+                a.domain, a.suspendable, base_dir, file, f"agents[{i}]", max_file_bytes
+            )
+            s._domains[a.name] = resolved
+            s._hddl[a.name] = planning
+            continue
+        if a.suspendable:
+            raise ScenarioError(
+                file,
+                f"agents[{i}].suspendable",
+                "suspendable is for an HDDL domain; a Python domain declares its own (Suspension)",
+            )
         s._domains[a.name] = resolve_domain(a.domain, world, base_dir, file, f"agents[{i}].domain")
+    if s.hddl_robot is None:
+        # A robot on a map (docs/design.md §6): the map and the start node are needed.
+        if s.map is None:
+            raise ScenarioError(
+                file, "map", "missing: a scenario needs a map, unless the robot's agent has an HDDL domain"
+            )
+        if s.robot.start is None:
+            raise ScenarioError(file, "robot.start", "required: the node the robot starts at")
+        if s.robot.speed is None:
+            raise ScenarioError(file, "robot.speed", "required: the robot's speed in metres per second")
+        if s.robot.start not in world.nodes:
+            raise ScenarioError(file, "robot.start", f"unknown node {s.robot.start!r}; it is not on the map")
+    else:
+        # A world of facts (§7.1): the robot stands on no node and travels no arc.
+        for key in ("start", "speed"):
+            if getattr(s.robot, key) is not None:
+                raise ScenarioError(
+                    file, f"robot.{key}", "the robot of an HDDL agent is on no map: leave it out"
+                )
     _check_durations(s)
     _check_timeout(s)
     names = s.agent_names
@@ -61,13 +108,36 @@ def cross_check(s: Scenario, base_dir: Path) -> None:
             _check_trigger(s, g.when, f"goals[{i}].when")
     for i, ev in enumerate(s.events):
         _check_trigger(s, ev.when, f"events[{i}].when")
+        if ev.changes_facts:
+            _check_facts(s, i)
+            continue
         key = "close" if ev.closes else "open"
         if ev.arc not in world.arcs:
             raise ScenarioError(file, f"events[{i}].{key}", f"unknown arc {ev.arc!r}; it is not on the map")
 
 
+def _check_facts(s: Scenario, i: int) -> None:
+    """An event's ``add``/``delete`` facts: of the predicates of the robot's HDDL world."""
+    ev = s.events[i]
+    planning = s.hddl_robot
+    if planning is None:
+        key = "add" if ev.add else "delete"
+        raise ScenarioError(
+            s.file,
+            f"events[{i}].{key}",
+            "facts are added and deleted in an HDDL agent's world; on a map, close or open an arc",
+        )
+    for key, facts in (("add", ev.add), ("delete", ev.delete)):
+        for j, fact in enumerate(facts):
+            check_fact(planning, fact, s.file, f"events[{i}].{key}[{j}]")
+
+
 def check_task(s: Scenario, agent_name: str, task: Atom, where: str) -> None:
     """Raise ScenarioError at ``where`` unless the agent can plan for ``task`` (see Scenario.check_task)."""
+    planning = s.hddl_for(agent_name)
+    if planning is not None:
+        check_hddl_task(planning, agent_name, task, s.file, where)
+        return
     domain = s.domain_for(agent_name)
     if not task.is_ground:
         raise ScenarioError(s.file, where, f"{task} has variables; a goal must be ground")
@@ -116,9 +186,15 @@ def _check_durations(s: Scenario) -> None:
     last = s.agents[-1]
     domain = s.domain_for(last.name)
     # The simulated robot travels on its moves whatever the domain declares: never timed by name.
-    untimed = {*ROBOT_TRAVEL, *_PLANNER_ACTIONS, *s.info_for(last.name).robot_moves}
+    # On an HDDL world it travels nowhere: every action of the domain is timed (docs/design.md §7.1).
+    hddl = s.hddl_robot is not None
+    untimed = {*_PLANNER_ACTIONS}
+    if not hddl:
+        untimed |= {*ROBOT_TRAVEL, *s.info_for(last.name).robot_moves}
     for name in s.robot.durations:
         where = f"robot.durations.{name}"
+        if hddl and (name in untimed or name.startswith(RESERVED)):
+            raise ScenarioError(s.file, where, f"{name} is not an action of the HDDL domain; it is not timed")
         if name in untimed:
             raise ScenarioError(
                 s.file, where, f"{name} is not timed here: moves take their arc's length at the robot's speed"
@@ -136,13 +212,15 @@ def _check_timeout(s: Scenario) -> None:
     if s.action_timeout is None:
         return
     longest: list[tuple[float, str]] = []
-    speed = s.robot.speed
+    speed = s.robot.metres_per_second
     if s.info_for(s.agents[-1].name).robot_moves:
         longest += [
             (arc.length / speed, f"a move over {arc.name} ({arc.length:g} m at {speed:g} m/s)")
             for arc in s.world.arcs.values()
         ]
     longest += [(seconds, f"{name} (robot.durations)") for name, seconds in s.robot.durations.items()]
+    if s.hddl_robot is not None:
+        longest.append((DEFAULT_DURATION, f"an action not in robot.durations ({DEFAULT_DURATION:g} s)"))
     if not longest:
         return
     need, what = max(longest)

@@ -19,6 +19,7 @@ from pydantic import ValidationError
 
 from htnagent.errors import ScenarioError
 from htnagent.scenario.checks import cross_check
+from htnagent.scenario.hddl_agent import no_map
 from htnagent.scenario.map_file import load_map
 from htnagent.scenario.reading import gc_paused, read_yaml
 from htnagent.scenario.schema import Scenario
@@ -64,6 +65,9 @@ def parse_scenario(
     # Big maps make millions of objects (the map, the domains' tables); collecting garbage
     # meanwhile would walk them again and again for nothing, so it waits until the end.
     with gc_paused():
-        scenario._world = load_map(scenario.map, file, Path(base_dir), max_file_bytes)
-        cross_check(scenario, Path(base_dir))
+        if scenario.map is None:
+            scenario._world = no_map()  # checked by cross_check: only an HDDL agent's robot has none
+        else:
+            scenario._world = load_map(scenario.map, file, Path(base_dir), max_file_bytes)
+        cross_check(scenario, Path(base_dir), max_file_bytes)
     return scenario

@@ -11,19 +11,22 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from typing import Annotated, Literal
+from typing import TYPE_CHECKING, Annotated, Literal
 
 from pydantic import (
     BaseModel,
     ConfigDict,
+    Discriminator,
     Field,
     PlainSerializer,
     PlainValidator,
     PrivateAttr,
     Strict,
+    Tag,
     model_validator,
 )
 
+from htnagent.actions import RECOVERY
 from htnagent.domain import Domain, State
 from htnagent.domains import DomainInfo
 from htnagent.errors import ScenarioError, TextFormError
@@ -34,10 +37,14 @@ from htnagent.scenario.wording import kind_of
 from htnagent.terms import Atom, parse
 from htnagent.user_domains import ResolvedDomain
 
+if TYPE_CHECKING:  # htnagent.hddl reads files with htnagent.scenario: no import cycle at run time
+    from htnagent.hddl_domain import HddlPlanning
+
 __all__ = [
     "ROBOT",
     "AgentSpec",
     "GoalSpec",
+    "HddlDomainSpec",
     "MapSource",
     "PlannerSpec",
     "RobotSpec",
@@ -96,9 +103,10 @@ class _Spec(BaseModel):
 class RobotSpec(_Spec):
     """The simulated robot: where it starts, how fast it goes, how often an action fails."""
 
-    start: Name
-    speed: Annotated[float, Strict(), Field(ge=MIN_SPEED, le=MAX_SPEED, allow_inf_nan=False)]
-    """Metres per simulated second."""
+    start: Name | None = None
+    """The node it starts at: needed on a map (not for an HDDL agent's robot, docs/design.md §7.1)."""
+    speed: Annotated[float, Strict(), Field(ge=MIN_SPEED, le=MAX_SPEED, allow_inf_nan=False)] | None = None
+    """Metres per simulated second: needed on a map (not for an HDDL agent's robot)."""
     failure_rate: Annotated[float, Strict(), Field(ge=0, le=1)] = 0.0
     """The chance that an action fails of itself (for failure experiments)."""
     seed: Annotated[int, Strict()] = 0
@@ -108,15 +116,57 @@ class RobotSpec(_Spec):
 
     Moves take their arc's length at ``speed``; an action named here takes its
     time wherever the robot stands, and may be suspended half way and resumed.
+    For an HDDL agent's robot, every action not named here takes 1 s.
     """
+
+    @property
+    def metres_per_second(self) -> float:
+        """:attr:`speed`, checked present for a robot on a map (1 for an HDDL agent's, unused)."""
+        return 1.0 if self.speed is None else self.speed
+
+
+class HddlDomainSpec(_Spec):
+    """An agent's domain written in HDDL: the domain file and a problem file (its ``:init``)."""
+
+    hddl: Name
+    """The HDDL domain file, relative to the scenario file."""
+    problem: Name
+    """The HDDL problem file, relative to the scenario file: the agent's start belief is its
+    ``:init`` (its objects are what the goals may name; its task network is not used)."""
+
+
+def _domain_form(value: object) -> str | None:
+    """Which form a domain is written in: a name, ``{hddl: D, problem: P}``, or neither."""
+    if isinstance(value, str):
+        return _NAMED
+    return _HDDL if isinstance(value, Mapping) else None
+
+
+# The tags name the two forms; the translator leaves them out of key paths.
+_NAMED, _HDDL = "name", "{hddl, problem}"
+
+DomainForm = Annotated[
+    Annotated[Name, Tag(_NAMED)] | Annotated[HddlDomainSpec, Tag(_HDDL)],
+    Discriminator(
+        _domain_form,
+        custom_error_type="domain_form",
+        custom_error_message=(
+            "expected a domain name (museum.nodes, package.module:attribute) "
+            "or {hddl: DOMAIN.hddl, problem: PROBLEM.hddl}"
+        ),
+    ),
+]
+"""An agent's domain: a built-in or user's domain by name, or HDDL files."""
 
 
 class AgentSpec(_Spec):
     """One planning agent: its name, its domain and who executes its actions."""
 
     name: Name
-    domain: Name
-    """A built-in domain name or ``package.module:attribute``."""
+    domain: DomainForm
+    """A built-in domain name, ``package.module:attribute``, or ``{hddl: D, problem: P}``."""
+    suspendable: Annotated[tuple[Name, ...], Field(fail_fast=True)] = ()
+    """For an HDDL domain: the actions that may be suspended half way (docs/design.md §7.1)."""
     executor: Name
     """The next agent's name, or ``robot`` for the last agent."""
     remote: Endpoint | None = None
@@ -169,17 +219,32 @@ class GoalSpec(_Spec):
 
 
 class WorldEvent(_Spec):
-    """A change of the world: an arc is closed (a door shut) or opened again."""
+    """A change of the world: an arc is closed (a door shut) or opened again, or, in the
+    generic form for an HDDL agent's world, facts are added and deleted."""
 
     when: Trigger
     close: Name | None = None
     open: Name | None = None
+    add: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
+    delete: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
 
     @model_validator(mode="after")
     def _one_change(self) -> WorldEvent:
-        if (self.close is None) == (self.open is None):
-            raise ValueError("an event either closes or opens one arc: give exactly one of close, open")
+        facts = bool(self.add or self.delete)
+        arcs = (self.close is not None) + (self.open is not None)
+        if facts and arcs:
+            raise ValueError("an event either closes or opens an arc, or adds and deletes facts: not both")
+        if not facts and arcs != 1:
+            raise ValueError(
+                "an event either closes or opens one arc, or adds and deletes facts: "
+                "give exactly one of close, open, or add/delete"
+            )
         return self
+
+    @property
+    def changes_facts(self) -> bool:
+        """True for the generic form (``add``/``delete``), False for an arc closed or opened."""
+        return bool(self.add or self.delete)
 
     @property
     def arc(self) -> str:
@@ -203,8 +268,9 @@ class Scenario(_Spec):
     """
 
     name: Name
-    map: MapSource
-    """The map file name (relative to the scenario file) or the map inline, as written."""
+    map: MapSource | None = None
+    """The map file name (relative to the scenario file) or the map inline, as written;
+    None only when the agent on the robot has an HDDL domain (docs/design.md §7.1)."""
     robot: RobotSpec
     agents: Annotated[tuple[AgentSpec, ...], Field(min_length=1, fail_fast=True)]
     """Parent first; each agent's executor is the next agent, the last one's the robot."""
@@ -223,6 +289,7 @@ class Scenario(_Spec):
     _file: str = PrivateAttr(default="")
     _world: WorldMap | None = PrivateAttr(default=None)
     _domains: dict[str, ResolvedDomain] = PrivateAttr(default_factory=dict)
+    _hddl: dict[str, HddlPlanning] = PrivateAttr(default_factory=dict)
 
     @property
     def file(self) -> str:
@@ -288,6 +355,18 @@ class Scenario(_Spec):
         """What the agent's domain declares: its arguments' kinds on the map, the robot's moves."""
         return self._resolved(agent_name).info
 
+    def hddl_for(self, agent_name: str) -> HddlPlanning | None:
+        """The HDDL domain and problem the agent's domain was translated from; None for any
+        other kind of domain."""
+        self.agent(agent_name)
+        return self._hddl.get(agent_name)
+
+    @property
+    def hddl_robot(self) -> HddlPlanning | None:
+        """The HDDL domain of the agent on the robot, whose every action the simulated robot
+        carries out on a world of facts (docs/design.md §7.1); None for a robot on a map."""
+        return self._hddl.get(self.agents[-1].name)
+
     def initial_state(self, agent_name: str) -> State:
         """The agent's belief at the start, with the robot at ``robot.start``."""
         return self.domain_for(agent_name).initial_state(self.robot.start)
@@ -304,6 +383,10 @@ class Scenario(_Spec):
         last = self.agents[-1].name
         if not self.domain_for(last).is_primitive(action):
             return False
+        if self.hddl_robot is not None:
+            # The robot carries out every HDDL action, in its time; the translation's own
+            # (``__done``) succeed at once, so no trigger follows them.
+            return action.name not in RECOVERY and not action.name.startswith("__")
         return action.name in self.info_for(last).robot_moves or action.name in self.robot.durations
 
     def check_task(self, agent_name: str, task: Atom, where: str) -> None:

@@ -184,7 +184,12 @@ def _step(t: object, part: int | str) -> list[object]:
         return [s for arg in get_args(t) for s in _step(arg, part)]
     if isinstance(t, type) and issubclass(t, BaseModel):
         field = t.model_fields.get(str(part))
-        return [field.annotation] if field is not None else []
+        if field is None:
+            return []
+        # pydantic keeps a field's Annotated metadata apart: a Discriminator among it
+        # makes the field a tagged union, whose tags are then left out of key paths.
+        tagged = [m for m in field.metadata if isinstance(m, Discriminator)]
+        return [Annotated[field.annotation, *tagged] if tagged else field.annotation]
     if is_typeddict(t):
         hints = get_type_hints(t, include_extras=True)
         return [_required_inner(hints[str(part)])] if str(part) in hints else []

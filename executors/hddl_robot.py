@@ -1,0 +1,251 @@
+"""The simulated robot of an HDDL agent: it carries out any action of the domain on a world of facts.
+
+The world (:class:`FactWorld`) is the simulation's own copy of the facts, apart
+from every agent's belief: it starts as the problem's ``:init`` (with the
+translation's static type and equality facts) and changes only by the actions
+the robot carries out and the scenario's events (docs/design.md §7.1).
+
+An action takes ``durations[name]`` simulated seconds (else ``default_duration``, 1 s).  Its
+precondition is checked against the world when it starts and again when it
+ends, and its effects are applied when it ends; a false precondition is a
+failure, reported with the literal at fault.  The translation's marker
+``__done()`` succeeds at once and changes nothing.
+
+A running action can be suspended half way: it has then had no effect, and the
+robot keeps the fraction done.  ``resume(A)`` does the rest (its time left) and
+gives A's effects, A's precondition checked anew; ``rollback(A)`` forgets the
+half done at once, and so does ``clear``.  With a ``failure_rate``, a fresh action
+also fails at random (seeded), as the museum robot's moves do.  Activities are traced as
+``robot_acting`` and reported to the progress listeners (what triggers follow),
+as the museum robot's timed actions are (:mod:`htnagent.executors.robot`).
+"""
+
+from __future__ import annotations
+
+import functools
+import random
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+
+import anyio
+from anyio.abc import TaskStatus
+
+from htnagent.actions import rolled_back
+from htnagent.clock import Clock, TimerHandle
+from htnagent.domain import Domain
+from htnagent.events import RobotActing
+from htnagent.executor import ExecutorActor
+from htnagent.messages import Clear, Elapsed, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
+from htnagent.preconditions import satisfiers
+from htnagent.progress import Phase, Progress
+from htnagent.state import State
+from htnagent.terms import Atom, substitute, unify
+from htnagent.trace import Trace
+
+HIDDEN = "__"
+"""The prefix of the translation's own predicates and actions (not facts of the HDDL world)."""
+
+
+class FactWorld:
+    """The simulated world's facts, and the actions and events that change them.
+
+    ``domain`` is the HDDL translation's planning domain: what an action requires
+    and does is read from its operators, matched against these facts (never against
+    a belief).
+    """
+
+    def __init__(self, domain: Domain, state: State) -> None:
+        self.domain = domain
+        self.state = state
+
+    def facts(self) -> frozenset[Atom]:
+        """The facts of the HDDL world: the translation's static helper facts left out."""
+        return frozenset(f for f in self.state.facts() if not f.name.startswith(HIDDEN))
+
+    def why_not(self, action: Atom) -> str | None:
+        """Why ``action`` cannot run in the world now (None: it can)."""
+        if self._applied(action) is not None:
+            return None
+        for op in self.domain.operators.get(action.name, ()):
+            b = unify(op.head, action, {})
+            if b is None:
+                continue
+            # The first literal of the (first) operator that fails, as a reason to read.
+            for n in range(1, len(op.pre) + 1):
+                if next(satisfiers(op.pre[:n], self.state, b), None) is None:
+                    lit = op.pre[n - 1]
+                    shown = f"{'' if lit.positive else 'not '}{substitute(lit.atom, b)}"
+                    return f"the precondition of {action} is false in the world: {shown}"
+            break
+        return f"the robot cannot do {action}"
+
+    def carry_out(self, action: Atom) -> bool:
+        """Apply the action's effects if its precondition holds; whether it did."""
+        after = self._applied(action)
+        if after is None:
+            return False
+        self.state = after
+        return True
+
+    def change(self, add: Iterable[Atom], delete: Iterable[Atom]) -> None:
+        """A scenario event: facts deleted, then added."""
+        self.state = self.state.updated(add, delete)
+
+    def _applied(self, action: Atom) -> State | None:
+        # Each operator of the name is one way to run the action (the translation makes one
+        # per disjunct of an ``or``, per truth value of a ``when``): the first that holds runs.
+        for op in self.domain.operators.get(action.name, ()):
+            b = unify(op.head, action, {})
+            if b is None:
+                continue
+            full = op.applicable(self.state, b)
+            if full is not None:
+                return self.state.with_dynamic(op.effects_on(self.state.dynamic, full))
+        return None
+
+
+@dataclass
+class _Running:
+    order: Execute | Resume
+    action: Atom
+    start: float  # the fraction done before this part
+    started_at: float
+    duration: float  # seconds for the part from ``start`` to the end
+    timer: TimerHandle
+
+    def fraction_at(self, now: float) -> float:
+        if self.duration <= 0:
+            return 1.0
+        done = min(max((now - self.started_at) / self.duration, 0.0), 1.0)
+        return self.start + (1.0 - self.start) * done
+
+
+class HddlRobot(ExecutorActor):
+    """The simulated robot at the bottom of an HDDL agent's chain (see the module's docstring)."""
+
+    def __init__(
+        self,
+        name: str,
+        clock: Clock,
+        trace: Trace,
+        world: FactWorld,
+        durations: Mapping[str, float] | None = None,
+        markers: Iterable[str] = (),
+        default_duration: float = 1.0,
+        failure_rate: float = 0.0,
+        seed: int = 0,
+    ) -> None:
+        super().__init__(name, clock, trace)
+        self.world = world
+        self.durations = dict(durations or {})
+        self.markers = frozenset(markers)
+        self.default_duration = default_duration
+        self.failure_rate = failure_rate
+        self._rng = random.Random(seed)
+        self.running: _Running | None = None
+        self.kept: dict[Atom, float] = {}  # suspended actions: the fraction already done
+
+    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
+        task_status.started()
+        while True:
+            message = await self.inbox.receive()
+            if isinstance(message, Elapsed):
+                if self.running is not None and self.running.order.seq == message.seq:
+                    self._done(self.running)
+                # else: a stale timer of a suspended action
+            elif isinstance(message, Execute):
+                self._execute(message)
+            elif isinstance(message, Resume):
+                self._resume(message)
+            elif isinstance(message, Suspend):
+                self._suspend(message)
+            elif isinstance(message, Clear):
+                self.kept.pop(message.action, None)
+
+    def duration(self, action: Atom) -> float:
+        """The simulated seconds the whole action takes."""
+        return self.durations.get(action.name, self.default_duration)
+
+    # -- orders ------------------------------------------------------------------------
+
+    def _execute(self, order: Execute) -> None:
+        action = order.action
+        inner = rolled_back(action)
+        if inner is not None:
+            # Nothing of a suspended action is in the world: rolling it back only forgets it.
+            if self.kept.pop(inner, None) is None:
+                self._fail(order, f"nothing to roll back for {inner}")
+            else:
+                self.reply(Success(action=action, seq=order.seq))
+            return
+        if action.name in self.markers:
+            self.reply(Success(action=action, seq=order.seq))  # the translation's no-op
+            return
+        if self.failure_rate and self._rng.random() < self.failure_rate:
+            self._fail(order, f"{action} failed (simulated fault)")
+            return
+        self._start(order, action, 0.0)
+
+    def _resume(self, order: Resume) -> None:
+        done = self.kept.get(order.action)
+        if done is None:
+            self._fail(order, f"nothing to resume for {order.action}")
+            return
+        if self._start(order, order.action, done):
+            del self.kept[order.action]
+
+    def _start(self, order: Execute | Resume, action: Atom, done: float) -> bool:
+        """Start (the rest of) the action; False, with the failure reported, if it cannot."""
+        if self.running is not None:
+            self._fail(order, f"the robot is busy with {self.running.action}")
+            return False
+        why = self.world.why_not(action)
+        if why is not None:
+            self._fail(order, why)
+            return False
+        duration = (1.0 - done) * self.duration(action)
+        now = self.clock.now()
+        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
+        self.running = _Running(order, action, done, now, duration, timer)
+        self.progress.report(Progress(self.name, action, Phase.STARTED, duration, done))
+        self.trace.emit(
+            RobotActing(
+                agent=self.name,
+                action=str(action),
+                duration=round(duration, 6),
+                done=round(done, 6),
+                resumed=isinstance(order, Resume),
+            )
+        )
+        return True
+
+    def _suspend(self, order: Suspend) -> None:
+        running = self.running
+        if running is None or running.action != order.action or running.order.seq != order.seq:
+            self.reply(Refused(action=order.action, seq=order.seq))
+            return
+        # Stopped half way, the action has had no effect on the world (docs/design.md §7.1).
+        running.timer.cancel()
+        self.running = None
+        self.kept[running.action] = running.fraction_at(self.clock.now())
+        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
+        self.reply(Suspended(action=order.action, seq=running.order.seq))
+
+    def _timer_done(self, seq: int) -> None:
+        self.inbox.send(Elapsed(seq=seq))
+
+    def _done(self, running: _Running) -> None:
+        self.running = None
+        order = running.order
+        # The world may have changed while the action ran (an event): checked again.
+        why = self.world.why_not(running.action)
+        if why is not None or not self.world.carry_out(running.action):
+            self._fail(order, why or f"the precondition of {running.action} does not hold in the world")
+            return
+        self.reply(Success(action=order.action, seq=order.seq))
+
+    def _fail(self, order: Execute | Resume, reason: str) -> None:
+        self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+
+
+__all__ = ["FactWorld", "HddlRobot"]
