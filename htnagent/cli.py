@@ -37,7 +37,7 @@ from htnagent.console import JsonLines, LiveTrace, print_summary
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
-from htnagent.hddl.plan_file import format_plan, read_plan, spellings
+from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
 from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.hddl_domain import actions_of, ipc_plan, solve
 from htnagent.history import History
@@ -367,10 +367,11 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
         print(f"{PROG}: no plan: {why}", file=sys.stderr)
         return EXIT_FAILED
     spelling = spellings(domain.source.text, problem.source.text)
+    objects = object_spellings(domain, problem)
     if form == "ipc":
-        sys.stdout.write(format_plan(ipc_plan(best), spelling))
+        sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
         return EXIT_OK
-    actions = [_spelled(a, spelling) for a in actions_of(best)]
+    actions = [_spelled(a, spelling, objects) for a in actions_of(best)]
     if form == "json":
         line = {
             "plan": actions,
@@ -387,9 +388,9 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
     return EXIT_OK
 
 
-def _spelled(action: Atom, spelling: dict[str, str]) -> str:
+def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:
     """``name(arg,...)``, each name as the HDDL files spell it."""
-    words = [spelling.get(str(a), str(a)) for a in action.args]
+    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in action.args]
     name = spelling.get(action.name, action.name)
     return f"{name}({','.join(words)})" if words else name
 

@@ -431,3 +431,28 @@ def test_a_quantifier_over_too_many_objects_is_refused_with_its_place(
     )
     with pytest.raises(HddlError, match=r"d\.hddl:3:17: this quantifier stands for over 20,000"):
         solve(domain, problem)
+
+
+def test_an_object_keeps_its_own_spelling_when_a_type_shares_its_name(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # HDDL reads the type A and the constant a as one word; the IPC verifier does not.
+    domain = tmp_path / "d.hddl"
+    domain.write_text(
+        "(define (domain D) (:requirements :typing :hierarchy) (:types A) (:constants a - A)"
+        " (:predicates (foo ?x - A)) (:task Task1 :parameters ())"
+        " (:method DoIt :parameters (?x - A) :task (Task1) :subtasks (and (Noop ?x)))"
+        " (:action Noop :parameters (?x - A) :precondition (foo ?x)))"
+    )
+    problem = tmp_path / "p.hddl"
+    problem.write_text("(define (problem P) (:domain D) (:htn :subtasks (and (t0 (Task1)))) (:init (foo a)))")
+    assert main(["plan", "--hddl", str(domain), str(problem), "--format", "ipc"]) == 0
+    out = capsys.readouterr().out
+    assert out.splitlines()[1:4] == ["0 Noop a", "root 1", "1 Task1 -> DoIt 0"]
+    if VERIFIER_BUILT.is_file() and VERIFY.is_file():
+        plan = tmp_path / "plan.txt"
+        plan.write_text(out)
+        done = subprocess.run(
+            [str(VERIFY), str(domain), str(problem), str(plan)], capture_output=True, timeout=120
+        )
+        assert done.returncode == 0, done.stdout

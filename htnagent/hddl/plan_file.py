@@ -34,10 +34,20 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from htnagent.errors import HddlError, shown
+from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.reader import read_file
 from htnagent.terms import Atom
 
-__all__ = ["Decomposition", "IpcPlan", "Step", "format_plan", "parse_plan", "read_plan"]
+__all__ = [
+    "Decomposition",
+    "IpcPlan",
+    "Step",
+    "format_plan",
+    "object_spellings",
+    "parse_plan",
+    "read_plan",
+    "spellings",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -147,16 +157,21 @@ def _number(file: str, line: int, word: str, at: int) -> int:
     return int(word)
 
 
-def format_plan(plan: IpcPlan, spelling: Mapping[str, str] | None = None) -> str:
+def format_plan(
+    plan: IpcPlan, spelling: Mapping[str, str] | None = None, objects: Mapping[str, str] | None = None
+) -> str:
     """The plan in the IPC 2020 plan format (what :func:`parse_plan` reads), ending in a newline.
 
     ``spelling`` gives each (lower-case) name as the HDDL files write it (see
-    :func:`spellings`): HDDL is case-insensitive, the IPC verifier is not.
+    :func:`spellings`), ``objects`` each object's as it is declared (see
+    :func:`object_spellings`; an object ``a`` and a type ``A`` are one word to HDDL, two
+    to the verifier): HDDL is case-insensitive, the IPC verifier is not.
     """
     spell = spelling or {}
+    named = {**spell, **(objects or {})}
 
-    def words(*names: object) -> str:
-        return " ".join(spell.get(str(n), str(n)) for n in names)
+    def words(name: str, *args: object) -> str:
+        return " ".join((spell.get(name, name), *(named.get(str(a), str(a)) for a in args)))
 
     lines = ["==>"]
     lines += [f"{s.id} {words(s.action.name, *s.action.args)}" for s in plan.steps]
@@ -181,4 +196,15 @@ def spellings(*texts: str) -> dict[str, str]:
             word = found.group()
             if word[0] != ";":
                 out.setdefault(word.lower(), word)
+    return out
+
+
+def object_spellings(domain: Domain, problem: Problem) -> dict[str, str]:
+    """Each constant and object, lower case, to its spelling where it is declared."""
+    out: dict[str, str] = {}
+    for source, items in ((domain.source, domain.constants), (problem.source, problem.objects)):
+        for o in items:
+            text = source.text[o.at : o.at + len(o.name)]
+            if text.lower() == o.name:
+                out[o.name] = text
     return out
