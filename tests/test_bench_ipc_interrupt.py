@@ -92,7 +92,7 @@ def test_both_modes_are_measured_and_skips_say_why(
     assert "[1/3] Courier/p1.hddl: 5 actions, emergency deliver(p2,hall): online resume" in err
     assert "[2/3] Courier/p2.hddl: skipped: the initial task network has 1 task(s)" in err
     table = (tmp_path / "rows.md").read_text()
-    assert "| Courier | 3 | 2 | 1 |" in table
+    assert "| Courier | 3 | 2 | 1/1 | 1/1 |" in table
 
 
 def test_a_run_past_its_wall_clock_limit_is_a_failure_with_its_reason(suite: Path, tmp_path: Path) -> None:
