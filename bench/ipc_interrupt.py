@@ -27,7 +27,8 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    :func:`htnagent.hddl_domain.unsuspendable` accepts is declared suspendable
    (``agents[].suspendable``): the acting action is stopped half way, has had no
    effect, and the resumed goal may ``resume`` it (or drop it).
-5. **Both modes**, on-line then naive, each run measured by
+5. **Both modes**, on-line then naive, each one warm-up run and ``--runs``
+   measured runs (default 5; medians reported), each run measured by
    :func:`bench.measure.measure_run` like the museum benchmark: ``resume_ms`` is
    the wall clock from the emergency goal's end to the agent's first order to
    the robot after it (the resumed goal's first action: re-using or re-making
@@ -41,13 +42,14 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
 
 Each step (1–3 together, then each mode) is one process, one at a time, killed
 with its process group past its wall-clock limit: ``--timeout`` plus
-``--run-timeout`` (default 60 s) for steps 1–3, ``--run-timeout`` for each mode.
+``--run-timeout`` (default 60 s) for steps 1–3, ``--run-timeout`` for each mode
+(all its runs).
 A killed or failed run is a row with ``success: false`` and its ``reason``.
 Progress is one line per problem on stderr.
 
 Rows (``bench/results/ipc_interrupt.json``, rewritten after every problem):
 ``{domain, problem, mode, resume_ms, planning_ms, cost, success}`` (docs/contracts.md)
-plus ``beliefs_match``, ``reason``, ``actions`` (the plan of the others' length),
+plus ``beliefs_match``, ``reason``, ``runs``, ``actions`` (the plan of the others' length),
 ``emergency``, ``trigger``, ``timeout``.  A skipped problem is one row with
 ``mode: null``, ``success: null`` and its ``reason``.  ``ipc_interrupt.md``: per
 domain, runs in each mode, successes, the medians of ``resume_ms`` and
@@ -211,6 +213,23 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
     }
 
 
+def combine(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
+    """One warm-up run (``runs[0]``, like the museum benchmark's) and the measured ones: the
+    medians of ``resume_ms`` and ``planning_ms``, the measured runs' largest ``cost``; success
+    and matching beliefs only if every run, the warm-up too, had them."""
+    measured = runs[1:] or runs
+    resumes = [r["resume_ms"] for r in measured if r["resume_ms"] is not None]
+    return {
+        "resume_ms": round(statistics.median(resumes), 4) if resumes else None,
+        "planning_ms": round(statistics.median(r["planning_ms"] for r in measured), 4),
+        "cost": max(r["cost"] for r in measured),
+        "success": all(r["success"] for r in runs),
+        "beliefs_match": all(r["beliefs_match"] for r in runs),
+        "reason": next((r["reason"] for r in runs if r["reason"]), None),
+        "runs": len(measured),
+    }
+
+
 def worker(argv: Sequence[str]) -> int:
     """``--worker prepare D P TIMEOUT`` or ``--worker MODE D P PLAN.json``: one JSON line on stdout."""
     stage, domain_file, problem_file, extra = argv
@@ -220,8 +239,7 @@ def worker(argv: Sequence[str]) -> int:
     else:
         plan = json.loads(extra)
         data = scenario_data(problem, plan["goals"], plan["suspendable"], plan["emergency"], plan["trigger"])
-        out = run_agent(problem, data, stage)
-        del out["executed"]
+        out = combine([run_agent(problem, data, stage) for _ in range(plan["runs"] + 1)])
     print(json.dumps(out))
     return 0
 
@@ -263,7 +281,7 @@ def _row(problem: Problem, mode: str | None, timeout: float, **fields: Any) -> d
 
 
 def bench_problem(
-    problem: Problem, timeout: float, run_timeout: float, grace: float = GRACE_S
+    problem: Problem, timeout: float, run_timeout: float, grace: float = GRACE_S, runs: int = 5
 ) -> list[dict[str, Any]]:
     """The rows of one problem: one skipped row, or one per mode."""
     plan, why = _call(problem, "prepare", f"{timeout:g}", timeout + run_timeout, grace)
@@ -274,7 +292,7 @@ def bench_problem(
     about = {"actions": plan["actions"], "emergency": plan["emergency"], "trigger": plan["trigger"]}
     rows = []
     for mode in MODES:
-        got, why = _call(problem, mode, json.dumps(plan), run_timeout, grace)
+        got, why = _call(problem, mode, json.dumps({**plan, "runs": runs}), run_timeout, grace)
         rows.append(_row(problem, mode, timeout, **about, **(got or {"reason": why})))
     return rows
 
@@ -293,9 +311,9 @@ def markdown(rows: Sequence[dict[str, Any]], timeout: float, run_timeout: float,
         "# Emergencies on the IPC domains (`python -m bench ipc-interrupt`)",
         "",
         "The last task of each problem's network arrives as an emergency half way through the plan of "
-        f"the others; solve limit {timeout:g} s, {run_timeout:g} s a run. Resume and planning ms (wall "
-        "clock) are medians over the problems where both modes succeeded, as is the cost comparison. "
-        f"Machine: {machine}.",
+        f"the others; solve limit {timeout:g} s, {run_timeout:g} s a mode. Resume and planning ms (wall "
+        "clock; each a problem's median of its measured runs) are medians over the problems where "
+        f"both modes succeeded, as is the cost comparison. Machine: {machine}.",
         "",
         "| domain | problems | skipped | succeeded on-line | succeeded naive | on-line resume ms "
         "| naive resume ms | naive / on-line | on-line planning ms | naive planning ms "
@@ -358,6 +376,9 @@ def parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--run-timeout", type=_positive, default=60.0, help="wall-clock seconds an agent's run (60)"
     )
+    p.add_argument(
+        "--runs", type=_count, default=5, help="measured runs a mode, after one warm-up run (5; medians)"
+    )
     p.add_argument("--domains", default=None, help="NAME,... (folder names; default all)")
     p.add_argument("--problems", type=_count, default=None, help="the first N problems of each domain")
     p.add_argument(
@@ -399,7 +420,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     md = args.out.with_suffix(".md")
     try:
         for i, problem in enumerate(problems, 1):
-            found = bench_problem(problem, args.timeout, args.run_timeout, args.grace)
+            found = bench_problem(problem, args.timeout, args.run_timeout, args.grace, args.runs)
             rows += found
             write(args.out, rows)
             print(f"[{i}/{len(problems)}] {problem.domain}/{problem.name}: {_status(found)}", file=sys.stderr)

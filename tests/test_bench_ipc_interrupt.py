@@ -77,7 +77,7 @@ def test_both_modes_are_measured_and_skips_say_why(
         assert row["domain"] == "Courier"
         assert row["success"] is True and row["beliefs_match"] is True and row["reason"] is None
         assert row["resume_ms"] > 0 and row["planning_ms"] >= row["resume_ms"]
-        assert row["emergency"] == "deliver(p2,hall)" and row["actions"] == 5
+        assert row["emergency"] == "deliver(p2,hall)" and row["actions"] == 5 and row["runs"] == 5
         # Half way through hall→kitchen→lab, pick, lab→office, drop: the pick in the lab.
         assert row["trigger"] == "pick(r1,p1,lab)"
         # The pick was suspended, p2 taken from the office to the hall (1 move, pick,
