@@ -22,7 +22,9 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    action at index ``len // 2`` (``when: {action: A, progress: 0.5}``, as in
    ``scenarios/courier_hddl.yaml``) -- the first action from there on that
    does not occur earlier in the plan, since a trigger fires on the first
-   occurrence of its action.
+   occurrence of its action.  Both modes get this one trigger (the same point
+   of interruption); should a mode's run not do that action, the emergency is
+   never given and the row fails with that reason.
 4. **Suspension.** Every action of the domain that
    :func:`htnagent.hddl_domain.unsuspendable` accepts is declared suspendable
    (``agents[].suspendable``): the acting action is stopped half way, has had no
@@ -159,7 +161,7 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
 
     from bench.measure import RunFigures, measure_run
     from htnagent.actions import ROLLBACK, half_done
-    from htnagent.events import ActionFinished, GoalFinished, TraceEvent
+    from htnagent.events import ActionFinished, Summary, TraceEvent
     from htnagent.executors.hddl_robot import HddlRobot
     from htnagent.runtime import Runtime
     from htnagent.scenario import parse_scenario
@@ -173,8 +175,8 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
     failures: list[str] = []
 
     def observe(event: TraceEvent) -> None:
-        if isinstance(event, GoalFinished) and event.status != "success":
-            failures.append(f"{event.goal}: {event.reason}"[:300])
+        if isinstance(event, Summary):  # every goal's end, one never given too
+            failures.extend(f"{g.goal}: {g.reason}"[:300] for g in event.goals if g.status != "success")
         if not isinstance(event, ActionFinished) or event.result != "success":
             return
         action = parse(event.action)

@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 from bench import ipc_interrupt
+from bench.ipc import Problem
 
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = ROOT / "scenarios" / "courier_hddl_domain.hddl"
@@ -111,3 +112,15 @@ def test_a_bad_suite_is_one_line_and_exit_2(tmp_path: Path, capsys: pytest.Captu
         capsys.readouterr().err
         == f"python -m bench ipc-interrupt: error: --suite {tmp_path / 'none'}: no such folder\n"
     )
+
+
+def test_an_emergency_whose_trigger_never_happens_fails_with_its_reason(suite: Path) -> None:
+    folder = suite / "Courier"
+    problem = Problem("Courier", folder / "domain.hddl", folder / "p1.hddl")
+    data = ipc_interrupt.scenario_data(
+        problem, ["deliver(p1,office)"], ["move"], "deliver(p2,hall)", "drop(r1,p1,hall)"
+    )
+    got = ipc_interrupt.run_agent(problem, data, "naive")
+    assert got["success"] is False and got["resume_ms"] is None and got["beliefs_match"] is True
+    assert got["reason"] == "deliver(p2,hall): never given: its trigger did not happen"
+    assert got["cost"] == 5  # p1 delivered all the same
