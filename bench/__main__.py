@@ -25,6 +25,10 @@ def main() -> int:
         from bench import ipc
 
         return ipc.main(sys.argv[2:])
+    if sys.argv[1:2] == ["ipc-interrupt"]:  # its own options: python -m bench ipc-interrupt --help
+        from bench import ipc_interrupt
+
+        return ipc_interrupt.main(sys.argv[2:])
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
     parser.add_argument(
         "study",
@@ -42,8 +46,9 @@ def main() -> int:
             "hddl-read",
             "remote",
             "ipc",
+            "ipc-interrupt",
         ),
-        help="a study (ipc: python -m bench ipc --help)",
+        help="a study (ipc, ipc-interrupt: python -m bench ipc --help, ... ipc-interrupt --help)",
     )
     parser.add_argument("--runs", type=int, default=None, help="measured runs per cell (fuzz: inputs)")
     parser.add_argument("--quick", action="store_true", help="scaling: stop at 100 areas (for a smoke test)")
@@ -61,8 +66,10 @@ def main() -> int:
         help="remote: the fleet sizes, serving processes each (default 1,4,8)",
     )
     args = parser.parse_args()
-    if args.study == "ipc":
-        parser.error("ipc takes its options after it: python -m bench ipc --suite DIR (see --help)")
+    if args.study in ("ipc", "ipc-interrupt"):
+        parser.error(
+            f"{args.study} takes its options after it: python -m bench {args.study} --suite DIR (see --help)"
+        )
     if args.study == "hddl-read":
         return hddl_read.main(args.suite)
     if args.study == "step":

@@ -22,11 +22,14 @@ count of wall-clock time spent planning and keeping plans, over the whole run.
 from __future__ import annotations
 
 import time
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
 from htnagent.events import GoalFinished, GoalResumed, MessageSent, TraceEvent
+from htnagent.runtime import Runtime
 from htnagent.scenario import Scenario
 from htnagent.simulation import run_scenario
+from htnagent.trace import Observer
 
 _ORDERS = ("execute", "resume")
 
@@ -51,8 +54,18 @@ class RunFigures:
         return self.parent_ms + (self.child_ms or 0.0)
 
 
-async def measure_run(scenario: Scenario, mode: str) -> RunFigures:
-    """Run the scenario once in ``mode`` and return its figures."""
+async def measure_run(
+    scenario: Scenario,
+    mode: str,
+    *,
+    observers: Iterable[Observer] = (),
+    on_start: Callable[[Runtime], None] | None = None,
+) -> RunFigures:
+    """Run the scenario once in ``mode`` and return its figures.
+
+    ``observers`` and ``on_start`` are handed to :func:`~htnagent.simulation.run_scenario`
+    (the IPC interruption benchmark counts actions and compares beliefs with the world).
+    """
     figures = RunFigures()
     names = scenario.agent_names
     top, bottom = names[0], names[-1]
@@ -82,7 +95,7 @@ async def measure_run(scenario: Scenario, mode: str) -> RunFigures:
             else:
                 figures.child_ms = (now - marks.get("parent", marks["ended"])) * 1000
 
-    report = await run_scenario(scenario, replanning=mode, observers=[observe])
+    report = await run_scenario(scenario, replanning=mode, observers=[observe, *observers], on_start=on_start)
     figures.distance = report.summary.distance
     figures.planning_ms = sum(report.summary.planning_ms.values())
     figures.succeeded = report.succeeded
