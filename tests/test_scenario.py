@@ -21,7 +21,7 @@ import yaml
 
 from htnagent.cli import main
 from htnagent.errors import ScenarioError
-from htnagent.planner import PlannerSettings
+from htnagent.planner import PlannerSettings, Search
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.terms import Atom, parse
 
@@ -125,7 +125,7 @@ def base() -> dict[str, Any]:
             {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
         ],
         "replanning": "naive",
-        "planner": {"alternatives": 2, "budget": 5000},
+        "planner": {"alternatives": 2, "budget": 5000, "search": "gbfs"},
         "action_timeout": 60,
         "goals": [
             {"agent": "guide", "task": "goto(n1)"},
@@ -156,7 +156,7 @@ def test_a_scenario_with_every_optional_part_loads(tmp_path: Path) -> None:
     s = load_scenario(write(tmp_path, base()))
     assert isinstance(s, Scenario)
     assert s.replanning == "naive"
-    assert s.settings == PlannerSettings(alternatives=2, budget=5000)
+    assert s.settings == PlannerSettings(alternatives=2, budget=5000, search=Search.GBFS)
     assert s.action_timeout == 60
     assert s.robot.seed == 3
     assert s.goals[2].when is not None and s.goals[2].when.time == 12.5
@@ -359,6 +359,12 @@ BROKEN: list[tuple[str, Callable[[], Any], str, str]] = [
         edited(lambda d: d["planner"].update(alternatives=0)),
         "planner.alternatives",
         "at least 1",
+    ),
+    (
+        "search-unknown",
+        edited(lambda d: d["planner"].update(search="bogo")),
+        "planner.search",
+        "'astar', 'gbfs' or 'dfs'",
     ),
     ("timeout-negative", edited(lambda d: d.update(action_timeout=-5)), "action_timeout", "greater than 0"),
     ("no-goals", edited(lambda d: d.update(goals=[])), "goals", "must not be empty"),

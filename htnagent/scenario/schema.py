@@ -32,7 +32,7 @@ from htnagent.domains import DomainInfo
 from htnagent.errors import ScenarioError, TextFormError
 from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
 from htnagent.maps import WorldMap
-from htnagent.planner import PlannerSettings
+from htnagent.planner import PlannerSettings, Search
 from htnagent.scenario.wording import kind_of
 from htnagent.terms import Atom, parse
 from htnagent.user_domains import ResolvedDomain
@@ -179,6 +179,9 @@ class PlannerSpec(_Spec):
 
     alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
     budget: Annotated[int, Strict(), Field(ge=1)] = 200_000
+    search: Literal["astar", "gbfs", "dfs"] = "astar"
+    """The search order (docs/design.md §1.1): cost-optimal A*, greedy best-first, or
+    depth-first in method order."""
 
 
 class Trigger(_Spec):
@@ -306,7 +309,10 @@ class Scenario(_Spec):
     @property
     def settings(self) -> PlannerSettings:
         """The planner settings every agent uses."""
-        return PlannerSettings(alternatives=self.planner.alternatives, budget=self.planner.budget)
+        planner = self.planner
+        return PlannerSettings(
+            alternatives=planner.alternatives, budget=planner.budget, search=Search(planner.search)
+        )
 
     @property
     def key_space(self) -> str:
