@@ -410,14 +410,14 @@ def write(path: Path, rows: Sequence[dict[str, Any]]) -> None:
     tmp.replace(path)
 
 
-def _positive(text: str) -> float:
+def positive(text: str) -> float:
     value = float(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"must be more than 0, not {text}")
     return value
 
 
-def _count(text: str) -> int:
+def at_least_one(text: str) -> int:
     value = int(text)
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, not {text}")
@@ -427,11 +427,11 @@ def _count(text: str) -> int:
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--suite", type=Path, required=True, help="the folder of IPC domains (../shared/data/ipc)")
-    p.add_argument("--timeout", type=_positive, default=60.0, help="seconds a problem, each planner (60)")
+    p.add_argument("--timeout", type=positive, default=60.0, help="seconds a problem, each planner (60)")
     p.add_argument("--peers", action="store_true", help="also the Aries planner (the peers extra)")
     p.add_argument("--peers-only", action="store_true", help="only the peers (to refresh their figures)")
     p.add_argument("--domains", default=None, help="NAME,... (folder names; default all)")
-    p.add_argument("--problems", type=_count, default=None, help="the first N problems of each domain")
+    p.add_argument("--problems", type=at_least_one, default=None, help="the first N problems of each domain")
     p.add_argument("--search", default=None, help="our planner's search strategy (--search NAME)")
     p.add_argument(
         "--verifier",

@@ -69,7 +69,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.ipc import GRACE_S, Problem, UsageError, find_problems, run_process, write
+from bench.ipc import GRACE_S, Problem, UsageError, at_least_one, positive, find_problems, run_process, write
 from bench.machine import machine_line
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -357,32 +357,21 @@ def markdown(rows: Sequence[dict[str, Any]], timeout: float, run_timeout: float,
     return "\n".join(out)
 
 
-def _positive(text: str) -> float:
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be more than 0, not {text}")
-    return value
-
-
-def _count(text: str) -> int:
-    value = int(text)
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, not {text}")
-    return value
-
-
 def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--suite", type=Path, required=True, help="the folder of IPC domains (../shared/data/ipc)")
-    p.add_argument("--timeout", type=_positive, default=20.0, help="seconds to solve a problem (20)")
+    p.add_argument("--timeout", type=positive, default=20.0, help="seconds to solve a problem (20)")
     p.add_argument(
-        "--run-timeout", type=_positive, default=60.0, help="wall-clock seconds an agent's run (60)"
+        "--run-timeout", type=positive, default=60.0, help="wall-clock seconds an agent's run (60)"
     )
     p.add_argument(
-        "--runs", type=_count, default=5, help="measured runs a mode, after one warm-up run (5; medians)"
+        "--runs",
+        type=at_least_one,
+        default=5,
+        help="measured runs a mode, after one warm-up run (5; medians)",
     )
     p.add_argument("--domains", default=None, help="NAME,... (folder names; default all)")
-    p.add_argument("--problems", type=_count, default=None, help="the first N problems of each domain")
+    p.add_argument("--problems", type=at_least_one, default=None, help="the first N problems of each domain")
     p.add_argument(
         "--out",
         type=Path,
