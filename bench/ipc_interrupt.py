@@ -69,7 +69,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.ipc import GRACE_S, Problem, UsageError, at_least_one, positive, find_problems, run_process, write
+from bench.ipc import GRACE_S, Problem, UsageError, at_least_one, find_problems, positive, run_process, write
 from bench.machine import machine_line
 
 ROOT = Path(__file__).resolve().parent.parent
