@@ -8,8 +8,11 @@ The small domains are written in this file or in ``tests/hddl/``.
 
 from __future__ import annotations
 
+import collections
 import json
 import os
+import random
+import re
 import subprocess
 from pathlib import Path
 
@@ -456,3 +459,48 @@ def test_an_object_keeps_its_own_spelling_when_a_type_shares_its_name(
             [str(VERIFY), str(domain), str(problem), str(plan)], capture_output=True, timeout=120
         )
         assert done.returncode == 0, done.stdout
+
+
+# -- hostile input: edited domains either are refused in one line or are planned -------------------
+
+
+def _edited(words: list[str], rng: random.Random) -> str:
+    """The words with a few of them deleted, repeated, swapped or negated."""
+    words = list(words)
+    for _ in range(rng.randint(1, 4)):
+        i = rng.randrange(len(words))
+        kind = rng.choice(["delete", "repeat", "swap", "not"])
+        if kind == "delete":
+            del words[i]
+        elif kind == "repeat":
+            words.insert(i, words[i])
+        elif kind == "swap":
+            j = rng.randrange(len(words))
+            words[i], words[j] = words[j], words[i]
+        else:
+            words[i:i] = ["(not"]
+            words.insert(i + 2, ")")
+    return " ".join(words)
+
+
+def test_edited_domains_are_refused_in_one_line_or_planned_and_checked() -> None:
+    text = re.sub(r";[^\n]*", "", (HERE / "courier-domain.hddl").read_text())  # comments end at a newline
+    words = text.replace("(", " ( ").replace(")", " ) ").split()
+    problem_text = (HERE / "courier.hddl").read_text()
+    rng = random.Random(2026)
+    outcomes: collections.Counter[str] = collections.Counter()
+    for _ in range(1500):
+        edited = _edited(words, rng)
+        try:
+            domain = parse_domain(edited, "edited.hddl")
+            problem = parse_problem(problem_text, domain, "courier.hddl")
+            solved = solve(domain, problem, budget=3_000)
+        except HddlError as e:
+            assert "\n" not in str(e)
+            outcomes["refused"] += 1
+            continue
+        outcomes[solved.result.status.value] += 1
+        if solved.result.best is not None:
+            assert check_plan(domain, problem, ipc_plan(solved.result.best)) == [], edited
+    # Most edits break the syntax; enough of them still make a domain to plan with.
+    assert outcomes["solved"] >= 5, outcomes
