@@ -92,16 +92,11 @@ class FactWorld:
         self.state = self.state.updated(add, delete)
 
     def _applied(self, action: Atom) -> State | None:
-        # Each operator of the name is one way to run the action (the translation makes one
-        # per disjunct of an ``or``, per truth value of a ``when``): the first that holds runs.
-        for op in self.domain.operators.get(action.name, ()):
-            b = unify(op.head, action, {})
-            if b is None:
-                continue
-            full = op.applicable(self.state, b)
-            if full is not None:
-                return self.state.with_dynamic(op.effects_on(self.state.dynamic, full))
-        return None
+        found = self.domain.actions.running_way(self.state, action)
+        if found is None:
+            return None
+        op, full = found
+        return self.state.with_dynamic(op.effects_on(self.state.dynamic, full))
 
 
 @dataclass

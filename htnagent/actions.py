@@ -271,16 +271,20 @@ class Actions:
         several operators of the action (an HDDL ``or`` or ``when`` makes one per
         case, docs/design.md §7.1), the first whose precondition holds gives the effects.
         """
-        op, b = self.ground(action)
-        full = op.applicable(state, b)
-        if full is None:
-            for other in self._domain.operators.get(action.name, ()):
-                head = unify(other.head, action, {})
-                found = other.applicable(state, head) if head is not None else None
-                if found is not None:
-                    op, full = other, found
-                    break
-        return state.with_dynamic(op.effects_on(state.dynamic, full or b))
+        found = self.running_way(state, action)
+        op, b = found if found is not None else self.ground(action)
+        return state.with_dynamic(op.effects_on(state.dynamic, b))
+
+    def running_way(self, state: State, action: Atom) -> tuple[Operator, Bindings] | None:
+        """The operator that runs the ground action in the state, with the precondition's
+        bindings: the first of the action's operators whose precondition holds (an HDDL
+        ``or`` or ``when`` makes one per case, docs/design.md §7.1); None when none does."""
+        for op in self._domain.operators.get(action.name, ()):
+            head = unify(op.head, action, {})
+            full = op.applicable(state, head) if head is not None else None
+            if full is not None:
+                return op, full
+        return None
 
     def can_suspend(self, action: Atom) -> bool:
         """Whether the belief can follow the ground action being stopped half way.
