@@ -62,7 +62,8 @@ class Search(Enum):
     ASTAR = "astar"
     """Cost-optimal A*: the lowest ``g + h`` first (the default; the museum's)."""
     GBFS = "gbfs"
-    """Greedy best-first: the lowest ``h`` first, ties to the larger ``g``.  Not optimal,
+    """Greedy best-first: the lowest ``h`` first, ties to the larger ``g``, then to the node
+    pushed last (depth first on a plateau of ``h``).  Not optimal,
     usually far quicker when ``h`` is informative (the HDDL domains)."""
     DFS = "dfs"
     """Depth-first in method order, SHOP's: the deepest node first, and among the children
@@ -87,8 +88,9 @@ class PlannerSettings:
     """The order of expansion; every order gives plans with the same decomposition
     records, so plan upkeep works alike with each."""
     time_limit: float | None = None
-    """Seconds the search may take (checked every few hundred expansions); past it the
-    search ends as if its budget had run out."""
+    """Seconds the search may take (the clock is read every 256 nodes taken off the open
+    list); past it the search ends with :attr:`PlanStatus.TIMED_OUT`, or with the plans
+    found so far."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
