@@ -94,11 +94,6 @@ class HddlPlanning:
     hddl: m.Domain
     problem: m.Problem
 
-    @property
-    def ground_objects(self) -> int:
-        """How many objects and constants the problem has."""
-        return len({o.name for o in (*self.hddl.constants, *self.problem.objects)})
-
 
 def translate(domain: m.Domain, problem: m.Problem, suspendable: Collection[str] = ()) -> HddlPlanning:
     """The planning domain, start state and tasks of an HDDL domain and problem.
@@ -203,11 +198,6 @@ def solve(
         found, expansions=found.expansions + tried.expansions, seconds=found.seconds + tried.seconds
     )
     return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
-
-
-def is_marker(action: Atom) -> bool:
-    """Whether the action is one the translation added (never an HDDL action)."""
-    return action.name in MARKERS
 
 
 def actions_of(plan: Plan) -> list[Atom]:
@@ -848,7 +838,6 @@ __all__ = [
     "Solved",
     "actions_of",
     "ipc_plan",
-    "is_marker",
     "solve",
     "suspended_fact",
     "translate",
