@@ -97,6 +97,19 @@ class Plan:
         return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
 
 
+@dataclass(frozen=True, slots=True)
+class Done:
+    """The steps a goal has carried out, newest first, as a linked list.
+
+    A link per step, so that adding one is O(1) and a plan set's forks share what
+    came before.  Repair reads it to find the subtasks of a method already done
+    (:func:`htnagent.repair.done_subtasks`).
+    """
+
+    step: Step
+    before: Done | None
+
+
 def span(steps: Sequence[Step], record: Decomposition) -> tuple[int, int]:
     """The first and last index of the steps that ``record``'s task produced (-1, -1 if none)."""
     start = end = -1

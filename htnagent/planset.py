@@ -47,7 +47,7 @@ from typing import ClassVar, NamedTuple
 from htnagent.actions import RESUME, half_done, resume_action
 from htnagent.domain import Domain
 from htnagent.errors import SettingsError
-from htnagent.plan import Plan, Step, replay, span, tidy
+from htnagent.plan import Done, Plan, Step, replay, span, tidy
 from htnagent.planner import (
     PlannerSettings,
     PlanResult,
@@ -150,6 +150,8 @@ class PlanSet:
         """Set while the goal waits on the stack: a plan an event breaks is not repaired at
         once but put aside (for revival); what is left is made good when the goal is about
         to run again (prepared or resumed) — one search then, instead of one per event."""
+        self.done: Done | None = None
+        """The goal's own steps carried out so far, newest first (repair reads them)."""
         self._checked: State | None = None  # every kept plan is valid from this belief
         self._unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
 
@@ -184,6 +186,7 @@ class PlanSet:
     def adopt(self, other: PlanSet) -> None:
         """Take over the state of a fork (a speculation that came true)."""
         self.plans = other.plans
+        self.done = other.done
         self.last_status = other.last_status
         self._checked = other._checked
         self._unsolvable = other._unsolvable
@@ -207,7 +210,7 @@ class PlanSet:
 
         Returns False when the goal cannot be planned from the belief.
         """
-        if self.plans:
+        if self.plans or self._mend_put_aside(state):
             return True
         if self._unsolvable == state.key():
             # A repair already searched the whole space from this very belief.
@@ -217,6 +220,11 @@ class PlanSet:
             # One plan: alternatives are searched for when an action fails (see widen).
             self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
+
+    def _mend_put_aside(self, state: State) -> bool:
+        """Repair the plans put aside while the goal waited on the stack (see ``lazy``);
+        whether one was mended."""
+        return False
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         """Add alternative plans (up to K) to the kept ones (§1, §4).
@@ -519,6 +527,16 @@ class OnlinePlanSet(PlanSet):
         super().drop()
         self.revival.clear()
 
+    def _mend_put_aside(self, state: State) -> bool:
+        # ``lazy`` put these aside instead of repairing them: repair them now, as any
+        # broken plan is (§2.4), before the goal is planned from scratch (§2.7).
+        aside = self.revival.take_unrepaired()
+        if not aside:
+            return False
+        with self._timed():
+            self._revise(state, state, [_Kept(p, False) for p in aside], best_broke=True)
+        return bool(self.plans)
+
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         k = self.settings.alternatives
         if k <= 1 or len(self.plans) >= k:
@@ -550,6 +568,9 @@ class OnlinePlanSet(PlanSet):
             # so is any other when the action changed nothing at all.
             trusted = before is self._checked
             restores: bool | None = None  # whether the undo leads back: worked out when needed
+            ran = next((p.steps[0] for p in self.plans if p.steps and p.steps[0].action == action), None)
+            if ran is not None:
+                self.done = Done(ran, self.done)  # the cheapest plan that ran it: the one selected
             kept: list[_Kept] = []
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
@@ -771,7 +792,10 @@ class OnlinePlanSet(PlanSet):
             self._checked = after
             return
         revived_from = len(kept)
-        candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
+        back = self.revival.revive(before, after)
+        candidates = [*kept, *(_Kept(p, False) for p, _ in back)]
+        # A plan put aside unrepaired (``lazy``) still has its repair to come.
+        unrepaired = {n for n, (_, aside) in enumerate(back, revived_from) if aside}
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
         made: list[Repairer] = []
@@ -783,7 +807,7 @@ class OnlinePlanSet(PlanSet):
             return made[0]
 
         for n, (p, valid) in enumerate(candidates):
-            revived = n >= revived_from
+            revived = n >= revived_from and n not in unrepaired
             if valid:
                 checked: Plan | None = p
             else:
@@ -844,9 +868,10 @@ class OnlinePlanSet(PlanSet):
         if not allow_repair or self.lazy:
             if remember:
                 self.stats.removed += 1
-                self.revival.keep(p, culprit, at_failure)
+                # Put aside unrepaired while the goal waits: mended when it is about to run.
+                self.revival.keep(p, culprit, at_failure, unrepaired=self.lazy and allow_repair)
             return None
-        repaired = repairer().repair(p, index, _states(self.domain, p, state, index))
+        repaired = repairer().repair(p, index, _states(self.domain, p, state, index), self.done)
         # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.
         self.revival.keep(p, culprit, at_failure)
         if repaired is not None:

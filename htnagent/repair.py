@@ -19,8 +19,9 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
+from htnagent.actions import resumed
 from htnagent.domain import Domain
-from htnagent.plan import Plan, span, tidy
+from htnagent.plan import Decomposition, Done, Plan, span, tidy
 from htnagent.planner import PlannerSettings, PlanStatus, TaskEntry, plan
 from htnagent.state import State
 from htnagent.terms import Atom
@@ -49,6 +50,9 @@ def one_plan(settings: PlannerSettings) -> PlannerSettings:
 
 _REPAIR_LEVELS = 3
 """How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
+
+_REDO = 2
+"""How many of a method's subtasks already done a repair may do again (see :func:`done_subtasks`)."""
 
 LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
@@ -101,7 +105,7 @@ class Repairer:
         self.unsolvable: tuple[object, ...] | None = None
         """The key of a belief from which the goal itself has no plan, once a repair found so."""
 
-    def repair(self, p: Plan, index: int, states: list[State]) -> Plan | None:
+    def repair(self, p: Plan, index: int, states: list[State], done: Done | None = None) -> Plan | None:
         """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
         ``states`` are the beliefs before each of the plan's first ``index + 1``
@@ -109,14 +113,17 @@ class Repairer:
         (undo, rollback) belong to no task, so for them the goal is the only
         ancestor.  The goal is re-decomposed from the current belief, once per
         update, and the result is shared by every plan that needs it.
+
+        ``done`` are the goal's steps carried out so far.  When an ancestor cannot
+        be decomposed again, the last of its subtasks already done are done again
+        before what is left of it (docs/design.md §2.4): an emergency may have undone
+        what they achieved (a truck driven away with the parcel still on it).
         """
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
         # A recursive method makes the record as long as the plan; past a few levels a
         # re-decomposition costs as much as planning the goal, so go straight to it.
         for record in chain[:_REPAIR_LEVELS]:
-            if record.parent is None:
-                break  # the goal's own decomposition: below, shared
             start, end = span(p.steps, record)
             if start > index:
                 continue
@@ -124,19 +131,37 @@ class Repairer:
             # a small budget; what they cannot fix the goal's re-decomposition will.
             if self.local_left <= 0:
                 break
-            tasks: list[TaskEntry] = [(record.task, record.parent)]
-            tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-            spent = self._stats.expansions
-            local = replace(self._settings, alternatives=1, budget=self.local_left)
-            result = self.search(states[start], tasks, local)
-            self.local_left -= self._stats.expansions - spent
-            if result is not None:
-                return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+            if record.parent is not None:
+                tasks: list[TaskEntry] = [(record.task, record.parent)]
+                tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
+                result = self._local(states[start], tasks)
+                if result is not None:
+                    return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+            # §2.4 (our choice): do again the subtasks of this task's method already done,
+            # the last one first, then the plan's steps from there as they are.
+            rest: list[TaskEntry] = [(s.action, s.record) for s in p.steps[start:]]
+            redo = done_subtasks(done, record, _REDO)
+            for k in range(1, len(redo) + 1):
+                if self.local_left <= 0:
+                    break
+                result = self._local(states[start], [*redo[-k:], *rest])
+                if result is not None:
+                    return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+            if record.parent is None:
+                break  # the goal's own decomposition: below, shared
         # The goal itself, from the current belief: one search shared by all plans.
         found = self.search(states[0], [(self._goal, None)], one_plan(self._settings))
         if found is None:
             self.unsolvable = states[0].key()
         return found
+
+    def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
+        """A search below the goal, within what is left of the local budget."""
+        spent = self._stats.expansions
+        local = replace(self._settings, alternatives=1, budget=self.local_left)
+        result = self.search(state, tasks, local)
+        self.local_left -= self._stats.expansions - spent
+        return result
 
     def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
         """The best plan for the task list from the state, searched once per update."""
@@ -159,4 +184,38 @@ class Repairer:
         return found
 
 
-__all__ = ["LOCAL_BUDGET", "Repairer", "SearchMemo", "one_plan"]
+def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[TaskEntry]:
+    """The last ``limit`` subtasks of ``record``'s method that are done, in their order.
+
+    Each is a task entry to plan again under ``record``: a compound subtask as its
+    task, a primitive one as its action (a ``resume(A)`` as A).  Steps inserted by
+    maintenance (no record) are passed over; the walk stops at the first step that
+    ``record`` did not produce.
+    """
+    found: list[TaskEntry] = []
+    last: object = None
+    link = done
+    while link is not None:
+        step, link = link.step, link.before
+        node = step.record
+        if node is None:
+            continue
+        key: object
+        if node is record:
+            key, entry = step, (resumed(step.action) or step.action, record)
+        else:
+            while node is not None and node.parent is not record:
+                node = node.parent
+            if node is None:
+                break
+            key, entry = node, (node.task, record)
+        if key is not last:
+            if len(found) == limit:
+                break
+            found.append(entry)
+            last = key
+    found.reverse()
+    return found
+
+
+__all__ = ["LOCAL_BUDGET", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]

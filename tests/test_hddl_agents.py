@@ -544,3 +544,36 @@ def test_a_resumed_move_is_suspended_again_by_a_second_emergency(tmp_path: Path)
         ("deliver(p2,office)", "success"),
         ("deliver(p1,office)", "success"),
     ]
+
+
+def test_a_task_the_emergency_undid_is_done_again_before_the_goal_goes_on(tmp_path: Path) -> None:
+    # docs/design.md §2.4, subtasks done again.  The robot has carried p1 to the office and
+    # is dropping it when the emergency comes: it suspends the drop, takes p2 from the
+    # office to the hall (p1 still in its hands) and ends there.  deliver(p1,office) has
+    # no method from "p1 held": planned afresh it is impossible.  Its kept plan's repair
+    # does the method's last subtask done, goto(r1,office), again, then resumes the drop.
+    goals = [
+        {"agent": "courier", "task": "deliver(p1,office)"},
+        {
+            "agent": "courier",
+            "task": "deliver(p2,hall)",
+            "emergency": True,
+            "when": {"action": "drop(r1,p1,office)", "progress": 0.5},
+        },
+    ]
+    path = scenario_file(tmp_path, goals=goals, events=[], agent={"suspendable": ["move", "drop"]})
+    report, events, _ = run_checked(load_scenario(path))
+    assert report.succeeded
+    finished = [(e.action, e.result) for e in events if isinstance(e, ActionFinished)]
+    real = [f for f in finished if not f[0].startswith("__done")]
+    emergency_done = real.index(("drop(r1,p2,hall)", "success"))
+    assert real[emergency_done + 1 :] == [
+        ("move(r1,hall,office)", "success"),
+        ("resume(drop(r1,p1,office))", "success"),
+    ]
+    # Naive mode plans the goal itself again, from "p1 held": it has no plan.
+    naive = anyio.run(functools.partial(run_scenario, load_scenario(path), replanning="naive"))
+    assert [(g.goal, g.status) for g in naive.summary.goals] == [
+        ("deliver(p1,office)", "failure"),
+        ("deliver(p2,hall)", "success"),
+    ]
