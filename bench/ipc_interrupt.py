@@ -12,7 +12,8 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    them out one after the other, Algorithm 4 -- the scenario format has one task
    per goal, and no HDDL task of the domain stands for several); ``tn`` is the
    emergency.  A network of one task, or one whose tasks are not ground (it
-   names ``:htn :parameters``), is skipped.  The problem's ``:goal`` is not
+   names ``:htn :parameters``), is skipped (looked at before step 1: no solve
+   is spent on it).  The problem's ``:goal`` is not
    checked (the scenario's goals are tasks; the IPC validity of plans is
    ``python -m bench ipc``'s business).
 3. **Where it strikes.** A dry run of the agent on ``t1 … tn-1`` alone (on-line
@@ -127,14 +128,15 @@ def prepare(problem: Problem, timeout: float) -> dict[str, Any]:
         hddl = read_problem(problem.problem_file, domain)
     except HtnAgentError as e:
         return {"skip": f"not read: {e}"}
-    solved = solve(domain, hddl, timeout=timeout)
-    if solved.result.best is None:
-        return {"skip": f"not solved by hddl_domain.solve in {timeout:g} s"}
+    # The network's shape first: it costs nothing to look at, a solve up to ``timeout``.
     tasks = [s.call for s in hddl.htn]
     if len(tasks) < 2:
         return {"skip": f"the initial task network has {len(tasks)} task(s): no other goal to interrupt"}
     if not all(t.is_ground for t in tasks):
         return {"skip": "the initial task network's tasks are not ground (:htn :parameters)"}
+    solved = solve(domain, hddl, timeout=timeout)
+    if solved.result.best is None:
+        return {"skip": f"not solved by hddl_domain.solve in {timeout:g} s"}
     suspendable = [name for name in domain.actions if unsuspendable(domain, name) is None]
     goals = [str(t) for t in tasks[:-1]]
     dry = run_agent(problem, scenario_data(problem, goals, suspendable), "online")
