@@ -11,10 +11,13 @@ ends, and its effects are applied when it ends; a false precondition is a
 failure, reported with the literal at fault.  The translation's marker
 ``__done()`` succeeds at once and changes nothing.
 
-A running action can be suspended half way: it has then had no effect, and the
-robot keeps the fraction done.  ``resume(A)`` does the rest (its time left) and
-gives A's effects, A's precondition checked anew; ``rollback(A)`` forgets the
-half done at once, and so does ``clear``.  With a ``failure_rate``, a fresh action
+A running action can be suspended half way: it has then had only the effects
+its start has (none, unless the scenario's started-effects file gives some), and
+the robot keeps the fraction done.  ``resume(A)`` does the rest (its time left)
+as the translation's ``resume`` operator says: A's effects, what A needs checked
+anew.  ``rollback(A)`` undoes A's start at once; a ``clear`` forgets the half
+done -- unless its start changed the world, which then waits for a later
+``resume`` or ``rollback``.  With a ``failure_rate``, a fresh action
 also fails at random (seeded), as the museum robot's moves do.  Activities are traced as
 ``robot_acting`` and reported to the progress listeners (what triggers follow),
 as the museum robot's timed actions are (:mod:`htnagent.executors.robot`).
@@ -30,7 +33,7 @@ from dataclasses import dataclass
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.actions import rolled_back
+from htnagent.actions import resume_action, rollback_action, rolled_back
 from htnagent.clock import Clock, TimerHandle
 from htnagent.domain import Domain
 from htnagent.events import RobotActing
@@ -87,6 +90,16 @@ class FactWorld:
         self.state = after
         return True
 
+    def suspend(self, action: Atom) -> None:
+        """The running action was stopped half way: what its start changed stays (§7.1)."""
+        self.state = self.domain.suspend(self.state, action)
+
+    def clear(self, action: Atom) -> bool:
+        """The suspended action will never be resumed; whether it is gone from the world
+        (False: its start changed the world, so it can still be resumed or rolled back)."""
+        self.state = self.domain.clear(self.state, action)
+        return self._applied(rollback_action(action)) is None
+
     def change(self, add: Iterable[Atom], delete: Iterable[Atom]) -> None:
         """A scenario event: facts deleted, then added."""
         self.state = self.state.updated(add, delete)
@@ -103,6 +116,7 @@ class FactWorld:
 class _Running:
     order: Execute | Resume
     action: Atom
+    step: Atom  # what is done in the world at the end: the action, or resume(action)
     start: float  # the fraction done before this part
     started_at: float
     duration: float  # seconds for the part from ``start`` to the end
@@ -155,7 +169,7 @@ class HddlRobot(ExecutorActor):
             elif isinstance(message, Suspend):
                 self._suspend(message)
             elif isinstance(message, Clear):
-                self.kept.pop(message.action, None)
+                self._clear(message.action)
 
     def duration(self, action: Atom) -> float:
         """The simulated seconds the whole action takes."""
@@ -167,10 +181,13 @@ class HddlRobot(ExecutorActor):
         action = order.action
         inner = rolled_back(action)
         if inner is not None:
-            # Nothing of a suspended action is in the world: rolling it back only forgets it.
-            if self.kept.pop(inner, None) is None:
+            # Rolling back undoes what the action's start changed (if anything), at once.
+            if inner not in self.kept:
                 self._fail(order, f"nothing to roll back for {inner}")
+            elif not self.world.carry_out(action):
+                self._fail(order, self.world.why_not(action) or f"the robot cannot do {action}")
             else:
+                del self.kept[inner]
                 self.reply(Success(action=action, seq=order.seq))
             return
         if action.name in self.markers:
@@ -186,22 +203,26 @@ class HddlRobot(ExecutorActor):
         if done is None:
             self._fail(order, f"nothing to resume for {order.action}")
             return
-        if self._start(order, order.action, done):
+        if self._start(order, order.action, done, resume_action(order.action)):
             del self.kept[order.action]
 
-    def _start(self, order: Execute | Resume, action: Atom, done: float) -> bool:
-        """Start (the rest of) the action; False, with the failure reported, if it cannot."""
+    def _start(self, order: Execute | Resume, action: Atom, done: float, step: Atom | None = None) -> bool:
+        """Start (the rest of) the action; False, with the failure reported, if it cannot.
+
+        ``step`` is what happens in the world at the end (default: the action itself).
+        """
         if self.running is not None:
             self._fail(order, f"the robot is busy with {self.running.action}")
             return False
-        why = self.world.why_not(action)
+        step = step or action
+        why = self.world.why_not(step)
         if why is not None:
             self._fail(order, why)
             return False
         duration = (1.0 - done) * self.duration(action)
         now = self.clock.now()
         timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
-        self.running = _Running(order, action, done, now, duration, timer)
+        self.running = _Running(order, action, step, done, now, duration, timer)
         self.progress.report(Progress(self.name, action, Phase.STARTED, duration, done))
         self.trace.emit(
             RobotActing(
@@ -219,12 +240,20 @@ class HddlRobot(ExecutorActor):
         if running is None or running.action != order.action or running.order.seq != order.seq:
             self.reply(Refused(action=order.action, seq=order.seq))
             return
-        # Stopped half way, the action has had no effect on the world (docs/design.md §7.1).
+        # Stopped half way, the action has had only what its start does (docs/design.md §7.1);
+        # a resume stopped again leaves the world as the first stop did.
         running.timer.cancel()
         self.running = None
+        if isinstance(running.order, Execute):
+            self.world.suspend(running.action)
         self.kept[running.action] = running.fraction_at(self.clock.now())
         self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
         self.reply(Suspended(action=order.action, seq=running.order.seq))
+
+    def _clear(self, action: Atom) -> None:
+        # What the action's start changed stays in the world, and with it what is done.
+        if self.world.clear(action):
+            self.kept.pop(action, None)
 
     def _timer_done(self, seq: int) -> None:
         self.inbox.send(Elapsed(seq=seq))
@@ -233,9 +262,9 @@ class HddlRobot(ExecutorActor):
         self.running = None
         order = running.order
         # The world may have changed while the action ran (an event): checked again.
-        why = self.world.why_not(running.action)
-        if why is not None or not self.world.carry_out(running.action):
-            self._fail(order, why or f"the precondition of {running.action} does not hold in the world")
+        why = self.world.why_not(running.step)
+        if why is not None or not self.world.carry_out(running.step):
+            self._fail(order, why or f"the precondition of {running.step} does not hold in the world")
             return
         self.reply(Success(action=order.action, seq=order.seq))
 

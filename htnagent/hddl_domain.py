@@ -95,16 +95,32 @@ class HddlPlanning:
     problem: m.Problem
 
 
-def translate(domain: m.Domain, problem: m.Problem, suspendable: Collection[str] = ()) -> HddlPlanning:
+@dataclass(frozen=True, slots=True)
+class Started:
+    """What holds of an action as soon as it starts (docs/design.md §7.1): facts in the
+    text form, over the action's parameters (``at(?r,?from)``) and the problem's objects."""
+
+    add: tuple[str, ...] = ()
+    delete: tuple[str, ...] = ()
+
+
+def translate(
+    domain: m.Domain,
+    problem: m.Problem,
+    suspendable: Collection[str] = (),
+    started: Mapping[str, Started] | None = None,
+) -> HddlPlanning:
     """The planning domain, start state and tasks of an HDDL domain and problem.
 
     The actions named in ``suspendable`` can be stopped half way (see the module's
     docstring); each must be an action of the domain that :func:`unsuspendable` accepts.
+    ``started`` gives, for some of them, the effects that hold as soon as they start:
+    what a half-done one has already changed.
 
     Raises :class:`~htnagent.errors.HddlError` (with the file and place) for what the
     translation cannot take: a formula that multiplies out past :data:`MAX_DISJUNCTS`.
     """
-    return _Translator(domain, problem, frozenset(suspendable)).run()
+    return _Translator(domain, problem, frozenset(suspendable), dict(started or {})).run()
 
 
 def unsuspendable(domain: m.Domain, name: str) -> str | None:
@@ -257,10 +273,13 @@ def ipc_plan(plan: Plan) -> IpcPlan:
 
 
 class _Translator:
-    def __init__(self, domain: m.Domain, problem: m.Problem, suspendable: frozenset[str]) -> None:
+    def __init__(
+        self, domain: m.Domain, problem: m.Problem, suspendable: frozenset[str], started: dict[str, Started]
+    ) -> None:
         self.hddl = domain
         self.problem = problem
         self.suspendable = suspendable
+        self.started = started
         self.out = PlanningDomain(domain.name)
         self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
         for o in (*domain.constants, *problem.objects):
@@ -342,23 +361,53 @@ class _Translator:
                 lits = [*(t for t in typing if t is not None), *conjunct]
                 ordered = self.order(tuple(lits), a.params, set(head.variables()))
                 text = [str(x) for x in ordered]
-                suspend = self.suspension(head, text, add, delete) if a.name in self.suspendable else None
+                suspend = (
+                    self.suspension(head, text, add, delete, self.started.get(a.name, Started()))
+                    if a.name in self.suspendable
+                    else None
+                )
                 self.out.operator(str(head), pre=text, add=add, delete=delete, cost=1.0, suspend=suspend)
 
     @staticmethod
-    def suspension(head: Atom, pre: list[str], add: list[str], delete: list[str]) -> Suspension:
+    def suspension(
+        head: Atom, pre: list[str], add: list[str], delete: list[str], started: Started
+    ) -> Suspension:
         """How the action ``head`` is stopped half way, resumed and rolled back (docs/design.md §7.1).
 
-        Stopped, it has had no effect: only the record ``__suspended_A`` is added.
-        ``resume(A)`` does the rest of A now -- A's precondition must hold now -- and costs
-        half of A; ``rollback(A)`` forgets the half done, at no cost (nothing was changed).
+        Stopped, it has had only its ``started`` effects, and the record ``__suspended_A``
+        says it is half done.  ``resume(A)`` does the rest of A now -- what A needs must
+        hold now, but for what its start changed -- and costs half of A.  With no
+        ``started`` effects, ``rollback(A)`` forgets the half done, at no cost, and so
+        does a clear (nothing was changed).  With some, the half-done action is in the
+        world: ``rollback(A)`` undoes its start, at half the cost of A, and a clear
+        leaves it there to be resumed or rolled back later.
         """
         record = str(suspended_fact(head))
+        if not started.add and not started.delete:
+            return Suspension(
+                add=(record,),
+                resume=Effect(add=tuple(add), delete=(*delete, record), pre=(record, *pre), cost=0.5),
+                rollback=Effect(delete=(record,), cost=0.0),
+                cleared=(record,),
+            )
+        made_true, made_false = set(started.add), set(started.delete)
+        # What A needs and its start has changed held when A began; the rest must hold now.
+        still = [
+            lit
+            for lit in pre
+            if not (lit.startswith("not ") and lit[4:] in made_true) and lit not in made_false
+        ]
         return Suspension(
-            add=(record,),
-            resume=Effect(add=tuple(add), delete=(*delete, record), pre=(record, *pre), cost=0.5),
-            rollback=Effect(delete=(record,), cost=0.0),
-            cleared=(record,),
+            add=(record, *started.add),
+            delete=started.delete,
+            resume=Effect(
+                add=tuple(add),
+                delete=(*delete, *(f for f in started.add if f not in add), record),
+                pre=(record, *still),
+                cost=0.5,
+            ),
+            rollback=Effect(add=started.delete, delete=(*started.add, record), cost=0.5),
+            cleared=(),
         )
 
     def method(self, method: m.Method, source: m.Source | None = None) -> None:
@@ -836,6 +885,7 @@ __all__ = [
     "TOP",
     "HddlPlanning",
     "Solved",
+    "Started",
     "actions_of",
     "ipc_plan",
     "solve",

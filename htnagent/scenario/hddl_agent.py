@@ -13,19 +13,25 @@ can be stopped half way.  What goes wrong in the scenario's own values is a
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Annotated
+
+from pydantic import Field, ValidationError
 
 from htnagent.domains import DomainInfo
 from htnagent.errors import ScenarioError
 from htnagent.maps import WorldMap
-from htnagent.scenario.schema import HddlDomainSpec
+from htnagent.scenario.reading import read_yaml
+from htnagent.scenario.schema import HddlDomainSpec, TextForm, _Spec
+from htnagent.scenario.wording import kind_of
+from htnagent.scenario.wording import translate as translate_error
 from htnagent.terms import Atom
 from htnagent.user_domains import ResolvedDomain
 
 if TYPE_CHECKING:
     from htnagent.hddl import model as m
-    from htnagent.hddl_domain import HddlPlanning
+    from htnagent.hddl_domain import HddlPlanning, Started
 
 # htnagent.hddl reads its files with htnagent.scenario.reading: this module imports the
 # HDDL modules when it uses them, so that importing either package first works.
@@ -35,7 +41,15 @@ DEFAULT_DURATION = 1.0
 RESERVED = "__"
 """The prefix of the names the HDDL translation adds (htnagent.hddl_domain.RESERVED)."""
 
-__all__ = ["DEFAULT_DURATION", "RESERVED", "check_fact", "check_hddl_task", "load_hddl_agent", "no_map"]
+__all__ = [
+    "DEFAULT_DURATION",
+    "RESERVED",
+    "check_fact",
+    "check_hddl_task",
+    "load_hddl_agent",
+    "no_map",
+    "read_started",
+]
 
 
 def load_hddl_agent(
@@ -60,11 +74,125 @@ def load_hddl_agent(
         why = unsuspendable(domain, name)
         if why is not None:
             raise ScenarioError(file, f"{where}.suspendable[{i}]", why)
-    planning = translate(domain, problem, suspendable)
+    started = None
+    if spec.started is not None:
+        started = read_started(base_dir / spec.started, domain, problem, suspendable, where, max_file_bytes)
+    planning = translate(domain, problem, suspendable, started)
     built = planning.domain
     # Nothing of an HDDL domain names the map, and the robot travels on none of its actions.
     info = DomainInfo(lambda _world: built, robot_moves=frozenset())
     return ResolvedDomain(built, info), planning
+
+
+class _StartedSpec(_Spec):
+    """One action's entry in a started-effects file."""
+
+    add: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
+    delete: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
+
+
+def read_started(
+    path: Path,
+    domain: m.Domain,
+    problem: m.Problem,
+    suspendable: tuple[str, ...],
+    where: str,
+    max_file_bytes: int | None = None,
+) -> dict[str, Started]:
+    """The effects that hold as soon as each named action starts, from the YAML file at
+    ``path`` (``agents[].domain.started``; docs/design.md §7.1).
+
+    Each key is a suspendable action of the domain; each fact is one of its predicates,
+    over the action's parameters and the problem's objects.  Anything else is a
+    ScenarioError naming the file and the key.
+    """
+    from htnagent.hddl_domain import Started
+
+    file = str(path)
+    data = read_yaml(path, "started-effects file", max_file_bytes)
+    if not isinstance(data, Mapping):
+        raise ScenarioError(
+            file,
+            "",
+            f"a started-effects file maps actions to {{add: [fact], delete: [fact]}}, not {kind_of(data)}",
+        )
+    objects = {o.name for o in (*domain.constants, *problem.objects)}
+    out: dict[str, Started] = {}
+    for key, value in data.items():
+        name = str(key)
+        action = domain.actions.get(name)
+        if action is None:
+            known = ", ".join(domain.actions) or "none"
+            raise ScenarioError(
+                file, name, f"domain {domain.name} has no action {name} (its actions: {known})"
+            )
+        if name not in suspendable:
+            raise ScenarioError(
+                file,
+                name,
+                f"{name} is not in {where}.suspendable: its start matters only if it can be stopped",
+            )
+        _refuse_cut_facts(value, file, name)
+        try:
+            entry = _StartedSpec.model_validate(value if value is not None else {})
+        except ValidationError as e:
+            raise translate_error(e, file, _StartedSpec, name) from None
+        params = {p.name for p in action.params}
+        for kind, facts in (("add", entry.add), ("delete", entry.delete)):
+            for i, fact in enumerate(facts):
+                _check_started_fact(domain, fact, params, objects, file, f"{name}.{kind}[{i}]")
+        both = set(entry.add) & set(entry.delete)
+        if both:
+            raise ScenarioError(file, name, f"{min(map(str, both))} is both added and deleted")
+        out[name] = Started(tuple(map(str, entry.add)), tuple(map(str, entry.delete)))
+    return out
+
+
+def _refuse_cut_facts(value: object, file: str, name: str) -> None:
+    """A fact with variables in a YAML flow list (``[at(?r,?from)]``) is cut at ``,?``,
+    which YAML reads as a key: say so, rather than that a parenthesis is missing."""
+    if not isinstance(value, Mapping):
+        return
+    for kind in ("add", "delete"):
+        items = value.get(kind)
+        if not isinstance(items, list):
+            continue
+        for i, item in enumerate(items):
+            if not isinstance(item, str) or item.count("(") == item.count(")"):
+                continue
+            raise ScenarioError(
+                file,
+                f"{name}.{kind}[{i}]",
+                f"{item!r} is a fact cut at a comma: in a YAML list written [...], ',?' starts a key; "
+                'quote each fact ("at(?r,?from)") or write one per line (- at(?r,?from))',
+            )
+
+
+def _check_started_fact(
+    domain: m.Domain, fact: Atom, params: set[str], objects: set[str], file: str, where: str
+) -> None:
+    predicate = domain.predicates.get(fact.name)
+    if predicate is None:
+        known = ", ".join(domain.predicates) or "none"
+        raise ScenarioError(
+            file,
+            where,
+            f"{fact}: domain {domain.name} has no predicate {fact.name} (its predicates: {known})",
+        )
+    if len(fact.args) != len(predicate.params):
+        raise ScenarioError(
+            file,
+            where,
+            f"predicate {fact.name} takes {len(predicate.params)} argument(s), not {len(fact.args)}",
+        )
+    for arg in fact.args:
+        if not isinstance(arg, str) or (arg not in params and arg not in objects):
+            raise ScenarioError(
+                file,
+                where,
+                f"{fact}: {str(arg)!r} is neither a parameter of the action ({', '.join(sorted(params))}) "
+                "nor an object of the problem",
+            )
 
 
 def no_map() -> WorldMap:

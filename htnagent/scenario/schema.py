@@ -133,6 +133,10 @@ class HddlDomainSpec(_Spec):
     problem: Name
     """The HDDL problem file, relative to the scenario file: the agent's start belief is its
     ``:init`` (its objects are what the goals may name; its task network is not used)."""
+    started: Name | None = None
+    """Optional: a YAML file, relative to the scenario file, of the effects that hold as soon
+    as a suspendable action starts (``ACTION: {add: [fact], delete: [fact]}``, the facts over
+    the action's parameters): what a half-done one has changed (docs/design.md §7.1)."""
 
 
 def _domain_form(value: object) -> str | None:
