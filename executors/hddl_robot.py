@@ -203,8 +203,9 @@ class HddlRobot(ExecutorActor):
         if done is None:
             self._fail(order, f"nothing to resume for {order.action}")
             return
-        if self._start(order, order.action, done, resume_action(order.action)):
-            del self.kept[order.action]
+        # What is done stays kept until the resume succeeds: a resume that fails leaves
+        # the action half done, to be rolled back or resumed again.
+        self._start(order, order.action, done, resume_action(order.action))
 
     def _start(self, order: Execute | Resume, action: Atom, done: float, step: Atom | None = None) -> bool:
         """Start (the rest of) the action; False, with the failure reported, if it cannot.
@@ -266,6 +267,8 @@ class HddlRobot(ExecutorActor):
         if why is not None or not self.world.carry_out(running.step):
             self._fail(order, why or f"the precondition of {running.step} does not hold in the world")
             return
+        if isinstance(order, Resume):
+            del self.kept[order.action]
         self.reply(Success(action=order.action, seq=order.seq))
 
     def _fail(self, order: Execute | Resume, reason: str) -> None:

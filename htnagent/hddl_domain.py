@@ -95,6 +95,17 @@ class HddlPlanning:
     problem: m.Problem
 
 
+class StartedError(ValueError):
+    """A started effect the translation cannot undo exactly (``action``, its ``key``:
+    ``add[0]``, ``delete[1]``); the scenario reader names the file and key."""
+
+    def __init__(self, action: str, key: str, reason: str) -> None:
+        super().__init__(reason)
+        self.action = action
+        self.key = key
+        self.reason = reason
+
+
 @dataclass(frozen=True, slots=True)
 class Started:
     """What holds of an action as soon as it starts (docs/design.md §7.1): facts in the
@@ -390,18 +401,35 @@ class _Translator:
                 rollback=Effect(delete=(record,), cost=0.0),
                 cleared=(record,),
             )
-        made_true, made_false = set(started.add), set(started.delete)
+        # Undoing the start is exact only if what it changes is known at the start: a fact
+        # it deletes held (A's precondition says so), one it adds did not (likewise).
+        held = {lit for lit in pre if not lit.startswith("not ")}
+        absent = {lit[4:] for lit in pre if lit.startswith("not ")}
+        for i, fact in enumerate(started.delete):
+            if fact not in held:
+                raise StartedError(
+                    head.name, f"delete[{i}]", f"{fact} is not in {head.name}'s precondition: a start "
+                    "can only take away what held when the action started"
+                )
+        for i, fact in enumerate(started.add):
+            if fact not in absent:
+                raise StartedError(
+                    head.name, f"add[{i}]", f"{head.name}'s precondition must say (not {fact}): what a "
+                    "start adds must be false before it, for rollback to undo it"
+                )
         # What A needs and its start has changed held when A began; the rest must hold now.
         still = [
             lit
             for lit in pre
-            if not (lit.startswith("not ") and lit[4:] in made_true) and lit not in made_false
+            if lit not in started.delete and not (lit.startswith("not ") and lit[4:] in started.add)
         ]
         return Suspension(
             add=(record, *started.add),
             delete=started.delete,
             resume=Effect(
-                add=tuple(add),
+                # A's end, from where its start left things: A's own effects, and the
+                # start's undone where A does not change the same facts.
+                add=(*add, *(f for f in started.delete if f not in delete)),
                 delete=(*delete, *(f for f in started.add if f not in add), record),
                 pre=(record, *still),
                 cost=0.5,
@@ -886,6 +914,7 @@ __all__ = [
     "HddlPlanning",
     "Solved",
     "Started",
+    "StartedError",
     "actions_of",
     "ipc_plan",
     "solve",

@@ -807,7 +807,8 @@ class OnlinePlanSet(PlanSet):
             return made[0]
 
         for n, (p, valid) in enumerate(candidates):
-            revived = n >= revived_from and n not in unrepaired
+            from_store = n >= revived_from
+            revived = from_store and n not in unrepaired
             if valid:
                 checked: Plan | None = p
             else:
@@ -817,7 +818,7 @@ class OnlinePlanSet(PlanSet):
                     best_broke = True
             if checked is None:
                 continue
-            if revived:
+            if from_store:
                 self.stats.revivals += 1
             key = checked.actions
             if key not in seen:

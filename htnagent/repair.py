@@ -190,7 +190,8 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
     Each is a task entry to plan again under ``record``: a compound subtask as its
     task, a primitive one as its action (a ``resume(A)`` as A).  Steps inserted by
     maintenance (no record) are passed over; the walk stops at the first step that
-    ``record`` did not produce.
+    ``record`` did not produce.  Consecutive steps under the same compound task are
+    one subtask (two equal tasks one after the other are taken as one).
     """
     found: list[TaskEntry] = []
     last: object = None
@@ -208,8 +209,10 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
                 node = node.parent
             if node is None:
                 break
-            key, entry = node, (node.task, record)
-        if key is not last:
+            # A subtask re-decomposed part way by an earlier repair has two records for
+            # one task: its steps before and after the repair are still one subtask.
+            key, entry = node.task, (node.task, record)
+        if key != last:
             if len(found) == limit:
                 break
             found.append(entry)

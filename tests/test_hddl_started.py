@@ -97,11 +97,59 @@ def test_a_move_stopped_on_the_way_to_where_the_emergency_goes_is_resumed(tmp_pa
 
 
 def test_naive_mode_keeps_the_beliefs_with_the_world_too(tmp_path: Path) -> None:
-    scenario = load_scenario(courier(tmp_path, events=[]))
-    online = anyio.run(functools.partial(run_scenario, scenario, replanning="online", keep_events=True))
-    naive = anyio.run(functools.partial(run_scenario, scenario, replanning="naive", keep_events=True))
-    assert online.succeeded and naive.succeeded
-    assert finished(naive.events) == finished(online.events)
+    online = run_checked(load_scenario(courier(tmp_path, events=[])))
+    naive = run_checked(load_scenario(courier(tmp_path, events=[], replanning="naive")))
+    assert online[0].succeeded and naive[0].succeeded
+    assert naive[2] == online[2] > 0  # as many comparisons of belief and world, all equal
+    assert finished(naive[1]) == finished(online[1])
+
+
+def test_a_resume_that_fails_leaves_the_move_half_done_to_be_rolled_back(tmp_path: Path) -> None:
+    # The kitchen's door shuts (at 3 s) while the emergency resumes the move to the kitchen:
+    # the resume fails at its end.  The move is still half done, in the world and the
+    # belief: it is rolled back, and the robot goes round through the office and the lab.
+    goals = [
+        {"agent": "courier", "task": "deliver(p1,office)"},
+        {
+            "agent": "courier",
+            "task": "goto(r1,kitchen)",
+            "emergency": True,
+            "when": {"action": "move(r1,hall,kitchen)", "progress": 0.5},
+        },
+    ]
+    events = [{"when": {"time": 3}, "delete": ["door(hall,kitchen)", "door(kitchen,hall)"]}]
+    report, events_seen, _ = run_checked(load_scenario(courier(tmp_path, goals=goals, events=events)))
+    assert report.succeeded
+    actions = finished(events_seen)
+    failed = actions.index(("resume(move(r1,hall,kitchen))", "failure"))
+    assert actions[failed + 1 : failed + 5] == [
+        ("rollback(move(r1,hall,kitchen))", "success"),
+        ("move(r1,hall,office)", "success"),
+        ("move(r1,office,lab)", "success"),
+        ("move(r1,lab,kitchen)", "success"),
+    ]
+
+
+def test_resume_and_rollback_give_back_what_the_start_took(tmp_path: Path) -> None:
+    # A start that takes away a fact the move does not change (the door behind it): resumed
+    # or rolled back, the move ends where the move done at once ends, or where it began.
+    from htnagent.hddl.reader import read_domain, read_problem
+    from htnagent.hddl_domain import Started, translate
+
+    repo = Path(__file__).resolve().parents[1] / "scenarios"
+    d = read_domain(repo / "courier_hddl_domain.hddl")
+    p = read_problem(repo / "courier_hddl_problem.hddl", d)
+    planning = translate(d, p, ["move"], {"move": Started(delete=("door(?from,?to)", "at(?r,?from)"))})
+    domain, start = planning.domain, planning.state
+    move = parse("move(r1,hall,kitchen)")
+    half = domain.suspend(start, move)
+    assert parse("door(hall,kitchen)") not in half.dynamic
+    whole = domain.apply(start, move)
+    resumed = domain.apply(half, parse("resume(move(r1,hall,kitchen))"))
+    back = domain.apply(half, parse("rollback(move(r1,hall,kitchen))"))
+    assert whole is not None and resumed is not None and back is not None
+    assert resumed.dynamic == whole.dynamic
+    assert back.dynamic == start.dynamic
 
 
 def test_without_started_effects_a_stopped_move_has_changed_nothing(tmp_path: Path) -> None:
@@ -150,6 +198,10 @@ BROKEN = [
     ("both", {"move": {"add": ["at(?r,?to)"], "delete": ["at(?r,?to)"]}}, "move", "both added and deleted"),
     ("unknown-key", {"move": {"adds": ["at(?r,?to)"]}}, "move.adds", "unknown key"),
     ("not-text", {"move": {"add": [5]}}, "move.add[0]", "expected text"),
+    ("no-effects", {"move": None}, "move", "no add nor delete"),
+    ("wrong-type", {"move": {"delete": ["at(?from,?r)"]}}, "move.delete[0]", "?from is a room, but at takes"),
+    ("not-held", {"move": {"delete": ["in(p1,hall)"]}}, "move.delete[0]", "is not in move's precondition"),
+    ("not-absent", {"move": {"add": ["at(?r,?to)"]}}, "move.add[0]", "must say (not at(?r,?to))"),
     ("bad-yaml", "move: [\n", "", ""),
     ("flow-list", "move: {delete: [at(?r,?from)]}\n", "move.delete[0]", "quote each fact"),
 ]

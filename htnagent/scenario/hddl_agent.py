@@ -66,7 +66,7 @@ def load_hddl_agent(
     files, ScenarioError for an action of ``suspendable`` the domain cannot suspend.
     """
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.hddl_domain import translate, unsuspendable
+    from htnagent.hddl_domain import StartedError, translate, unsuspendable
 
     domain = read_domain(base_dir / spec.hddl, max_file_bytes)
     problem = read_problem(base_dir / spec.problem, domain, max_file_bytes)
@@ -77,7 +77,10 @@ def load_hddl_agent(
     started = None
     if spec.started is not None:
         started = read_started(base_dir / spec.started, domain, problem, suspendable, where, max_file_bytes)
-    planning = translate(domain, problem, suspendable, started)
+    try:
+        planning = translate(domain, problem, suspendable, started)
+    except StartedError as e:
+        raise ScenarioError(str(base_dir / str(spec.started)), f"{e.action}.{e.key}", e.reason) from None
     built = planning.domain
     # Nothing of an HDDL domain names the map, and the robot travels on none of its actions.
     info = DomainInfo(lambda _world: built, robot_moves=frozenset())
@@ -109,14 +112,13 @@ def read_started(
     from htnagent.hddl_domain import Started
 
     file = str(path)
-    data = read_yaml(path, "started-effects file", max_file_bytes)
+    data = read_yaml(path, "list of started effects", max_file_bytes)
     if not isinstance(data, Mapping):
         raise ScenarioError(
             file,
             "",
             f"a started-effects file maps actions to {{add: [fact], delete: [fact]}}, not {kind_of(data)}",
         )
-    objects = {o.name for o in (*domain.constants, *problem.objects)}
     out: dict[str, Started] = {}
     for key, value in data.items():
         name = str(key)
@@ -137,10 +139,12 @@ def read_started(
             entry = _StartedSpec.model_validate(value if value is not None else {})
         except ValidationError as e:
             raise translate_error(e, file, _StartedSpec, name) from None
-        params = {p.name for p in action.params}
+        if not entry.add and not entry.delete:
+            raise ScenarioError(file, name, "no add nor delete: give what its start changes, or leave it out")
+        params = {p.name: p.types for p in action.params}
         for kind, facts in (("add", entry.add), ("delete", entry.delete)):
             for i, fact in enumerate(facts):
-                _check_started_fact(domain, fact, params, objects, file, f"{name}.{kind}[{i}]")
+                _check_started_fact(domain, problem, fact, params, file, f"{name}.{kind}[{i}]")
         both = set(entry.add) & set(entry.delete)
         if both:
             raise ScenarioError(file, name, f"{min(map(str, both))} is both added and deleted")
@@ -169,29 +173,41 @@ def _refuse_cut_facts(value: object, file: str, name: str) -> None:
 
 
 def _check_started_fact(
-    domain: m.Domain, fact: Atom, params: set[str], objects: set[str], file: str, where: str
+    domain: m.Domain,
+    problem: m.Problem,
+    fact: Atom,
+    params: dict[str, tuple[str, ...]],
+    file: str,
+    where: str,
 ) -> None:
+    """A started fact is one of the domain's predicates, over the action's parameters and
+    the problem's objects, each of a type the predicate takes there."""
     predicate = domain.predicates.get(fact.name)
     if predicate is None:
         known = ", ".join(domain.predicates) or "none"
-        raise ScenarioError(
-            file,
-            where,
-            f"{fact}: domain {domain.name} has no predicate {fact.name} (its predicates: {known})",
-        )
+        reason = f"{fact}: domain {domain.name} has no predicate {fact.name} (its predicates: {known})"
+        raise ScenarioError(file, where, reason)
     if len(fact.args) != len(predicate.params):
-        raise ScenarioError(
-            file,
-            where,
-            f"predicate {fact.name} takes {len(predicate.params)} argument(s), not {len(fact.args)}",
-        )
-    for arg in fact.args:
-        if not isinstance(arg, str) or (arg not in params and arg not in objects):
+        reason = f"predicate {fact.name} takes {len(predicate.params)} argument(s), not {len(fact.args)}"
+        raise ScenarioError(file, where, reason)
+    objects = {o.name: o.types for o in (*domain.constants, *problem.objects)}
+    for arg, slot in zip(fact.args, predicate.params, strict=True):
+        types = params.get(arg) if isinstance(arg, str) else None
+        if types is None and isinstance(arg, str):
+            types = objects.get(arg)
+        if types is None:
             raise ScenarioError(
                 file,
                 where,
-                f"{fact}: {str(arg)!r} is neither a parameter of the action ({', '.join(sorted(params))}) "
+                f"{fact}: {str(arg)!r} is neither a parameter of the action ({', '.join(params)}) "
                 "nor an object of the problem",
+            )
+        if slot.types and not any(domain.supertypes(t) & set(slot.types) for t in types or ("object",)):
+            raise ScenarioError(
+                file,
+                where,
+                f"{fact}: {arg} is a {' or '.join(types)}, but {fact.name} takes a "
+                f"{' or '.join(slot.types)} there",
             )
 
 

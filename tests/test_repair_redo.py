@@ -1,0 +1,121 @@
+"""Repair that does again the subtasks an emergency undid (docs/design.md §2.4, §4).
+
+A carrier delivers a parcel: ``deliver(P,To)`` is goto(From), load, goto(To), unload
+-- and it has no method from "the parcel is loaded".  While the goal waits on the
+stack (its plan set is lazy), an emergency drives the carrier away just before the
+unload.  Planned afresh the goal is impossible; its kept plan's repair does the
+method's last subtask done, ``goto(b)``, again, then the unload.
+"""
+
+from __future__ import annotations
+
+from htnagent.domain import Domain, State
+from htnagent.plan import Decomposition, Done, Step
+from htnagent.planner import PlannerSettings
+from htnagent.planset import OnlinePlanSet
+from htnagent.repair import done_subtasks
+from htnagent.terms import parse
+
+
+def carrier() -> Domain:
+    d = Domain("carrier")
+    d.operator("drive(?x,?y)", pre=["at(?x)", "road(?x,?y)"], add=["at(?y)"], delete=["at(?x)"])
+    d.operator("load(?p)", pre=["at(?l)", "in(?p,?l)"], add=["holding(?p)"], delete=["in(?p,?l)"])
+    d.operator("unload(?p,?l)", pre=["at(?l)", "holding(?p)"], add=["in(?p,?l)"], delete=["holding(?p)"])
+    d.method("goto(?x)", "here", when=["at(?x)"], do=[])
+    d.method("goto(?x)", "go", when=["at(?y)", "road(?y,?x)"], do=["drive(?y,?x)"])
+    d.method(
+        "deliver(?p,?to)",
+        "carry",
+        when=["in(?p,?from)"],
+        do=["goto(?from)", "load(?p)", "goto(?to)", "unload(?p,?to)"],
+    )
+    roads = [(x, y) for x in "abc" for y in "abc" if x != y]
+    d.facts = tuple(parse(f"road({x},{y})") for x, y in roads)
+    return d
+
+
+def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again() -> None:
+    d = carrier()
+    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d)
+    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
+    ps.make(start)
+    assert ps.best is not None and ps.best.text() == ["load(p)", "drive(a,b)", "unload(p,b)"]
+    belief = start
+    for action in ("load(p)", "drive(a,b)"):
+        after = d.apply(belief, parse(action))
+        assert after is not None
+        ps.action_succeeded(parse(action), belief, after)
+        belief = after
+    # Expect: the goal waits on the stack while an emergency drives from b to c.
+    ps.lazy = True
+    away = d.apply(belief, parse("drive(b,c)"))
+    assert away is not None
+    ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    assert ps.plans == []  # put aside, not repaired, while the goal waits
+    # Afresh, there is no plan: deliver has no method from "p loaded".
+    fresh = OnlinePlanSet(d, parse("deliver(p,b)"))
+    assert not fresh.ensure(away)
+    # Expect: about to run again, the goal's put-aside plan is repaired by doing goto(b) again.
+    ps.lazy = False
+    assert ps.ensure(away)
+    assert ps.best is not None and ps.best.text() == ["drive(c,b)", "unload(p,b)"]
+    assert ps.stats.repairs == 1
+
+
+def test_a_put_aside_plan_that_its_fact_brings_back_is_taken_as_it_is() -> None:
+    d = carrier()
+    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d)
+    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
+    ps.make(start)
+    belief = start
+    for action in ("load(p)", "drive(a,b)"):
+        after = d.apply(belief, parse(action))
+        assert after is not None
+        ps.action_succeeded(parse(action), belief, after)
+        belief = after
+    ps.lazy = True
+    away = d.apply(belief, parse("drive(b,c)"))
+    back = d.apply(away, parse("drive(c,b)")) if away is not None else None
+    assert away is not None and back is not None
+    ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    ps.action_succeeded(parse("drive(c,b)"), away, back)  # at(b) again: revived, valid
+    assert ps.best is not None and ps.best.text() == ["unload(p,b)"]
+    assert ps.stats.repairs == 0 and ps.stats.revivals == 1
+
+
+def _link(*steps: Step) -> Done | None:
+    done: Done | None = None
+    for step in steps:
+        done = Done(step, done)
+    return done
+
+
+def test_done_subtasks_are_the_last_ones_of_the_method_in_order() -> None:
+    goal = Decomposition(parse("deliver(p,b)"), "carry", None)
+    there = Decomposition(parse("goto(a)"), "go", goal)
+    on = Decomposition(parse("goto(b)"), "go", goal)
+    again = Decomposition(parse("goto(b)"), "go", goal)  # goto(b) re-decomposed part way by a repair
+    done = _link(
+        Step(parse("drive(c,a)"), 1.0, there),
+        Step(parse("load(p)"), 1.0, goal),
+        Step(parse("drive(a,c)"), 1.0, on),
+        Step(parse("undo(x)"), 1.0, None),  # put there by plan upkeep: passed over
+        Step(parse("drive(c,b)"), 1.0, again),
+    )
+    # Expect: goto(b)'s two halves are one subtask; load(p) is a primitive one.
+    assert done_subtasks(done, goal, 2) == [(parse("load(p)"), goal), (parse("goto(b)"), goal)]
+    assert done_subtasks(done, goal, 5) == [
+        (parse("goto(a)"), goal),
+        (parse("load(p)"), goal),
+        (parse("goto(b)"), goal),
+    ]
+    # The walk stops at a step the record did not produce: goto(b)'s own subtasks are its drives.
+    assert done_subtasks(done, again, 2) == [(parse("drive(c,b)"), again)]
+    assert done_subtasks(None, goal, 2) == []
+
+
+def test_a_resumed_step_is_done_again_as_the_whole_action() -> None:
+    goal = Decomposition(parse("deliver(p,b)"), "carry", None)
+    done = _link(Step(parse("resume(unload(p,b))"), 0.5, goal))
+    assert done_subtasks(done, goal, 1) == [(parse("unload(p,b)"), goal)]
