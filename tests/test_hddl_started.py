@@ -74,19 +74,22 @@ def test_a_stopped_move_leaves_the_robot_in_no_room_and_the_emergency_rolls_it_b
     assert goals == [("deliver(p2,hall)", "success"), ("deliver(p1,office)", "success")]
 
 
+TO_THE_KITCHEN = [
+    {"agent": "courier", "task": "deliver(p1,office)"},
+    {
+        "agent": "courier",
+        "task": "goto(r1,kitchen)",
+        "emergency": True,
+        "when": {"action": "move(r1,hall,kitchen)", "progress": 0.5},
+    },
+]
+"""The first delivery, and half way along its first move an emergency: to the kitchen."""
+
+
 def test_a_move_stopped_on_the_way_to_where_the_emergency_goes_is_resumed(tmp_path: Path) -> None:
     # The emergency sends the robot to the kitchen, where the stopped move was going: the rest
     # of the move (0.5) is the way there.  Then the first goal goes on from the kitchen.
-    goals = [
-        {"agent": "courier", "task": "deliver(p1,office)"},
-        {
-            "agent": "courier",
-            "task": "goto(r1,kitchen)",
-            "emergency": True,
-            "when": {"action": "move(r1,hall,kitchen)", "progress": 0.5},
-        },
-    ]
-    report, events, _ = run_checked(load_scenario(courier(tmp_path, goals=goals, events=[])))
+    report, events, _ = run_checked(load_scenario(courier(tmp_path, goals=TO_THE_KITCHEN, events=[])))
     assert report.succeeded
     actions = finished(events)
     stopped = actions.index(("move(r1,hall,kitchen)", "suspended"))
@@ -108,17 +111,9 @@ def test_a_resume_that_fails_leaves_the_move_half_done_to_be_rolled_back(tmp_pat
     # The kitchen's door shuts (at 3 s) while the emergency resumes the move to the kitchen:
     # the resume fails at its end.  The move is still half done, in the world and the
     # belief: it is rolled back, and the robot goes round through the office and the lab.
-    goals = [
-        {"agent": "courier", "task": "deliver(p1,office)"},
-        {
-            "agent": "courier",
-            "task": "goto(r1,kitchen)",
-            "emergency": True,
-            "when": {"action": "move(r1,hall,kitchen)", "progress": 0.5},
-        },
-    ]
     events = [{"when": {"time": 3}, "delete": ["door(hall,kitchen)", "door(kitchen,hall)"]}]
-    report, events_seen, _ = run_checked(load_scenario(courier(tmp_path, goals=goals, events=events)))
+    path = courier(tmp_path, goals=TO_THE_KITCHEN, events=events)
+    report, events_seen, _ = run_checked(load_scenario(path))
     assert report.succeeded
     actions = finished(events_seen)
     failed = actions.index(("resume(move(r1,hall,kitchen))", "failure"))

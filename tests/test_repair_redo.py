@@ -35,7 +35,8 @@ def carrier() -> Domain:
     return d
 
 
-def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again() -> None:
+def carried_to_b() -> tuple[Domain, OnlinePlanSet, State]:
+    """deliver(p,b) from a, carried out up to the unload: the domain, the plan set, the belief."""
     d = carrier()
     start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d)
     ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
@@ -47,6 +48,11 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
         assert after is not None
         ps.action_succeeded(parse(action), belief, after)
         belief = after
+    return d, ps, belief
+
+
+def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again() -> None:
+    d, ps, belief = carried_to_b()
     # Expect: the goal waits on the stack while an emergency drives from b to c.
     ps.lazy = True
     away = d.apply(belief, parse("drive(b,c)"))
@@ -64,16 +70,7 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
 
 
 def test_a_put_aside_plan_that_its_fact_brings_back_is_taken_as_it_is() -> None:
-    d = carrier()
-    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d)
-    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
-    ps.make(start)
-    belief = start
-    for action in ("load(p)", "drive(a,b)"):
-        after = d.apply(belief, parse(action))
-        assert after is not None
-        ps.action_succeeded(parse(action), belief, after)
-        belief = after
+    d, ps, belief = carried_to_b()
     ps.lazy = True
     away = d.apply(belief, parse("drive(b,c)"))
     back = d.apply(away, parse("drive(c,b)")) if away is not None else None
