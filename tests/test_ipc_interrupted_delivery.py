@@ -1,0 +1,47 @@
+"""The redo repair on a real IPC problem (docs/design.md §2.4): Transport pfile03.
+
+The emergency (``deliver(package_2,city_loc_0)``) comes half way through dropping
+package_1 at city_loc_1, and drives the truck away with package_1 still in it.
+``deliver`` has no method from "the package is in a truck": planned afresh (naive)
+the interrupted goal is impossible; on-line, the kept plan's repair drives back to
+city_loc_1 and resumes the drop.  Needs ``../shared/data/ipc`` (skipped without it).
+"""
+
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import anyio
+import pytest
+
+from bench.ipc import find_problems
+from bench.ipc_interrupt import prepare, scenario_data
+from htnagent.events import ActionFinished
+from htnagent.scenario import parse_scenario
+from htnagent.simulation import run_scenario
+
+SUITE = Path(__file__).resolve().parents[2] / "shared" / "data" / "ipc"
+
+pytestmark = pytest.mark.skipif(not (SUITE / "Transport" / "pfile03.hddl").exists(), reason="no IPC suite")
+
+
+def test_on_line_drives_back_and_resumes_the_drop_naive_cannot_go_on() -> None:
+    problem = next(p for p in find_problems(SUITE, ["Transport"], 3) if p.name == "pfile03.hddl")
+    ready = prepare(problem, 20.0)
+    assert ready["trigger"] == "drop(truck_0,city_loc_1,package_1,capacity_1,capacity_2)"
+    data = scenario_data(problem, ready["goals"], ready["suspendable"], ready["emergency"], ready["trigger"])
+    scenario = parse_scenario(data, str(problem.problem_file), problem.problem_file.parent)
+    online = anyio.run(functools.partial(run_scenario, scenario, replanning="online", keep_events=True))
+    naive = anyio.run(functools.partial(run_scenario, scenario, replanning="naive"))
+    assert online.succeeded
+    done = [e.action for e in online.events if isinstance(e, ActionFinished) and e.result == "success"]
+    emergency_done = done.index("drop(truck_0,city_loc_0,package_2,capacity_0,capacity_1)")
+    assert done[emergency_done + 1 : emergency_done + 3] == [
+        "drive(truck_0,city_loc_0,city_loc_1)",
+        "resume(drop(truck_0,city_loc_1,package_1,capacity_1,capacity_2))",
+    ]
+    failed = [(g.goal, g.reason) for g in naive.summary.goals if g.status != "success"]
+    assert failed == [
+        ("deliver(package_1,city_loc_1)", "no plan for deliver(package_1,city_loc_1) (unsolvable)")
+    ]
