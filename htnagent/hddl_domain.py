@@ -103,7 +103,6 @@ class StartedError(ValueError):
         super().__init__(reason)
         self.action = action
         self.key = key
-        self.reason = reason
 
 
 @dataclass(frozen=True, slots=True)
@@ -394,13 +393,6 @@ class _Translator:
         leaves it there to be resumed or rolled back later.
         """
         record = str(suspended_fact(head))
-        if not started.add and not started.delete:
-            return Suspension(
-                add=(record,),
-                resume=Effect(add=tuple(add), delete=(*delete, record), pre=(record, *pre), cost=0.5),
-                rollback=Effect(delete=(record,), cost=0.0),
-                cleared=(record,),
-            )
         # Undoing the start is exact only if what it changes is known at the start: a fact
         # it deletes held (A's precondition says so), one it adds did not (likewise).
         held = {lit for lit in pre if not lit.startswith("not ")}
@@ -408,15 +400,20 @@ class _Translator:
         for i, fact in enumerate(started.delete):
             if fact not in held:
                 raise StartedError(
-                    head.name, f"delete[{i}]", f"{fact} is not in {head.name}'s precondition: a start "
-                    "can only take away what held when the action started"
+                    head.name,
+                    f"delete[{i}]",
+                    f"{fact} is not in {head.name}'s precondition: a start "
+                    "can only take away what held when the action started",
                 )
         for i, fact in enumerate(started.add):
             if fact not in absent:
                 raise StartedError(
-                    head.name, f"add[{i}]", f"{head.name}'s precondition must say (not {fact}): what a "
-                    "start adds must be false before it, for rollback to undo it"
+                    head.name,
+                    f"add[{i}]",
+                    f"{head.name}'s precondition must say (not {fact}): what a "
+                    "start adds must be false before it, for rollback to undo it",
                 )
+        changes = bool(started.add or started.delete)
         # What A needs and its start has changed held when A began; the rest must hold now.
         still = [
             lit
@@ -434,8 +431,10 @@ class _Translator:
                 pre=(record, *still),
                 cost=0.5,
             ),
-            rollback=Effect(add=started.delete, delete=(*started.add, record), cost=0.5),
-            cleared=(),
+            # Nothing of A is in the world without started effects: a rollback costs
+            # nothing, and a clear forgets A; with some, both leave the world to undo.
+            rollback=Effect(add=started.delete, delete=(*started.add, record), cost=0.5 if changes else 0.0),
+            cleared=() if changes else (record,),
         )
 
     def method(self, method: m.Method, source: m.Source | None = None) -> None:

@@ -182,7 +182,12 @@ BROKEN = [
     ("unknown-action", {"fly": {"add": []}}, "fly", "domain courier has no action fly"),
     ("not-suspendable", {"pick": {"add": []}}, "pick", "pick is not in agents[0].suspendable"),
     ("unknown-predicate", {"move": {"add": ["flying(?r)"]}}, "move.add[0]", "has no predicate flying"),
-    ("arity", {"move": {"delete": ["at(?r)"]}}, "move.delete[0]", "predicate at takes 2 argument(s), not 1"),
+    (
+        "arity",
+        {"move": {"delete": ["at(?r)"]}},
+        "move.delete[0]",
+        "predicate at takes 2 arguments in courier, not 1",
+    ),
     (
         "unknown-variable",
         {"move": {"delete": ["at(?r,?x)"]}},

@@ -80,7 +80,7 @@ def load_hddl_agent(
     try:
         planning = translate(domain, problem, suspendable, started)
     except StartedError as e:
-        raise ScenarioError(str(base_dir / str(spec.started)), f"{e.action}.{e.key}", e.reason) from None
+        raise ScenarioError(str(base_dir / str(spec.started)), f"{e.action}.{e.key}", str(e)) from None
     built = planning.domain
     # Nothing of an HDDL domain names the map, and the robot travels on none of its actions.
     info = DomainInfo(lambda _world: built, robot_moves=frozenset())
@@ -182,14 +182,7 @@ def _check_started_fact(
 ) -> None:
     """A started fact is one of the domain's predicates, over the action's parameters and
     the problem's objects, each of a type the predicate takes there."""
-    predicate = domain.predicates.get(fact.name)
-    if predicate is None:
-        known = ", ".join(domain.predicates) or "none"
-        reason = f"{fact}: domain {domain.name} has no predicate {fact.name} (its predicates: {known})"
-        raise ScenarioError(file, where, reason)
-    if len(fact.args) != len(predicate.params):
-        reason = f"predicate {fact.name} takes {len(predicate.params)} argument(s), not {len(fact.args)}"
-        raise ScenarioError(file, where, reason)
+    predicate = _declared_predicate(domain, fact, file, where)
     objects = {o.name: o.types for o in (*domain.constants, *problem.objects)}
     for arg, slot in zip(fact.args, predicate.params, strict=True):
         types = params.get(arg) if isinstance(arg, str) else None
@@ -202,7 +195,7 @@ def _check_started_fact(
                 f"{fact}: {str(arg)!r} is neither a parameter of the action ({', '.join(params)}) "
                 "nor an object of the problem",
             )
-        if slot.types and not any(domain.supertypes(t) & set(slot.types) for t in types or ("object",)):
+        if not any(domain.supertypes(t) & set(slot.types) for t in types):
             raise ScenarioError(
                 file,
                 where,
@@ -232,23 +225,35 @@ def check_hddl_task(planning: HddlPlanning, agent: str, task: Atom, file: str, w
 def check_fact(planning: HddlPlanning, fact: Atom, file: str, where: str) -> None:
     """Raise ScenarioError at ``where`` unless ``fact`` is a ground fact of one of the HDDL
     domain's predicates, naming objects of the problem (an event's ``add``/``delete``)."""
-    hddl = planning.hddl
-    predicate = hddl.predicates.get(fact.name)
+    _declared_predicate(planning.hddl, fact, file, where)
+    _check_ground(planning, fact, file, where)
+
+
+def _declared_predicate(domain: m.Domain, fact: Atom, file: str, where: str) -> m.Predicate:
+    """The domain's predicate of ``fact``, which it has with its number of arguments."""
+    predicate = domain.predicates.get(fact.name)
     if predicate is None:
-        known = ", ".join(hddl.predicates) or "none"
-        raise ScenarioError(
-            file, where, f"{fact}: domain {hddl.name} has no predicate {fact.name} (its predicates: {known})"
-        )
-    _check_arguments(planning, fact, len(predicate.params), f"predicate {fact.name} takes", file, where)
+        known = ", ".join(domain.predicates) or "none"
+        reason = f"{fact}: domain {domain.name} has no predicate {fact.name} (its predicates: {known})"
+        raise ScenarioError(file, where, reason)
+    _check_arity(domain, fact, len(predicate.params), f"predicate {fact.name} takes", file, where)
+    return predicate
+
+
+def _check_arity(domain: m.Domain, term: Atom, arity: int, what: str, file: str, where: str) -> None:
+    if len(term.args) != arity:
+        noun = "argument" if arity == 1 else "arguments"
+        raise ScenarioError(file, where, f"{what} {arity} {noun} in {domain.name}, not {len(term.args)}")
 
 
 def _check_arguments(
     planning: HddlPlanning, term: Atom, arity: int, what: str, file: str, where: str
 ) -> None:
-    if len(term.args) != arity:
-        noun = "argument" if arity == 1 else "arguments"
-        found = len(term.args)
-        raise ScenarioError(file, where, f"{what} {arity} {noun} in {planning.hddl.name}, not {found}")
+    _check_arity(planning.hddl, term, arity, what, file, where)
+    _check_ground(planning, term, file, where)
+
+
+def _check_ground(planning: HddlPlanning, term: Atom, file: str, where: str) -> None:
     if not term.is_ground:
         raise ScenarioError(file, where, f"{term} has variables; name objects of the problem")
     objects = {o.name for o in (*planning.hddl.constants, *planning.problem.objects)}
