@@ -21,6 +21,9 @@ are two kinds, one per :class:`Replanning` mode, both :class:`PlanSet`:
   - plans removed because a fact was false wait in a
     :class:`~htnagent.revival.Revival` store, indexed by that fact, and come
     back when it becomes true again (§2.5, :mod:`htnagent.revival`);
+  - while the goal waits on the stack (``lazy``) its plans follow every event's
+    rewrite (§2.1's undo in front, Algorithm 1's resume and rollback) but are
+    re-checked only once, when the goal is about to run again;
   - the tidy-up rules run after every update (§2.6);
   - :meth:`~PlanSet.shorten_detours`, at resumption, offers a shorter way than a
     plan's leading undo steps.
@@ -147,12 +150,15 @@ class PlanSet:
         """Actions the executor has said it cannot do from one belief (a child agent found
         no plan for them): no plan starts with them from that belief."""
         self.lazy = False
-        """Set while the goal waits on the stack: a plan an event breaks is not repaired at
-        once but put aside (for revival); what is left is made good when the goal is about
-        to run again (prepared or resumed) — one search then, instead of one per event."""
+        """Set while the goal waits on the stack: its plans follow each event's rewrite of
+        them (§2.1, §3) but are not re-checked or repaired then; they are re-checked (and
+        repaired, §2.4) once, when the goal is about to run again (prepared or resumed) —
+        one walk and at most one search then, instead of one per event."""
         self.done: Done | None = None
         """The goal's own steps carried out so far, newest first (repair reads them)."""
         self._checked: State | None = None  # every kept plan is valid from this belief
+        self._stale = False  # rewritten unchecked while lazy ...
+        self._stale_since: State | None = None  # ... since the last check, from this belief
         self._unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
 
     def __repr__(self) -> str:
@@ -190,6 +196,8 @@ class PlanSet:
         self.last_status = other.last_status
         self._checked = other._checked
         self._unsolvable = other._unsolvable
+        self._stale = other._stale
+        self._stale_since = other._stale_since
 
     def rebase(self, state: State) -> None:
         """The kept plans were checked from a belief equal to ``state`` (made ahead, for a
@@ -210,7 +218,8 @@ class PlanSet:
 
         Returns False when the goal cannot be planned from the belief.
         """
-        if self.plans or self._mend_put_aside(state):
+        self._refresh(state)
+        if self.plans:
             return True
         if self._unsolvable == state.key():
             # A repair already searched the whole space from this very belief.
@@ -221,10 +230,9 @@ class PlanSet:
             self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
 
-    def _mend_put_aside(self, state: State) -> bool:
-        """Repair the plans put aside while the goal waited on the stack (see ``lazy``);
-        whether one was mended."""
-        return False
+    def _refresh(self, state: State) -> None:
+        """Re-check (and repair) the plans rewritten unchecked while the goal waited on the
+        stack (see ``lazy``), from the belief ``state``."""
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         """Add alternative plans (up to K) to the kept ones (§1, §4).
@@ -260,6 +268,7 @@ class PlanSet:
         the goal's own left is kept only if the goal decomposes to nothing where the
         plan ends; otherwise it goes, and the goal is planned again when needed.
         """
+        self._refresh(state)
         kept: list[Plan] = []
         for p in self.plans:
             if any(s.record is not None for s in p.steps):
@@ -525,19 +534,41 @@ class OnlinePlanSet(PlanSet):
 
     def drop(self) -> None:
         super().drop()
+        self._stale = False
         self.revival.clear()
 
-    def _mend_put_aside(self, state: State) -> bool:
-        # ``lazy`` put these aside instead of repairing them: repair them now, as any
-        # broken plan is (§2.4), before the goal is planned from scratch (§2.7).
-        aside = self.revival.take_unrepaired()
-        if not aside:
-            return False
-        with self._timed():
-            self._revise(state, state, [_Kept(p, False) for p in aside], best_broke=True)
-        return bool(self.plans)
+    def _refresh(self, state: State) -> None:
+        if self._stale:
+            with self._timed():
+                self._recheck_stale(state)
+
+    def _recheck_stale(self, state: State) -> None:
+        # §2 step 4, deferred while the goal waited (see ``lazy``): re-check every plan
+        # from the belief now, repair the broken ones (§2.4), revive what the changes since
+        # the last check bring back (§2.5).
+        since = self._stale_since if self._stale_since is not None else state
+        self._stale, self._stale_since = False, None
+        self._revise(since, state)
+
+    def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
+        """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
+        plan kept for revival) as the event does — ``change`` gives None for a plan the
+        event ends — and leave the re-check until the goal is about to run again.
+
+        A goal no longer waiting whose plans were left so is re-checked now, from
+        ``after`` (an earlier belief may not be one its plans can be mended from: the
+        event may be what makes them good again)."""
+        if not self._stale:
+            self._stale, self._stale_since = True, self._checked
+        self._checked = None
+        self.plans = [q for p in self.plans if (q := change(p)) is not None]
+        if self.revival:
+            self.revival.rewrite(change)
+        if not self.lazy:
+            self._recheck_stale(after)
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
+        self._refresh(state)
         k = self.settings.alternatives
         if k <= 1 or len(self.plans) >= k:
             return
@@ -561,6 +592,10 @@ class OnlinePlanSet(PlanSet):
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
+        if self.lazy or self._stale:
+            with self._timed():
+                self._succeeded_lazily(action, after)
+            return
         with self._timed():
             undo = self.domain.actions.undo_of(action)
             # A plan valid from ``before`` that ran the action is valid from ``after``;
@@ -597,6 +632,22 @@ class OnlinePlanSet(PlanSet):
                 self.revival.rewrite(follow)
             self._revise(before, after, kept, memo=memo)
 
+    def _succeeded_lazily(self, action: Atom, after: State) -> None:
+        """§2.1's rewrite alone, for a goal waiting on the stack (see ``lazy``)."""
+        undo = self.domain.actions.undo_of(action)
+        ran = next((p.steps[0] for p in self.plans if p.steps and p.steps[0].action == action), None)
+        if ran is not None:
+            self.done = Done(ran, self.done)
+
+        def follow(p: Plan) -> Plan:
+            if p.steps and p.steps[0].action == action:
+                return Plan(p.steps[1:])  # §2.1: the plan that ran the action moves on
+            if undo is not None:
+                return Plan(self._behind(undo, p.steps))  # §2.1: undo it first
+            return p
+
+        self._follow_lazily(follow, after)
+
     def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
         """The steps behind the undo of an action another goal made (§2.1), tidied.
 
@@ -618,10 +669,14 @@ class OnlinePlanSet(PlanSet):
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
         """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
+        if self.lazy or self._stale:
+            with self._timed():
+                self._follow_lazily(lambda p: None if p.steps and p.steps[0].action == action else p, after)
+            return
         with self._timed():
             had = bool(self.plans)
             self.plans = [p for p in self.plans if not (p.steps and p.steps[0].action == action)]
-            if had and not self.plans and not self.lazy:
+            if had and not self.plans:
                 # §2.2 takes a kept alternative at once: the first plan came alone, so
                 # find the alternatives now — those that do not start with the failure.
                 self.widen(before, failed=action)
@@ -654,6 +709,9 @@ class OnlinePlanSet(PlanSet):
                     return Plan((Step(rollback, actions.cost(rollback), None), *p.steps))
                 return p
 
+            if self.lazy or self._stale:
+                self._follow_lazily(suspended, after)  # step 3's rewrite; its re-check waits
+                return
             trusted = before is self._checked
             apply_dynamic = actions.apply_dynamic
             # A plan valid from ``before`` stays valid when its new first step ends where the
@@ -696,6 +754,9 @@ class OnlinePlanSet(PlanSet):
         """
         with self._timed():
             whole = self._whole(action)
+            if self.lazy or self._stale:
+                self._follow_lazily(whole, after)
+                return
             resume = resume_action(action)
             kept = [
                 _Kept(p, self._untouched(p, before, after))
@@ -709,6 +770,9 @@ class OnlinePlanSet(PlanSet):
     def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
         """The world changed from outside (§2.3): every plan that reads a changed fact is re-checked."""
         with self._timed():
+            if self.lazy or self._stale:
+                self._follow_lazily(lambda p: p, after)
+                return
             kept = [_Kept(p, self._untouched(p, before, after)) for p in self.plans]
             self._revise(before, after, kept, memo=memo)
 
@@ -723,6 +787,7 @@ class OnlinePlanSet(PlanSet):
         what follows that task.  The cheaper of the two is selected.  Returns
         whether the plan was shortened.
         """
+        self._refresh(state)
         best = self.best
         if best is None:
             return False
@@ -752,8 +817,12 @@ class OnlinePlanSet(PlanSet):
             rival = self._repairer().search(state, tasks, one_plan(self.settings))
             if rival is None or rival.cost >= best.cost - 1e-9:
                 return False
+            # The detour it beat is not kept as an alternative: it walks back over the
+            # emergency's route only to go the way the rival goes, and keeping it valid would
+            # cost an undo step more at every action (a goal's plan comes alone, §1, §4;
+            # alternatives are looked for when an action fails: see widen).
             shorter = rival  # the planner returns tidy plans
-            others = [p for p in self.plans if p.actions != shorter.actions]
+            others = [p for p in self.plans[1:] if p.actions != shorter.actions]
             self.plans = sorted([shorter, *others], key=lambda q: q.cost)[: self.settings.alternatives]
             self.stats.shortcuts += 1
             return True
@@ -792,10 +861,7 @@ class OnlinePlanSet(PlanSet):
             self._checked = after
             return
         revived_from = len(kept)
-        back = self.revival.revive(before, after)
-        candidates = [*kept, *(_Kept(p, False) for p, _ in back)]
-        # A plan put aside unrepaired (``lazy``) still has its repair to come.
-        unrepaired = {n for n, (_, aside) in enumerate(back, revived_from) if aside}
+        candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
         made: list[Repairer] = []
@@ -807,8 +873,7 @@ class OnlinePlanSet(PlanSet):
             return made[0]
 
         for n, (p, valid) in enumerate(candidates):
-            from_store = n >= revived_from
-            revived = from_store and n not in unrepaired
+            revived = n >= revived_from
             if valid:
                 checked: Plan | None = p
             else:
@@ -818,7 +883,7 @@ class OnlinePlanSet(PlanSet):
                     best_broke = True
             if checked is None:
                 continue
-            if from_store:
+            if revived:
                 self.stats.revivals += 1
             key = checked.actions
             if key not in seen:
@@ -826,7 +891,7 @@ class OnlinePlanSet(PlanSet):
                 out.append(checked)
         out.sort(key=_cost)
         self.plans = out[: max(self.settings.alternatives, 1)]
-        if best_broke and not self.lazy:
+        if best_broke:
             self._as_good_as_fresh(after, repairer)
         if made and made[0].unsolvable is not None:
             self._unsolvable = made[0].unsolvable
@@ -866,11 +931,10 @@ class OnlinePlanSet(PlanSet):
             return p
         index, at_failure = failure
         culprit = p.steps[index].action
-        if not allow_repair or self.lazy:
+        if not allow_repair:
             if remember:
                 self.stats.removed += 1
-                # Put aside unrepaired while the goal waits: mended when it is about to run.
-                self.revival.keep(p, culprit, at_failure, unrepaired=self.lazy and allow_repair)
+                self.revival.keep(p, culprit, at_failure)
             return None
         repaired = repairer().repair(p, index, _states(self.domain, p, state, index), self.done)
         # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.

@@ -24,7 +24,6 @@ class _Removed:
     plan: Plan
     key: tuple[Atom, bool]
     update: int
-    unrepaired: bool = False
 
 
 class Revival:
@@ -58,7 +57,7 @@ class Revival:
     def copy(self) -> Revival:
         """An independent copy (for a plan set's fork)."""
         other = Revival(self._domain, self.window, self.capacity)
-        other._kept = [_Removed(r.plan, r.key, r.update, r.unrepaired) for r in self._kept]
+        other._kept = [_Removed(r.plan, r.key, r.update) for r in self._kept]
         other._updates = self._updates
         return other
 
@@ -66,28 +65,14 @@ class Revival:
         """Forget every kept plan."""
         self._kept.clear()
 
-    def keep(self, p: Plan, action: Atom, state: State, *, unrepaired: bool = False) -> None:
-        """Keep the removed plan ``p``, whose ``action`` could not run in ``state``.
-
-        ``unrepaired``: it was put aside without the repair it would have had
-        (:meth:`take_unrepaired` gives it back for that).
-        """
+    def keep(self, p: Plan, action: Atom, state: State) -> None:
+        """Keep the removed plan ``p``, whose ``action`` could not run in ``state``."""
         key = _broken_by(self._domain, action, state)
-        if key is None and not unrepaired:
+        if key is None:
             return
-        self._kept.append(_Removed(p, key or (action, True), self._updates, unrepaired))
+        self._kept.append(_Removed(p, key, self._updates))
         if len(self._kept) > self.capacity:
             del self._kept[0]
-
-    def take_unrepaired(self, limit: int = 2) -> list[Plan]:
-        """Take out the plans put aside unrepaired in the latest update that put any
-        aside (at most ``limit``, in the order they were kept: cheapest first)."""
-        aside = [r for r in self._kept if r.unrepaired]
-        if not aside:
-            return []
-        latest = [r for r in aside if r.update == aside[-1].update][:limit]
-        self._kept = [r for r in self._kept if not any(r is x for x in latest)]
-        return [r.plan for r in latest]
 
     def rewrite(self, change: Callable[[Plan], Plan | None]) -> None:
         """Replace each kept plan by ``change(plan)`` (unless that is None)."""
@@ -100,9 +85,8 @@ class Revival:
         """An update of the plan set begins."""
         self._updates += 1
 
-    def revive(self, before: State, after: State) -> list[tuple[Plan, bool]]:
-        """Take out the plans whose breaking fact changed the right way between the states,
-        each with whether it was put aside unrepaired."""
+    def revive(self, before: State, after: State) -> list[Plan]:
+        """Take out the plans whose breaking fact changed the right way between the states."""
         if not self._kept:
             return []
         added = after.dynamic - before.dynamic
@@ -110,12 +94,12 @@ class Revival:
         if after.static is not before.static:
             added |= after.static.facts - before.static.facts
             deleted |= before.static.facts - after.static.facts
-        out: list[tuple[Plan, bool]] = []
+        out: list[Plan] = []
         keep: list[_Removed] = []
         for r in self._kept:
             fact, positive = r.key
             if (positive and fact in added) or (not positive and fact in deleted):
-                out.append((r.plan, r.unrepaired))
+                out.append(r.plan)
             else:
                 keep.append(r)
         self._kept = keep

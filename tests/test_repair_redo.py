@@ -58,7 +58,9 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
     away = d.apply(belief, parse("drive(b,c)"))
     assert away is not None
     ps.action_succeeded(parse("drive(b,c)"), belief, away)
-    assert ps.plans == []  # put aside, not repaired, while the goal waits
+    # Expect: while the goal waits its plan is neither checked nor repaired (§4, lazy).
+    assert texts(ps) == [["unload(p,b)"]]
+    assert ps.stats.rechecks == 0 and ps.stats.repairs == 0
     # Afresh, there is no plan: deliver has no method from "p loaded".
     fresh = OnlinePlanSet(d, parse("deliver(p,b)"))
     assert not fresh.ensure(away)
@@ -69,16 +71,38 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
     assert ps.stats.repairs == 1
 
 
-def test_a_put_aside_plan_that_its_fact_brings_back_is_taken_as_it_is() -> None:
+def test_a_stacked_plan_the_emergency_breaks_and_mends_again_is_taken_as_it_is() -> None:
     d, ps, belief = carried_to_b()
     ps.lazy = True
     away = d.apply(belief, parse("drive(b,c)"))
     back = d.apply(away, parse("drive(c,b)")) if away is not None else None
     assert away is not None and back is not None
     ps.action_succeeded(parse("drive(b,c)"), belief, away)
-    ps.action_succeeded(parse("drive(c,b)"), away, back)  # at(b) again: revived, valid
-    assert ps.best is not None and ps.best.text() == ["unload(p,b)"]
-    assert ps.stats.repairs == 0 and ps.stats.revivals == 1
+    ps.action_succeeded(parse("drive(c,b)"), away, back)  # at(b) again
+    # Expect: about to run again, one walk finds the kept plan good: no repair, no search.
+    ps.lazy = False
+    assert ps.ensure(back)
+    assert texts(ps) == [["unload(p,b)"]]
+    assert ps.stats.rechecks == 1 and ps.stats.repairs == 0 and ps.stats.from_scratch == 1
+
+
+def test_an_event_for_a_goal_no_longer_waiting_rechecks_its_plans_after_the_event() -> None:
+    d, ps, belief = carried_to_b()
+    ps.lazy = True
+    away = d.apply(belief, parse("drive(b,c)"))
+    back = d.apply(away, parse("drive(c,b)")) if away is not None else None
+    assert away is not None and back is not None
+    ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    # Expect: the goal is about to run; the next event's belief is the one its plan is
+    # checked from (from ``away`` it would need a repair; after the drive back it is good).
+    ps.lazy = False
+    ps.action_succeeded(parse("drive(c,b)"), away, back)
+    assert texts(ps) == [["unload(p,b)"]]
+    assert ps.stats.rechecks == 1 and ps.stats.repairs == 0
+
+
+def texts(ps: OnlinePlanSet) -> list[list[str]]:
+    return [p.text() for p in ps.plans]
 
 
 def _link(*steps: Step) -> Done | None:
