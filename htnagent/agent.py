@@ -578,8 +578,7 @@ class Agent(ExecutorActor):
         """Do the plan maintenance that waited (see :meth:`_maintain`), oldest first."""
         while self._later:
             self._later.popleft()()
-        if self._hint is not None:
-            self._prepare_order(self._hint)
+        if self._hint is not None and self._prepare_order(self._hint):
             self._hint = None
 
     # -- getting ready for what comes next, while an action runs (§4) -----------------------------
@@ -637,17 +636,21 @@ class Agent(ExecutorActor):
             return True
         return False
 
-    def _prepare_order(self, action: Atom) -> None:
+    def _prepare_order(self, action: Atom) -> bool:
         """Get ready for a likely next order of the parent's (Prepare), from the belief this
         agent will have when its running goal's plan is done: plan a new goal, or make a
-        held goal ready to resume."""
+        held goal ready to resume.  Returns False to be asked again later: the running
+        goal has more than its last action to do (ready then, the prediction rests on one
+        action, and nothing made ready is updated action by action meanwhile)."""
         if self.mode is not Replanning.ONLINE:
-            return
+            return True
         current = self.current
         steps = current.plans.best.actions if current is not None and current.plans.best is not None else ()
+        if len(steps) > 1:
+            return False
         predicted = replay(self.domain, self.belief, steps)
         if predicted is None:
-            return
+            return True
         inner = resumed(action)
         if inner is not None:
             held = self._held(inner)
@@ -659,14 +662,15 @@ class Agent(ExecutorActor):
                     plans.action_succeeded(step, state, after)
                     state = after
                 self._get_ready(held, plans, state, steps)
-            return
+            return True
         if not self.domain.knows(action):
-            return
+            return True
         ps = self._planset(action)
         ps.ensure(predicted)
         if len(self._ready) >= 4:
             self._ready.pop(next(iter(self._ready)))
         self._ready[action] = (predicted.key(), ps)
+        return True
 
     def _ready_plans(self, action: Atom) -> PlanSet:
         """The plans prepared for this order, if the belief is the one they were made for."""
@@ -711,6 +715,7 @@ class Agent(ExecutorActor):
             if isinstance(message, Execute):
                 self._orphaned = False  # a parent orders again (one in another process came back)
             self.orders.append(message)
+            self._hint = None  # the order the hint foretold (or another) has come
         elif isinstance(message, Suspend):
             self._parent_suspends(message)
         elif isinstance(message, Prepare):

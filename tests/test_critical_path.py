@@ -12,12 +12,14 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.agent import Agent
+from htnagent.agent import Agent, GoalEntry
+from htnagent.domain import State
 from htnagent.events import GoalReceived, RobotMoving, TraceEvent
 from htnagent.planset import PlanSet
 from htnagent.runtime import Runtime
 from htnagent.scenario import load_scenario
 from htnagent.simulation import run_scenario
+from htnagent.terms import Atom
 
 # -- the agent takes a prepared resumption over without walking its plans again ---------------------
 
@@ -73,3 +75,29 @@ async def test_the_emergency_reaches_the_robot_before_the_stacked_plans_are_kept
     after = order[order.index("emergency") :]
     assert "upkeep guide" in after
     assert after.index("robot moves") < after.index("upkeep guide")
+
+
+# -- a child gets ready for its parent's next order only with its last action to go (§5) ------------
+
+
+@pytest.mark.parametrize("file", ["paper_n40_n1_n38.yaml", "four_emergencies.yaml"])
+async def test_a_child_readies_its_held_goal_for_the_parent_s_resume_on_its_last_action(
+    file: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The parent's prepare hint comes when the parent's last emergency order starts; the
+    # child carries that order out in several actions.  Readying the held goal then would
+    # mean updating a copy of its plans for every one of them, and again for real as they
+    # are done: the child waits until the last one is under way.
+    replayed: list[int] = []
+    get_ready = Agent._get_ready
+
+    def recording(
+        self: Agent, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]
+    ) -> None:
+        replayed.append(len(done))
+        get_ready(self, entry, plans, belief, done)
+
+    monkeypatch.setattr(Agent, "_get_ready", recording)
+    report = await run_scenario(load_scenario(SCENARIOS / file), replanning="online")
+    assert report.succeeded
+    assert replayed and max(replayed) == 1

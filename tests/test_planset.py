@@ -385,6 +385,42 @@ def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None
     assert stacked.stats.from_scratch == 1
 
 
+@pytest.mark.parametrize(
+    ("goal", "emergency"),
+    [("move_area(area8,area7)", "goto_node(n38)"), ("goto_node(n1)", "goto_node(n28)")],
+)
+def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_if_kept_up(
+    nav: Domain, goal: str, emergency: str
+) -> None:
+    """§4: while the goal waits (lazy) its plans follow every rewrite unchecked; checked when it
+    is about to run again, its best plan is the one keeping them up after every event gives."""
+    start = nav.initial_state("n40")
+    sets = {lazy: PlanSet(nav, a(goal)) for lazy in (False, True)}
+    running = a("move(n40,n35,arc59)")
+    after = nav.suspend(start, running)
+    for lazy, stacked in sets.items():
+        stacked.make(start)
+        stacked.lazy = lazy
+        stacked.action_suspended(running, start, after)
+    emergency_plan = plan(nav, after, [a(emergency)]).best
+    assert emergency_plan is not None and len(emergency_plan.steps) >= 2
+    belief = after
+    for action in emergency_plan.actions:
+        nxt = nav.apply(belief, action)
+        assert nxt is not None
+        for stacked in sets.values():
+            stacked.action_succeeded(action, belief, nxt)
+        belief = nxt
+    waited = sets[True]
+    # Expect: nothing walked or repaired while the goal waited.
+    assert waited.stats.rechecks == 0 and waited.stats.repairs == 0
+    waited.lazy = False
+    assert waited.ensure(belief) and sets[False].ensure(belief)
+    assert texts(waited.best) == texts(sets[False].best)
+    assert waited.best is not None and sets[False].best is not None
+    assert waited.best.cost == pytest.approx(sets[False].best.cost)
+
+
 def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
     """n1 -> n10 was planned through n6; an emergency took the robot to n4 meanwhile."""
     belief = nav.initial_state("n1")
