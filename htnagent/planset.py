@@ -153,7 +153,7 @@ class PlanSet:
         """Set while the goal waits on the stack: its plans follow each event's rewrite of
         them (§2.1, §3) but are not re-checked or repaired then; they are re-checked (and
         repaired, §2.4) once, when the goal is about to run again (prepared or resumed) —
-        one walk and at most one search then, instead of one per event."""
+        one walk then (and a repair if it needs one), instead of one per event."""
         self.done: Done | None = None
         """The goal's own steps carried out so far, newest first (repair reads them)."""
         self._checked: State | None = None  # every kept plan is valid from this belief
