@@ -849,19 +849,22 @@ class OnlinePlanSet(PlanSet):
         estimate proves it, or the goal is planned from scratch and the cheaper one wins.
         """
         self.revival.tick()
+        back = self.revival.revive(before, after) if self.revival else []
         if kept is None:
             kept = [_Kept(p, False) for p in self.plans]
-        elif not best_broke and not self.revival and all(valid for _, valid in kept):
-            # Every plan is known valid and none waits for revival: nothing to re-check.
+        elif not best_broke and not back and all(valid for _, valid in kept):
+            # Every plan is known valid and nothing comes back: nothing to re-check.
             if len(kept) == 1:
                 self.plans = [kept[0].plan]
             else:
                 unique = sorted(_unique(p for p, _ in kept), key=_cost)
                 self.plans = unique[: max(self.settings.alternatives, 1)]
             self._checked = after
+            if self.revival:
+                self.revival.expire()
             return
         revived_from = len(kept)
-        candidates = [*kept, *(_Kept(p, False) for p in self.revival.revive(before, after))]
+        candidates = [*kept, *(_Kept(p, False) for p in back)]
         out: list[Plan] = []
         seen: set[tuple[Atom, ...]] = set()
         made: list[Repairer] = []
@@ -910,7 +913,11 @@ class OnlinePlanSet(PlanSet):
         """
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return
-        fresh = repairer().search(state, [(self.goal, None)], one_plan(self.settings))
+        goal: list[TaskEntry] = [(self.goal, None)]
+        known = repairer().known_cost(state, goal)
+        if known is not None and known >= self.plans[0].cost - 1e-9:
+            return  # a search this update made for the goal's very task found nothing cheaper
+        fresh = repairer().search(state, goal, one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1

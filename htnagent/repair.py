@@ -41,6 +41,8 @@ class SearchMemo:
 
     results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
     impossible: set[tuple[object, ...]] = field(default_factory=set)
+    costs: dict[tuple[object, ...], float] = field(default_factory=dict)
+    """The cost of the plan found for a task list from a state, whatever the tasks' records."""
 
 
 def one_plan(settings: PlannerSettings) -> PlannerSettings:
@@ -72,6 +74,7 @@ class Repairer:
 
     __slots__ = (
         "_avoided",
+        "_costs",
         "_domain",
         "_goal",
         "_impossible",
@@ -100,6 +103,7 @@ class Repairer:
         self._avoided = avoided
         self._results = memo.results
         self._impossible = memo.impossible
+        self._costs = memo.costs
         self.local_left = local_budget
         """Expansions left for repairs below the goal in this update."""
         self.unsolvable: tuple[object, ...] | None = None
@@ -163,6 +167,12 @@ class Repairer:
         self.local_left -= self._stats.expansions - spent
         return result
 
+    def known_cost(self, state: State, tasks: Sequence[TaskEntry]) -> float | None:
+        """The cost of the plan a search this update found for the task list from the state,
+        under any records (a recursive method's repair re-plans a task equal to the goal:
+        that search answers what a search for the goal would find), if one did."""
+        return self._costs.get((state.dynamic, self._avoided(state), *(t for t, _ in tasks)))
+
     def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
         """The best plan for the task list from the state, searched once per update."""
         avoided = self._avoided(state)
@@ -181,6 +191,10 @@ class Repairer:
         self._results[key] = found
         if result.status is PlanStatus.UNSOLVABLE:
             self._impossible.add(impossible)
+        elif found is not None:
+            # The search is deterministic and stops at its first plan: a larger budget
+            # would have found the same one.
+            self._costs[impossible] = found.cost
         return found
 
 

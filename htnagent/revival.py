@@ -24,6 +24,8 @@ class _Removed:
     plan: Plan
     key: tuple[Atom, bool]
     update: int
+    rewritten: int
+    """How many of the store's rewrites ``plan`` has had (the later ones are still to come)."""
 
 
 class Revival:
@@ -34,10 +36,11 @@ class Revival:
     store is bounded twice: a plan waits at most ``window`` updates, and at most
     ``capacity`` plans are kept at once (the oldest goes first).  Kept plans
     follow the agent's actions (:meth:`rewrite`), so that a revived plan starts
-    from where the robot is by then.
+    from where the robot is by then — lazily: the rewrites are logged, and a plan
+    gets those it has not had yet when it is taken out (most plans expire unrevived).
     """
 
-    __slots__ = ("_domain", "_kept", "_updates", "capacity", "window")
+    __slots__ = ("_changes", "_domain", "_kept", "_updates", "capacity", "window")
 
     def __init__(self, domain: Domain, window: int = 64, capacity: int = 32) -> None:
         self._domain = domain
@@ -45,6 +48,7 @@ class Revival:
         self.capacity = capacity
         self._kept: list[_Removed] = []
         self._updates = 0
+        self._changes: list[Callable[[Plan], Plan | None]] = []  # the rewrites, in order
 
     def __len__(self) -> int:
         return len(self._kept)
@@ -52,34 +56,50 @@ class Revival:
     @property
     def plans(self) -> list[Plan]:
         """The plans kept, oldest first."""
-        return [r.plan for r in self._kept]
+        return [self._rewritten(r) for r in self._kept]
 
     def copy(self) -> Revival:
         """An independent copy (for a plan set's fork)."""
         other = Revival(self._domain, self.window, self.capacity)
-        other._kept = [_Removed(r.plan, r.key, r.update) for r in self._kept]
+        other._kept = [_Removed(r.plan, r.key, r.update, r.rewritten) for r in self._kept]
         other._updates = self._updates
+        other._changes = list(self._changes)
         return other
 
     def clear(self) -> None:
         """Forget every kept plan."""
         self._kept.clear()
+        self._changes.clear()
 
     def keep(self, p: Plan, action: Atom, state: State) -> None:
         """Keep the removed plan ``p``, whose ``action`` could not run in ``state``."""
         key = _broken_by(self._domain, action, state)
         if key is None:
             return
-        self._kept.append(_Removed(p, key, self._updates))
+        self._kept.append(_Removed(p, key, self._updates, len(self._changes)))
         if len(self._kept) > self.capacity:
             del self._kept[0]
 
     def rewrite(self, change: Callable[[Plan], Plan | None]) -> None:
-        """Replace each kept plan by ``change(plan)`` (unless that is None)."""
-        for r in self._kept:
+        """Replace each kept plan by ``change(plan)`` (unless that is None), when it is next
+        read."""
+        if self._kept:
+            self._changes.append(change)
+            if len(self._changes) > 4 * self.window:  # a long wait unchecked (lazy): catch up
+                for r in self._kept:
+                    self._rewritten(r)
+                self._changes.clear()
+                for r in self._kept:
+                    r.rewritten = 0
+
+    def _rewritten(self, r: _Removed) -> Plan:
+        """``r``'s plan with every rewrite logged since it was kept."""
+        for change in self._changes[r.rewritten :]:
             q = change(r.plan)
             if q is not None:
                 r.plan = q
+        r.rewritten = len(self._changes)
+        return r.plan
 
     def tick(self) -> None:
         """An update of the plan set begins."""
@@ -89,25 +109,25 @@ class Revival:
         """Take out the plans whose breaking fact changed the right way between the states."""
         if not self._kept:
             return []
-        added = after.dynamic - before.dynamic
-        deleted = before.dynamic - after.dynamic
-        if after.static is not before.static:
-            added |= after.static.facts - before.static.facts
-            deleted |= before.static.facts - after.static.facts
         out: list[Plan] = []
         keep: list[_Removed] = []
         for r in self._kept:
             fact, positive = r.key
-            if (positive and fact in added) or (not positive and fact in deleted):
-                out.append(r.plan)
+            # It holds (is false) now, and did not (did) before: it became as the plan needs.
+            if after.holds(fact) is positive and before.holds(fact) is not positive:
+                out.append(self._rewritten(r))
             else:
                 keep.append(r)
         self._kept = keep
+        if not keep:
+            self._changes.clear()
         return out
 
     def expire(self) -> None:
         """An update ended: forget the plans that waited more than ``window`` updates."""
         self._kept = [r for r in self._kept if self._updates - r.update <= self.window]
+        if not self._kept:
+            self._changes.clear()
 
 
 def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:

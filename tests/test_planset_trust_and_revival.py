@@ -3,17 +3,22 @@
 - A plan behind the undo of another goal's action is trusted without a re-check
   only when the undo gives back exactly the belief before the action (§2.1).
 - The plans kept for revival are bounded in number: the oldest goes first (§2.5).
+- A kept plan follows the agent's actions: the rewrites are logged, and applied in
+  order when it is taken out (§2.5).
 """
 
 from __future__ import annotations
+
+from collections.abc import Callable
 
 import pytest
 
 from htnagent.domain import Domain, State
 from htnagent.errors import SettingsError
-from htnagent.plan import replay
+from htnagent.plan import Plan, Step, replay
 from htnagent.planner import PlannerSettings
 from htnagent.planset import NaivePlanSet, OnlinePlanSet, PlanSet, Replanning
+from htnagent.revival import Revival
 from htnagent.terms import Atom, parse
 
 # -- §2.1 trusting a plan behind an undo -------------------------------------------------------
@@ -181,3 +186,30 @@ def test_a_fork_keeps_its_own_revival_store() -> None:
     fork.belief_changed(two, two.updated(delete=[parse("closed(d1)")]))
     assert len(fork.revival) == 1 and len(ps.revival) == 2
     assert ps.best is not None and ps.best.text() == ["pass(s,t,d3)"]
+
+
+# -- the rewrites of kept plans are logged and applied when a plan is taken out ---------------------
+
+
+def test_a_revived_plan_has_had_every_rewrite_since_it_was_kept_in_order() -> None:
+    d = doors_domain()
+    shut = State.from_facts([*d.facts, parse("at(s)"), parse("closed(d1)")], d)
+    opened = shut.updated(delete=[parse("closed(d1)")])
+    store = Revival(d, window=2)  # a long log is caught up with past 4 × window rewrites
+
+    def tag(n: int) -> Callable[[Plan], Plan]:
+        return lambda p: Plan((Step(parse(f"mark({n})"), 0.0), *p.steps))
+
+    store.rewrite(tag(0))  # nothing kept yet: not logged, never applied
+    store.keep(Plan((Step(parse("pass(s,t,d1)"), 1.0),)), parse("pass(s,t,d1)"), shut)
+    for n in range(1, 8):
+        store.rewrite(tag(n))
+    store.keep(Plan((Step(parse("pass(s,t,d1)"), 2.0),)), parse("pass(s,t,d1)"), shut)
+    store.rewrite(tag(8))
+    copy = store.copy()
+    copy.rewrite(tag(9))  # the copy's own rewrite: the store does not get it
+    first, second = store.revive(shut, opened)
+    assert first.text() == [*(f"mark({n})" for n in range(8, 0, -1)), "pass(s,t,d1)"]
+    assert second.text() == ["mark(8)", "pass(s,t,d1)"]
+    assert [p.text()[0] for p in copy.plans] == ["mark(9)", "mark(9)"]
+    assert len(store) == 0
