@@ -596,6 +596,17 @@ class OnlinePlanSet(PlanSet):
             with self._timed():
                 self._succeeded_lazily(action, after)
             return
+        if len(self.plans) == 1 and not self.revival and before is self._checked:
+            # The common case, what the general case below comes to for it: the one plan,
+            # valid from ``before``, ran the action; it moves on and is valid from ``after``.
+            steps = self.plans[0].steps
+            if steps and steps[0].action == action:
+                with self._timed():
+                    self.done = Done(steps[0], self.done)
+                    self.plans = [Plan(steps[1:])]
+                    self._checked = after
+                    self.revival.tick()
+                return
         with self._timed():
             undo = self.domain.actions.undo_of(action)
             # A plan valid from ``before`` that ran the action is valid from ``after``;
