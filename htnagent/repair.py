@@ -59,6 +59,11 @@ _REDO = 2
 LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
 
+_REDO_BUDGET = 250
+"""Expansions one attempt at doing subtasks again may take: it is a local fix (drive back, then
+go on), and the steps kept after it are fixed, so a search that cannot meet them runs until its
+budget is spent."""
+
 
 class Repairer:
     """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
@@ -148,7 +153,7 @@ class Repairer:
             for k in range(1, len(redo) + 1):
                 if self.local_left <= 0:
                     break
-                result = self._local(states[start], [*redo[-k:], *rest])
+                result = self._local(states[start], [*redo[-k:], *rest], _REDO_BUDGET)
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             if record.parent is None:
@@ -159,10 +164,11 @@ class Repairer:
             self.unsolvable = states[0].key()
         return found
 
-    def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
-        """A search below the goal, within what is left of the local budget."""
+    def _local(self, state: State, tasks: Sequence[TaskEntry], cap: int | None = None) -> Plan | None:
+        """A search below the goal, within what is left of the local budget (and ``cap``)."""
         spent = self._stats.expansions
-        local = replace(self._settings, alternatives=1, budget=self.local_left)
+        budget = self.local_left if cap is None else min(cap, self.local_left)
+        local = replace(self._settings, alternatives=1, budget=budget)
         result = self.search(state, tasks, local)
         self.local_left -= self._stats.expansions - spent
         return result
