@@ -932,7 +932,9 @@ class OnlinePlanSet(PlanSet):
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1
-        others = [p for p in self.plans if p.actions != fresh.actions]
+        # The plan it beat goes: a repair worse than a plan made afresh is no alternative
+        # worth keeping valid at every action (alternatives come when an action fails).
+        others = [p for p in self.plans[1:] if p.actions != fresh.actions]
         self.plans = [fresh, *others][: max(self.settings.alternatives, 1)]
 
     def _proven_optimal(self, p: Plan, state: State) -> bool:

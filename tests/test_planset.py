@@ -220,6 +220,20 @@ def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> N
     assert all(r is not None and r.chain()[-1].task == a("goto(n1)") for r in records)
 
 
+def test_the_repair_a_fresh_plan_beat_is_not_kept_as_an_alternative(world: WorldMap) -> None:
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=2))
+    ps.make(belief)
+    ps.plans = ps.plans[:1]  # a goal's first plan comes alone (§1, §4)
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    # Expect: the walk to area3's dead end and back lost to the fresh plan, and went: kept
+    # as an alternative it would be re-checked (and repaired) at every action for nothing.
+    assert ps.stats.repairs == 1 and ps.stats.fresher == 1
+    assert len(ps.plans) == 1 and "move_area(area5,area3)" not in texts(ps.best)
+
+
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
