@@ -602,32 +602,24 @@ class Agent(ExecutorActor):
         )
 
     def _prepare_resumption(self, action: Atom) -> bool:
-        """Update the stacked goals for the action's predicted success, and make the goal
-        that resumes then ready (its plans re-checked, repaired, shortened) — so that
-        resuming costs nothing when the prediction comes true.  A child agent is told
-        the first order of the resumed plan (:class:`~htnagent.messages.Prepare`);
-        returns whether it was."""
+        """Update the goal that resumes after the action for its predicted success, and
+        make it ready (its plans re-checked, repaired, shortened) — so that resuming
+        costs nothing when the prediction comes true.  A child agent is told the first
+        order of the resumed plan (:class:`~htnagent.messages.Prepare`); returns whether
+        it was."""
         if not self._will_resume_after(action):
             return False
         before = self.belief
         after = self.domain.progress(before, action)
-        memo = SearchMemo()
-        forks: list[tuple[PlanSet, PlanSet]] = []
         top = self.stack[-1]
-        current = self.current.plans if self.current is not None else None
-        for ps in self._plansets():
-            if ps is current:
-                continue
-            fork = ps.fork()
-            if ps is top.plans:
-                fork.lazy = False
-            fork.action_succeeded(action, before, after, memo)
-            forks.append((ps, fork))
-        prepared = self._prepared = _Prepared(action, before, after, forks)
-        top_fork = prepared.fork_of(top.plans)
-        if top_fork is None:
-            return False
-        self._get_ready(top, top_fork.fork(), after, (action,))
+        # Only the goal that resumes is worked on ahead: the other stacked goals' plans
+        # are only rewritten (``lazy``), which costs no more when the result comes than
+        # a copy made now would (with a thousand nested emergencies, 32 copies each).
+        fork = top.plans.fork()
+        fork.lazy = False
+        fork.action_succeeded(action, before, after, SearchMemo())
+        self._prepared = _Prepared(action, before, after, [(top.plans, fork)])
+        self._get_ready(top, fork.fork(), after, (action,))
         assert top.ready is not None
         best = top.ready.plans.best
         if self.executor.agent_domain is not None and best is not None and best.steps:

@@ -101,3 +101,37 @@ async def test_a_child_readies_its_held_goal_for_the_parent_s_resume_on_its_last
     report = await run_scenario(load_scenario(SCENARIOS / file), replanning="online")
     assert report.succeeded
     assert replayed and max(replayed) == 1
+
+
+# -- only the goal that resumes is made ready ahead; the others are only rewritten (§4) ------------
+
+
+async def test_only_the_goal_that_resumes_is_copied_and_updated_ahead(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # With several goals stacked, the emergency's last action gets the goal below it
+    # ready ahead; the goals further down keep being rewritten as usual (lazy), not
+    # copied and updated ahead as well.
+    copies: list[int] = []
+    fork = PlanSet.fork
+    prepare = Agent._prepare_resumption
+
+    def counting_fork(self: PlanSet) -> PlanSet:
+        if copies:
+            copies[-1] += 1
+        return fork(self)
+
+    def recording(self: Agent, action: Atom) -> bool:
+        copies.append(0)
+        depth = len(self.stack)
+        made = prepare(self, action)
+        if copies[-1] == 0 or depth < 2:
+            copies.pop()  # nothing made ready, or nothing below the goal that resumes
+        return made
+
+    monkeypatch.setattr(PlanSet, "fork", counting_fork)
+    monkeypatch.setattr(Agent, "_prepare_resumption", recording)
+    report = await run_scenario(load_scenario(SCENARIOS / "nested_emergencies.yaml"), replanning="online")
+    assert report.succeeded
+    # Expect: the resuming goal's copy, and the copy of it that is made ready.
+    assert copies and max(copies) == 2
