@@ -430,9 +430,10 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
     assert waited.stats.rechecks == 0 and waited.stats.repairs == 0
     waited.lazy = False
     assert waited.ensure(belief) and sets[False].ensure(belief)
-    assert texts(waited.best) == texts(sets[False].best)
-    assert waited.best is not None and sets[False].best is not None
-    assert waited.best.cost == pytest.approx(sets[False].best.cost)
+    mine, kept_up = waited.best, sets[False].best
+    assert texts(mine) == texts(kept_up)
+    assert mine is not None and kept_up is not None
+    assert mine.cost == pytest.approx(kept_up.cost)
 
 
 def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
