@@ -7,6 +7,7 @@ from pathlib import Path
 import pytest
 import yaml
 
+from htnagent import repair as repair_module
 from htnagent.domain import Domain, State
 from htnagent.domains import areas_domain, nodes_domain
 from htnagent.maps import WorldMap
@@ -232,6 +233,34 @@ def test_the_repair_a_fresh_plan_beat_is_not_kept_as_an_alternative(world: World
     # as an alternative it would be re-checked (and repaired) at every action for nothing.
     assert ps.stats.repairs == 1 and ps.stats.fresher == 1
     assert len(ps.plans) == 1 and "move_area(area5,area3)" not in texts(ps.best)
+
+
+def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The guide's goto(N) is recursive (goto = move_area, then goto): repairing a plan
+    # broken in area5 re-decomposes goto(n1) as it stands there -- the goal's own task,
+    # under another record.  The comparison with a fresh plan (§2.4) takes that search's
+    # cost instead of searching the goal again.
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    for action in ("move_area(area8,area7)", "move_area(area7,area5)"):
+        belief = execute(ps, areas, belief, action)
+    searched: list[list[str]] = []
+    real_plan = plan  # what htnagent.repair calls
+
+    def counting(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
+        searched.append([str(t[0] if isinstance(t, tuple) else t) for t in tasks])
+        return real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(repair_module, "plan", counting)
+    shut = belief.updated(add=[a("closed(arc22)")])  # the door area5 -> area3
+    ps.belief_changed(belief, shut)
+    assert ps.stats.repairs == 1 and "move_area(area5,area3)" not in texts(ps.best)
+    # Expect: one search of goto(n1), the repair's; none more for the comparison.
+    assert searched == [["goto(n1)"]]
 
 
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
