@@ -482,6 +482,18 @@ def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Dom
     assert not stacked.shorten_detours(belief)  # nothing left to shorten
 
 
+def test_the_detour_a_shortcut_beat_is_not_kept_as_an_alternative(nav: Domain) -> None:
+    belief = nav.initial_state("n1")
+    stacked = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=2))
+    stacked.make(belief)
+    stacked.plans = stacked.plans[:1]  # a goal's first plan comes alone (§1, §4)
+    belief = execute(stacked, nav, belief, "move(n1,n4,arc3)")
+    assert texts(stacked.best)[0] == "move(n4,n1,arc3)"  # the undo detour
+    assert stacked.shorten_detours(belief)
+    # Expect: only the shortcut; the walk back would be re-checked at every action for nothing.
+    assert [p.text() for p in stacked.plans] == [["move(n4,n6,arc6)", "move(n6,n10,arc12)"]]
+
+
 def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
