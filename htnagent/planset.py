@@ -892,7 +892,10 @@ class OnlinePlanSet(PlanSet):
                 checked: Plan | None = p
             else:
                 p = Plan(tidy(self.domain, p.steps))
-                checked = self._recheck(p, after, repairer, allow_repair=not revived, remember=not revived)
+                # Subtasks are done again (the costliest repair) only while no plan is kept.
+                checked = self._recheck(
+                    p, after, repairer, allow_repair=not revived, remember=not revived, redo=not out
+                )
                 if n == 0 and checked is not p:
                     best_broke = True
             if checked is None:
@@ -942,7 +945,14 @@ class OnlinePlanSet(PlanSet):
         return p.cost <= heuristic(self.domain, [self.goal], state) + 1e-9
 
     def _recheck(
-        self, p: Plan, state: State, repairer: Callable[[], Repairer], *, allow_repair: bool, remember: bool
+        self,
+        p: Plan,
+        state: State,
+        repairer: Callable[[], Repairer],
+        *,
+        allow_repair: bool,
+        remember: bool,
+        redo: bool = True,
     ) -> Plan | None:
         """The plan if valid, else its repair, else None (and it is kept for revival)."""
         self.stats.rechecks += 1
@@ -956,7 +966,7 @@ class OnlinePlanSet(PlanSet):
                 self.stats.removed += 1
                 self.revival.keep(p, culprit, at_failure)
             return None
-        repaired = repairer().repair(p, index, _states(self.domain, p, state, index), self.done)
+        repaired = repairer().repair(p, index, _states(self.domain, p, state, index), self.done, redo=redo)
         # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.
         self.revival.keep(p, culprit, at_failure)
         if repaired is not None:

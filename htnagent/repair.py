@@ -59,10 +59,6 @@ _REDO = 2
 LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
 
-_REDO_BUDGET = 250
-"""Expansions one attempt at doing subtasks again may take: it is a local fix (drive back, then
-go on), and the steps kept after it are fixed, so a search that cannot meet them runs until its
-budget is spent."""
 
 
 class Repairer:
@@ -114,7 +110,9 @@ class Repairer:
         self.unsolvable: tuple[object, ...] | None = None
         """The key of a belief from which the goal itself has no plan, once a repair found so."""
 
-    def repair(self, p: Plan, index: int, states: list[State], done: Done | None = None) -> Plan | None:
+    def repair(
+        self, p: Plan, index: int, states: list[State], done: Done | None = None, *, redo: bool = True
+    ) -> Plan | None:
         """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
         ``states`` are the beliefs before each of the plan's first ``index + 1``
@@ -126,7 +124,10 @@ class Repairer:
         ``done`` are the goal's steps carried out so far.  When an ancestor cannot
         be decomposed again, the last of its subtasks already done are done again
         before what is left of it (docs/design.md §2.4): an emergency may have undone
-        what they achieved (a truck driven away with the parcel still on it).
+        what they achieved (a truck driven away with the parcel still on it).  Only
+        with ``redo``: such a search is the costliest part of a repair (the steps kept
+        after the subtasks are fixed, so one that cannot meet them runs until the
+        budget is spent), worth it when no other plan of the goal is left.
         """
         step = p.steps[index]
         chain = step.record.chain() if step.record is not None else []
@@ -149,11 +150,11 @@ class Repairer:
             # §2.4 (our choice): do again the subtasks of this task's method already done,
             # the last one first, then the plan's steps from there as they are.
             rest: list[TaskEntry] = [(s.action, s.record) for s in p.steps[start:]]
-            redo = done_subtasks(done, record, _REDO)
-            for k in range(1, len(redo) + 1):
+            again = done_subtasks(done, record, _REDO) if redo else []
+            for k in range(1, len(again) + 1):
                 if self.local_left <= 0:
                     break
-                result = self._local(states[start], [*redo[-k:], *rest], _REDO_BUDGET)
+                result = self._local(states[start], [*again[-k:], *rest])
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             if record.parent is None:
@@ -164,11 +165,10 @@ class Repairer:
             self.unsolvable = states[0].key()
         return found
 
-    def _local(self, state: State, tasks: Sequence[TaskEntry], cap: int | None = None) -> Plan | None:
-        """A search below the goal, within what is left of the local budget (and ``cap``)."""
+    def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
+        """A search below the goal, within what is left of the local budget."""
         spent = self._stats.expansions
-        budget = self.local_left if cap is None else min(cap, self.local_left)
-        local = replace(self._settings, alternatives=1, budget=budget)
+        local = replace(self._settings, alternatives=1, budget=self.local_left)
         result = self.search(state, tasks, local)
         self.local_left -= self._stats.expansions - spent
         return result
