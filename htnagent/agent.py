@@ -505,8 +505,8 @@ class Agent(ExecutorActor):
             self.belief = after
             prepared = self._prepared
             if prepared is not None and prepared.came_true(action, before, after):
-                # The stacked goals were updated (and the next one made ready) for this
-                # very result while the action ran: take that over.
+                # The goal that resumes was updated (and made ready) for this very
+                # result while the action ran: take that over; the others are updated now.
                 self._prepared = None
                 for ps in self._plansets():
                     fork = prepared.fork_of(ps)
@@ -904,13 +904,13 @@ class _Ready:
 
 @dataclass
 class _Prepared:
-    """The stacked goals' plan sets updated for an action's predicted success."""
+    """The plan set of the goal that resumes, updated for an action's predicted success."""
 
     action: Atom
     before: State
     after: State
     forks: list[tuple[PlanSet, PlanSet]]
-    """Each stacked plan set with its updated copy (looked up by identity: plan sets
+    """The plan set with its updated copy (one pair, looked up by identity: plan sets
     compare by value, and an id could be taken over by a plan set made later)."""
 
     def fork_of(self, plans: PlanSet) -> PlanSet | None:

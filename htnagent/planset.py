@@ -216,7 +216,9 @@ class PlanSet:
     def ensure(self, state: State) -> bool:
         """Make sure there is a plan; plan from scratch if none is kept (§2.7).
 
-        Returns False when the goal cannot be planned from the belief.
+        Plans left unchecked while the goal waited (``lazy``) are re-checked and
+        repaired from ``state`` first.  Returns False when the goal cannot be planned
+        from the belief.
         """
         self._refresh(state)
         if self.plans:
@@ -552,8 +554,9 @@ class OnlinePlanSet(PlanSet):
 
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
         """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
-        plan kept for revival) as the event does — ``change`` gives None for a plan the
-        event ends — and leave the re-check until the goal is about to run again.
+        plan kept for revival) as the event does — ``change`` gives None for a kept plan
+        the event ends (a plan kept for revival is then left as it is) — and leave the
+        re-check until the goal is about to run again.
 
         A goal no longer waiting whose plans were left so is re-checked now, from
         ``after`` (an earlier belief may not be one its plans can be mended from: the
@@ -761,7 +764,8 @@ class OnlinePlanSet(PlanSet):
 
         A kept plan that still meant to ``resume(action)`` does the whole action
         instead (the counterpart of §2.6's rollback(A), A → resume(A)); then every
-        plan is re-checked as for any belief change.
+        plan is re-checked as for any belief change (while the goal waits, when it is
+        about to run again: see ``lazy``).
         """
         with self._timed():
             whole = self._whole(action)
@@ -935,8 +939,9 @@ class OnlinePlanSet(PlanSet):
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return
         self.stats.fresher += 1
-        # The plan it beat goes: a repair worse than a plan made afresh is no alternative
-        # worth keeping valid at every action (alternatives come when an action fails).
+        # The plan it beat goes: a plan worse than one made afresh from the same belief is
+        # no alternative worth keeping valid at every action (alternatives come when an
+        # action fails, §2.2).
         others = [p for p in self.plans[1:] if p.actions != fresh.actions]
         self.plans = [fresh, *others][: max(self.settings.alternatives, 1)]
 

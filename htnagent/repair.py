@@ -60,7 +60,6 @@ LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
 
 
-
 class Repairer:
     """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
 

@@ -9,6 +9,8 @@ method's last subtask done, ``goto(b)``, again, then the unload.
 
 from __future__ import annotations
 
+import itertools
+
 from htnagent.domain import Domain, State
 from htnagent.plan import Decomposition, Done, Step
 from htnagent.planner import PlannerSettings
@@ -140,3 +142,50 @@ def test_a_resumed_step_is_done_again_as_the_whole_action() -> None:
     goal = Decomposition(parse("deliver(p,b)"), "carry", None)
     done = _link(Step(parse("resume(unload(p,b))"), 0.5, goal))
     assert done_subtasks(done, goal, 1) == [(parse("unload(p,b)"), goal)]
+
+
+def test_doing_subtasks_again_is_not_cut_short_when_the_way_back_is_long() -> None:
+    # A 12 x 12 grid of places and a recursive goto: the emergency drives the loaded
+    # carrier 21 roads away just before the unload.  Afresh the goal is impossible;
+    # doing goto(b) again takes the repair some 700 expansions -- past a cap of 250
+    # per attempt, which once lost this goal (found by review).
+    n = 12
+
+    def place(i: int, j: int) -> str:
+        return f"p{i}_{j}"
+
+    d = carrier()
+    d.method(
+        "goto(?x)", "step", when=["not at(?x)", "at(?y)", "road(?y,?z)"], do=["drive(?y,?z)", "goto(?x)"]
+    )
+    steps = ((0, 1), (1, 0), (0, -1), (-1, 0))
+    d.facts = tuple(
+        parse(f"road({place(i, j)},{place(i + di, j + dj)})")
+        for i in range(n)
+        for j in range(n)
+        for di, dj in steps
+        if 0 <= i + di < n and 0 <= j + dj < n
+    )
+    a, b = place(0, 0), place(0, 1)
+    belief = State.from_facts([*d.facts, parse(f"at({a})"), parse(f"in(p,{a})")], d)
+    ps = OnlinePlanSet(d, parse(f"deliver(p,{b})"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert ps.best is not None and ps.best.text()[-1] == f"unload(p,{b})"
+    for action in ps.best.actions[:-1]:
+        after = d.apply(belief, action)
+        assert after is not None
+        ps.action_succeeded(action, belief, after)
+        belief = after
+    ps.lazy = True
+    path = [(0, 1), *((0, j) for j in range(2, n)), *((i, n - 1) for i in range(1, n))]
+    for (i0, j0), (i1, j1) in itertools.pairwise(path):
+        drive = parse(f"drive({place(i0, j0)},{place(i1, j1)})")
+        after = d.apply(belief, drive)
+        assert after is not None
+        ps.action_succeeded(drive, belief, after)
+        belief = after
+    assert not OnlinePlanSet(d, parse(f"deliver(p,{b})")).ensure(belief)  # afresh: impossible
+    ps.lazy = False
+    assert ps.ensure(belief)
+    assert ps.best is not None and ps.best.text()[-1] == f"unload(p,{b})"
+    assert ps.stats.repairs == 1 and ps.stats.expansions > 250
