@@ -618,7 +618,7 @@ class Agent(ExecutorActor):
         fork = top.plans.fork()
         fork.lazy = False
         fork.action_succeeded(action, before, after, SearchMemo())
-        self._prepared = _Prepared(action, before, after, [(top.plans, fork)])
+        self._prepared = _Prepared(action, before, after, top.plans, fork)
         self._get_ready(top, fork.fork(), after, (action,))
         assert top.ready is not None
         best = top.ready.plans.best
@@ -909,12 +909,13 @@ class _Prepared:
     action: Atom
     before: State
     after: State
-    forks: list[tuple[PlanSet, PlanSet]]
-    """The plan set with its updated copy (one pair, looked up by identity: plan sets
-    compare by value, and an id could be taken over by a plan set made later)."""
+    plans: PlanSet
+    fork: PlanSet
+    """``plans`` updated ahead."""
 
     def fork_of(self, plans: PlanSet) -> PlanSet | None:
-        return next((fork for ps, fork in self.forks if ps is plans), None)
+        # By identity: plan sets compare by value.
+        return self.fork if plans is self.plans else None
 
     def came_true(self, action: Atom, before: State, after: State) -> bool:
         return (

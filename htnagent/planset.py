@@ -617,9 +617,7 @@ class OnlinePlanSet(PlanSet):
             # so is any other when the action changed nothing at all.
             trusted = before is self._checked
             restores: bool | None = None  # whether the undo leads back: worked out when needed
-            ran = next((p.steps[0] for p in self.plans if p.steps and p.steps[0].action == action), None)
-            if ran is not None:
-                self.done = Done(ran, self.done)  # the cheapest plan that ran it: the one selected
+            self._note_done(action)
             kept: list[_Kept] = []
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
@@ -635,32 +633,35 @@ class OnlinePlanSet(PlanSet):
 
             # §2.5: plans kept for revival follow the same steps, so that a revived plan
             # is valid from where the robot is by then (not from where it was removed).
-            def follow(p: Plan) -> Plan | None:
-                if p.steps and p.steps[0].action == action:
-                    return Plan(p.steps[1:])
-                if undo is not None:
-                    return Plan(self._behind(undo, p.steps))
-                return None
-
             if self.revival:
-                self.revival.rewrite(follow)
+                self.revival.rewrite(self._moved_on(action, undo))
             self._revise(before, after, kept, memo=memo)
 
-    def _succeeded_lazily(self, action: Atom, after: State) -> None:
-        """§2.1's rewrite alone, for a goal waiting on the stack (see ``lazy``)."""
-        undo = self.domain.actions.undo_of(action)
+    def _note_done(self, action: Atom) -> None:
+        """Add the step that did ``action`` to the goal's done steps, if a kept plan made
+        it (the cheapest such plan: the one selected)."""
         ran = next((p.steps[0] for p in self.plans if p.steps and p.steps[0].action == action), None)
         if ran is not None:
             self.done = Done(ran, self.done)
 
-        def follow(p: Plan) -> Plan:
-            if p.steps and p.steps[0].action == action:
-                return Plan(p.steps[1:])  # §2.1: the plan that ran the action moves on
-            if undo is not None:
-                return Plan(self._behind(undo, p.steps))  # §2.1: undo it first
-            return p
+    def _moved_on(self, action: Atom, undo: Atom | None) -> Callable[[Plan], Plan | None]:
+        """§2.1's rewrite of a plan once ``action`` succeeded: the plan that ran it moves
+        on; another goes behind the action's ``undo``; None: the plan stays as it is."""
 
-        self._follow_lazily(follow, after)
+        def moved_on(p: Plan) -> Plan | None:
+            if p.steps and p.steps[0].action == action:
+                return Plan(p.steps[1:])
+            if undo is not None:
+                return Plan(self._behind(undo, p.steps))
+            return None
+
+        return moved_on
+
+    def _succeeded_lazily(self, action: Atom, after: State) -> None:
+        """§2.1's rewrite alone, for a goal waiting on the stack (see ``lazy``)."""
+        self._note_done(action)
+        moved_on = self._moved_on(action, self.domain.actions.undo_of(action))
+        self._follow_lazily(lambda p: moved_on(p) or p, after)
 
     def _behind(self, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, ...]:
         """The steps behind the undo of an action another goal made (§2.1), tidied.
@@ -864,7 +865,7 @@ class OnlinePlanSet(PlanSet):
         estimate proves it, or the goal is planned from scratch and the cheaper one wins.
         """
         self.revival.tick()
-        back = self.revival.revive(before, after) if self.revival else []
+        back = self.revival.revive(before, after)
         if kept is None:
             kept = [_Kept(p, False) for p in self.plans]
         elif not best_broke and not back and all(valid for _, valid in kept):
@@ -875,8 +876,7 @@ class OnlinePlanSet(PlanSet):
                 unique = sorted(_unique(p for p, _ in kept), key=_cost)
                 self.plans = unique[: max(self.settings.alternatives, 1)]
             self._checked = after
-            if self.revival:
-                self.revival.expire()
+            self.revival.expire()
             return
         revived_from = len(kept)
         candidates = [*kept, *(_Kept(p, False) for p in back)]

@@ -73,13 +73,20 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
     assert ps.stats.repairs == 1
 
 
-def test_a_stacked_plan_the_emergency_breaks_and_mends_again_is_taken_as_it_is() -> None:
+def stacked_and_driven_away() -> tuple[OnlinePlanSet, State, State]:
+    """``carried_to_b``'s plan set stacked (lazy) while an emergency drives from b to c:
+    the plan set, the belief there, and the belief after driving back to b."""
     d, ps, belief = carried_to_b()
     ps.lazy = True
     away = d.apply(belief, parse("drive(b,c)"))
     back = d.apply(away, parse("drive(c,b)")) if away is not None else None
     assert away is not None and back is not None
     ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    return ps, away, back
+
+
+def test_a_stacked_plan_the_emergency_breaks_and_mends_again_is_taken_as_it_is() -> None:
+    ps, away, back = stacked_and_driven_away()
     ps.action_succeeded(parse("drive(c,b)"), away, back)  # at(b) again
     # Expect: about to run again, one walk finds the kept plan good: no repair, no search.
     ps.lazy = False
@@ -89,12 +96,7 @@ def test_a_stacked_plan_the_emergency_breaks_and_mends_again_is_taken_as_it_is()
 
 
 def test_an_event_for_a_goal_no_longer_waiting_rechecks_its_plans_after_the_event() -> None:
-    d, ps, belief = carried_to_b()
-    ps.lazy = True
-    away = d.apply(belief, parse("drive(b,c)"))
-    back = d.apply(away, parse("drive(c,b)")) if away is not None else None
-    assert away is not None and back is not None
-    ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    ps, away, back = stacked_and_driven_away()
     # Expect: the goal is about to run; the next event's belief is the one its plan is
     # checked from (from ``away`` it would need a repair; after the drive back it is good).
     ps.lazy = False
