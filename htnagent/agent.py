@@ -310,9 +310,7 @@ class Agent(ExecutorActor):
         assert best is not None
         if self._shown is None or best.actions != self._shown:
             self.trace.emit(
-                PlanSelected(
-                    agent=self.name, goal=str(entry.goal), plan=tuple(best.text()), cost=round(best.cost, 6)
-                )
+                PlanSelected(agent=self.name, goal=str(entry.goal), plan=best.shown, cost=round(best.cost, 6))
             )
         action = best.steps[0].action
         self._shown = best.actions[1:]
@@ -366,12 +364,11 @@ class Agent(ExecutorActor):
             # Made ready while the last action before this moment ran (_get_ready): the
             # plans, and which suspended actions to clear, are already worked out.
             entry.plans.adopt(ready.plans)
-            for action in ready.cleared:
+            for action, after in ready.cleared:
                 entry.suspended.remove(action)
                 self.order(self.executor, Clear(action=action))
-                before = self.belief
-                self.belief = self.domain.clear(before, action)
-                update = functools.partial(_cleared, action, before, self.belief)
+                before, self.belief = self.belief, after  # worked out ahead, from this belief
+                update = functools.partial(_cleared, action, before, after)
                 self._maintain(update, skip=entry.plans)
             entry.plans.rebase(self.belief)
         else:
@@ -405,16 +402,18 @@ class Agent(ExecutorActor):
         suspended = [a for a in entry.suspended if a not in settled]
         unused = _make_ready(plans, belief, suspended)
         final = belief
+        cleared: list[tuple[Atom, State]] = []
         for action in unused:
-            cleared = self.domain.clear(final, action)
-            plans.suspension_cleared(action, final, cleared)
-            final = cleared
+            after = self.domain.clear(final, action)
+            plans.suspension_cleared(action, final, after)
+            cleared.append((action, after))
+            final = after
         if unused:
             plans.ensure(final)
             plans.shorten_detours(final)
         if plans.best is not None:
-            plans.best.text()  # its steps keep their text: showing the plan at resumption is cheap
-        entry.ready = _Ready(belief.key(), tuple(suspended), plans, unused)
+            _ = plans.best.shown  # worked out now: showing the plan at resumption is then free
+        entry.ready = _Ready(belief.key(), tuple(suspended), plans, cleared)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
         """Tell the executor to forget the goal's suspended actions (all, by default)."""
@@ -507,6 +506,9 @@ class Agent(ExecutorActor):
             if prepared is not None and prepared.came_true(action, before, after):
                 # The goal that resumes was updated (and made ready) for this very
                 # result while the action ran: take that over; the others are updated now.
+                # The predicted belief is this one: kept, its plans and readiness are known
+                # to hold for it by identity, without comparing the facts again.
+                after = self.belief = prepared.after
                 self._prepared = None
                 for ps in self._plansets():
                     fork = prepared.fork_of(ps)
@@ -895,7 +897,8 @@ class _Ready:
     belief: tuple[object, ...]
     suspended: tuple[Atom, ...]
     plans: PlanSet
-    cleared: list[Atom]
+    cleared: list[tuple[Atom, State]]
+    """The suspended actions to clear, each with the belief once it is cleared."""
 
     def holds_for(self, belief: State, entry: GoalEntry) -> bool:
         """Whether things went as predicted: the belief and the goal's suspended actions."""

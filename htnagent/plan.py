@@ -66,6 +66,7 @@ class Plan:
     steps: tuple[Step, ...]
     _cost: float | None = field(default=None, init=False, repr=False, compare=False)
     _actions: tuple[Atom, ...] | None = field(default=None, init=False, repr=False, compare=False)
+    _shown: tuple[str, ...] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def cost(self) -> float:
@@ -85,7 +86,16 @@ class Plan:
 
     def text(self) -> list[str]:
         """The actions in the text form of docs/contracts.md."""
-        return [str(s) for s in self.steps]
+        return list(self.shown)
+
+    @property
+    def shown(self) -> tuple[str, ...]:
+        """:meth:`text` as a tuple, worked out once (a plan is shown when it is selected;
+        a resumption made ready ahead shows its plan without walking it again)."""
+        if self._shown is None:
+            object.__setattr__(self, "_shown", tuple(str(s) for s in self.steps))
+        assert self._shown is not None
+        return self._shown
 
     def __len__(self) -> int:
         return len(self.steps)
@@ -94,7 +104,7 @@ class Plan:
         return True
 
     def __str__(self) -> str:
-        return "[" + ", ".join(self.text()) + f"] cost {self.cost:g}"
+        return "[" + ", ".join(self.shown) + f"] cost {self.cost:g}"
 
 
 @dataclass(frozen=True, slots=True)

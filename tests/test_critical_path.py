@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.agent import Agent, GoalEntry
+from htnagent.agent import Agent, GoalEntry, _Prepared
 from htnagent.domain import State
 from htnagent.events import GoalReceived, RobotMoving, TraceEvent
 from htnagent.planset import PlanSet
@@ -39,9 +39,30 @@ async def _guide_rechecks(file: str) -> int:
 async def test_a_resumption_made_ready_ahead_is_not_walked_again(
     file: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    rebased = await _guide_rechecks(file)
+    taken_over = await _guide_rechecks(file)
+    # The agent takes the predicted belief itself as its belief: the plans made ready
+    # from it are known valid by identity, with nothing to re-base.
     monkeypatch.setattr(PlanSet, "rebase", lambda self, state: None)
-    assert rebased < await _guide_rechecks(file)
+    assert await _guide_rechecks(file) == taken_over
+    # Had it taken beliefs worked out again (equal, but other objects) — after the
+    # emergency's last action, and after each suspended action it clears — only a re-base
+    # would spare the walk.
+    came_true, resume = _Prepared.came_true, Agent._resume
+
+    def fresh_after_action(self: _Prepared, action: Atom, before: State, after: State) -> bool:
+        if not came_true(self, action, before, after):
+            return False
+        self.after = after
+        return True
+
+    def fresh_after_clears(self: Agent, entry: GoalEntry) -> None:
+        if entry.ready is not None:
+            entry.ready.cleared = [(a, s.with_dynamic(frozenset(s.dynamic))) for a, s in entry.ready.cleared]
+        resume(self, entry)
+
+    monkeypatch.setattr(_Prepared, "came_true", fresh_after_action)
+    monkeypatch.setattr(Agent, "_resume", fresh_after_clears)
+    assert taken_over < await _guide_rechecks(file)
 
 
 # -- the stacked goals' upkeep waits until the emergency's first move is under way (§4) --------------
