@@ -197,6 +197,9 @@ class Agent(ExecutorActor):
         self._seq = itertools.count(1)
         self._arrivals = itertools.count(1)
         self._later: deque[Callable[[], None]] = deque()
+        self._spent: list[object] = []
+        """Plans a resumption replaced and goals that ended: let go of once the next order
+        is on its way (§4: freeing what was kept for long is work like any other)."""
         self._prepared: _Prepared | None = None
         self._orphaned = False
         self._hint: Atom | None = None
@@ -213,6 +216,7 @@ class Agent(ExecutorActor):
             if entry is not None:
                 await self._step(entry)
             elif not self._start_next():
+                self._spent.clear()
                 self._flush()  # nothing to do but wait: keep the stacked plans up to date now
                 self._on_message(await self.inbox.receive())
 
@@ -275,6 +279,7 @@ class Agent(ExecutorActor):
         if held is not None:
             self.stack.remove(held)
             self._clear_suspended(held)
+            self._spent.append(held)
             self.trace.emit(GoalCleared(agent=self.name, goal=str(held.goal)))
         return False
 
@@ -363,7 +368,7 @@ class Agent(ExecutorActor):
         if self.mode is Replanning.ONLINE and ready is not None and ready.holds_for(self.belief, entry):
             # Made ready while the last action before this moment ran (_get_ready): the
             # plans, and which suspended actions to clear, are already worked out.
-            entry.plans.adopt(ready.plans)
+            self._spent.append(entry.plans.adopt(ready.plans))
             for action, after in ready.cleared:
                 entry.suspended.remove(action)
                 self.order(self.executor, Clear(action=action))
@@ -447,13 +452,14 @@ class Agent(ExecutorActor):
         self.running = running
         self.trace.emit(ActionStarted(agent=self.name, action=str(action)))
         try:
-            if self._later or self._hint is not None or self._will_resume_after(action):
+            if self._later or self._spent or self._hint is not None or self._will_resume_after(action):
                 # The order is on its way: let it reach the robot — one round of the event
-                # loop for each level below — then do the plan maintenance that waited for
-                # this moment (§4, Algorithm 3), and get ready for what comes after this
-                # action while it runs.
+                # loop for each level below — then let go of what is spent, do the plan
+                # maintenance that waited for this moment (§4, Algorithm 3), and get ready
+                # for what comes after this action while it runs.
                 for _ in range(self.executor.levels_below()):
                     await anyio.lowlevel.checkpoint()
+                self._spent.clear()
                 self._flush()
                 if self._prepare_resumption(action):
                     await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
@@ -513,7 +519,7 @@ class Agent(ExecutorActor):
                 for ps in self._plansets():
                     fork = prepared.fork_of(ps)
                     if fork is not None:
-                        ps.adopt(fork)
+                        self._spent.append(ps.adopt(fork))
                         ps.rebase(after)
                     else:
                         ps.action_succeeded(action, before, after)
@@ -815,6 +821,7 @@ class Agent(ExecutorActor):
         """
         if self.current is entry:
             self.current = None
+        self._spent.append(entry)
         # What was kept below for resuming the goal's stopped actions is of no use now.
         self._clear_suspended(entry)
         if status is GoalStatus.FAILURE:

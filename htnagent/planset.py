@@ -189,8 +189,15 @@ class PlanSet:
         forked.plans = list(self.plans)
         return forked
 
-    def adopt(self, other: PlanSet) -> None:
-        """Take over the state of a fork (a speculation that came true)."""
+    def adopt(self, other: PlanSet) -> PlanSet:
+        """Take over the state of a fork (a speculation that came true).
+
+        Returns this plan set as it was (sharing its parts), for the caller to let go of
+        when it suits: dropping plans kept for long frees every step and record only
+        they held, which is not nothing on a large map.
+        """
+        replaced = object.__new__(type(self))
+        replaced.__dict__.update(self.__dict__)
         self.plans = other.plans
         self.done = other.done
         self.last_status = other.last_status
@@ -198,6 +205,7 @@ class PlanSet:
         self._unsolvable = other._unsolvable
         self._stale = other._stale
         self._stale_since = other._stale_since
+        return replaced
 
     def rebase(self, state: State) -> None:
         """The kept plans were checked from a belief equal to ``state`` (made ahead, for a
@@ -529,10 +537,11 @@ class OnlinePlanSet(PlanSet):
         forked.revival = self.revival.copy()
         return forked
 
-    def adopt(self, other: PlanSet) -> None:
-        super().adopt(other)
+    def adopt(self, other: PlanSet) -> PlanSet:
+        replaced = super().adopt(other)
         assert isinstance(other, OnlinePlanSet)
         self.revival = other.revival
+        return replaced
 
     def drop(self) -> None:
         super().drop()

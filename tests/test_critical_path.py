@@ -8,14 +8,16 @@
 
 from __future__ import annotations
 
+import gc
+import weakref
 from pathlib import Path
 
 import pytest
 
 from htnagent.agent import Agent, GoalEntry, _Prepared
 from htnagent.domain import State
-from htnagent.events import GoalReceived, RobotMoving, TraceEvent
-from htnagent.planset import PlanSet
+from htnagent.events import GoalFinished, GoalReceived, MessageSent, RobotMoving, TraceEvent
+from htnagent.planset import OnlinePlanSet, PlanSet
 from htnagent.runtime import Runtime
 from htnagent.scenario import load_scenario
 from htnagent.simulation import run_scenario
@@ -63,6 +65,42 @@ async def test_a_resumption_made_ready_ahead_is_not_walked_again(
     monkeypatch.setattr(_Prepared, "came_true", fresh_after_action)
     monkeypatch.setattr(Agent, "_resume", fresh_after_clears)
     assert taken_over < await _guide_rechecks(file)
+
+
+# -- what a resumption replaced is let go of once the resumed goal's first order is out (§4) ---------
+
+
+async def test_what_a_resumption_replaced_is_freed_after_its_first_order_reaches_the_robot(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Freeing plans kept for long is work: on a large map, tens of microseconds at the
+    # moment of resuming.  What the resumed goal's plans replaced is kept until its first
+    # order has reached the robot, and freed then — not before, and not never.
+    replaced: list[weakref.ref[PlanSet]] = []
+    adopt = OnlinePlanSet.adopt
+
+    def recording_adopt(self: OnlinePlanSet, other: PlanSet) -> PlanSet:
+        old = adopt(self, other)  # the plans, records and revival store it replaced
+        replaced.append(weakref.ref(old))
+        return old
+
+    monkeypatch.setattr(OnlinePlanSet, "adopt", recording_adopt)
+    alive_at_order: list[bool] = []
+    ended = False
+
+    def observe(event: TraceEvent) -> None:
+        nonlocal ended
+        if isinstance(event, GoalFinished) and event.goal == "goto(n28)":
+            ended = True
+        elif ended and isinstance(event, MessageSent) and event.to == "robot" and not alive_at_order:
+            alive_at_order.append(bool(replaced) and all(r() is not None for r in replaced))
+
+    scenario = load_scenario(SCENARIOS / "paper_n40_n1_n28.yaml")
+    report = await run_scenario(scenario, replanning="online", observers=[observe])
+    assert report.succeeded
+    assert alive_at_order == [True]
+    gc.collect()
+    assert all(r() is None for r in replaced)
 
 
 # -- the stacked goals' upkeep waits until the emergency's first move is under way (§4) --------------
