@@ -889,7 +889,8 @@ def _make_ready(plans: PlanSet, belief: State, suspended: list[Atom]) -> list[At
     plan does not need (they are to be cleared).  Algorithm 2, §2.7, §2.8."""
     plans.confirm_achieved(belief)
     plans.ensure(belief)
-    plans.shorten_detours(belief)
+    if not plans.reconsider(belief):  # compared with a plan made afresh: no shorter way to look for
+        plans.shorten_detours(belief)
     best = plans.best
     # A plan that rolls an action back, or finishes it later (after walking back to where
     # it was stopped), still needs what was kept for it.

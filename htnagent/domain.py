@@ -268,6 +268,7 @@ class Domain:
     actions: Actions = field(init=False, repr=False, compare=False)
     """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.actions`)."""
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)
+    _read: tuple[frozenset[str], frozenset[str]] | None = field(default=None, repr=False, compare=False)
 
     def __post_init__(self) -> None:
         self.actions = Actions(self)
@@ -344,7 +345,7 @@ class Domain:
 
     def _register(self, op: Operator) -> None:
         self.operators.setdefault(op.name, []).append(op)
-        self._dynamic = None
+        self._dynamic = self._read = None
         self.actions.forget()
 
     def method(self, head: str, name: str, *, when: Iterable[str] = (), do: Iterable[str] = ()) -> Method:
@@ -354,6 +355,7 @@ class Domain:
             raise DomainError(f"domain {self.name}: {h.name} is already a primitive task")
         m = Method(head=h, name=name, pre=literals(when), subtasks=tuple(atom(t) for t in do))
         self.methods.setdefault(h.name, []).append(m)
+        self._read = None
         return m
 
     def estimate(self, task_name: str, fn: Estimate) -> None:
@@ -382,6 +384,28 @@ class Domain:
                         names.add(a.name)
             self._dynamic = frozenset(names)
         return self._dynamic
+
+    def opens_ways(self, before: State, after: State) -> bool:
+        """Whether going from ``before`` to ``after`` can make some action or method
+        applicable where it was not: a fact appeared whose predicate a precondition
+        reads as true, or one went that a precondition reads as false (a door opened).
+        A change that cannot do so never makes a plan cheaper than one still valid."""
+        if self._read is None:
+            positive: set[str] = set()
+            negative: set[str] = set()
+            pres = [m.pre for ms in self.methods.values() for m in ms]
+            for ops in self.operators.values():
+                for op in ops:
+                    pres += [o.pre for o in (op, op.resume, op.rollback) if o is not None]
+            for pre in pres:
+                for lit in pre:
+                    (positive if lit.positive else negative).add(lit.atom.name)
+            self._read = (frozenset(positive), frozenset(negative))
+        positive_read, negative_read = self._read
+        came = before.dynamic ^ after.dynamic
+        if after.static is not before.static:
+            came |= before.static.facts ^ after.static.facts
+        return any(f.name in (negative_read if before.holds(f) else positive_read) for f in came)
 
     def is_primitive(self, task: Atom) -> bool:
         """Whether the task is an action (some operator implements it)."""

@@ -160,6 +160,7 @@ class PlanSet:
         self._stale = False  # rewritten unchecked while lazy ...
         self._stale_since: State | None = None  # ... since the last check, from this belief
         self._unsolvable: tuple[object, ...] | None = None  # a belief the goal was found impossible from
+        self._fresh_due = False  # the world changed from outside so that a cheaper way may be open
 
     def __repr__(self) -> str:
         return f"{type(self).__name__}({self.goal}, {len(self.plans)} plans)"
@@ -268,6 +269,13 @@ class PlanSet:
     def drop(self) -> None:
         """Forget every plan (naive mode's "plan needed again")."""
         self.plans = []
+        self._fresh_due = False
+
+    def reconsider(self, state: State) -> bool:
+        """At resumption, after a change from outside that may have opened a cheaper way,
+        make the best plan as good as one made afresh.  Returns whether it is known to be
+        (never, unless on-line: see :meth:`OnlinePlanSet.reconsider`)."""
+        return False
 
     def confirm_achieved(self, state: State) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
@@ -314,6 +322,7 @@ class PlanSet:
         self.last_status = result.status
         self.plans = list(result.plans)
         self._checked = state
+        self._fresh_due = False
         if result.status is PlanStatus.UNSOLVABLE:
             self._unsolvable = state.key()
         return result
@@ -793,8 +802,15 @@ class OnlinePlanSet(PlanSet):
             self._revise(before, after, kept, memo=memo)
 
     def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
-        """The world changed from outside (§2.3): every plan that reads a changed fact is re-checked."""
+        """The world changed from outside (§2.3): every plan that reads a changed fact is re-checked.
+
+        A kept plan still valid may no longer be the cheapest when the change opened a
+        way (a door opened): the goal is then compared with a plan made afresh when it
+        resumes (:meth:`reconsider`), as naive would plan it then.
+        """
         with self._timed():
+            if self.domain.opens_ways(before, after):
+                self._fresh_due = True
             if self.lazy or self._stale:
                 self._follow_lazily(lambda p: p, after)
                 return
@@ -823,34 +839,40 @@ class OnlinePlanSet(PlanSet):
         if not first:
             return False
         with self._timed():
-            tasks: list[TaskEntry]
-            if first == len(best.steps):
-                # Nothing of the goal's own is left, only the way back to where an
-                # emergency achieved it (§2.8): the rival is the goal itself.
-                tasks, head, fixed = [(self.goal, None)], self.goal, 0.0
-            else:
-                record = best.steps[first].record
-                assert record is not None
-                _, end = span(best.steps, record)
-                tasks = [(record.task, record.parent)]
-                tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
-                head, fixed = record.task, sum(s.cost for s in best.steps[end + 1 :])
-            # With admissible estimates nothing can beat a plan that costs no more than
-            # the estimate of the rival's tasks: then the search is not worth making.
-            if best.cost <= heuristic(self.domain, [head], state) + fixed + 1e-9:
-                return False
-            rival = self._repairer().search(state, tasks, one_plan(self.settings))
-            if rival is None or rival.cost >= best.cost - 1e-9:
-                return False
-            # The detour it beat is not kept as an alternative: it walks back over the
-            # emergency's route only to go the way the rival goes, and keeping it valid would
-            # cost an undo step more at every action (a goal's plan comes alone, §1, §4;
-            # alternatives are looked for when an action fails: see widen).
-            shorter = rival  # the planner returns tidy plans
-            others = [p for p in self.plans[1:] if p.actions != shorter.actions]
-            self.plans = sorted([shorter, *others], key=lambda q: q.cost)[: self.settings.alternatives]
-            self.stats.shortcuts += 1
-            return True
+            return self._rival_from(state, best, first)
+
+    def _rival_from(self, state: State, best: Plan, first: int) -> bool:
+        """Re-decompose the lowest compound task above ``best``'s step ``first`` (the
+        goal, if none is left) from ``state``, followed by the rest of ``best``; select the
+        rival if it is cheaper (a repair as in §2.4).  Returns whether it was."""
+        tasks: list[TaskEntry]
+        if first == len(best.steps):
+            # Nothing of the goal's own is left, only the way back to where an
+            # emergency achieved it (§2.8): the rival is the goal itself.
+            tasks, head, fixed = [(self.goal, None)], self.goal, 0.0
+        else:
+            record = best.steps[first].record
+            assert record is not None
+            _, end = span(best.steps, record)
+            tasks = [(record.task, record.parent)]
+            tasks += [(s.action, s.record) for s in best.steps[end + 1 :]]
+            head, fixed = record.task, sum(s.cost for s in best.steps[end + 1 :])
+        # With admissible estimates nothing can beat a plan that costs no more than
+        # the estimate of the rival's tasks: then the search is not worth making.
+        if best.cost <= heuristic(self.domain, [head], state) + fixed + 1e-9:
+            return False
+        rival = self._repairer().search(state, tasks, one_plan(self.settings))
+        if rival is None or rival.cost >= best.cost - 1e-9:
+            return False
+        # The detour it beat is not kept as an alternative: it walks back over the
+        # emergency's route only to go the way the rival goes, and keeping it valid would
+        # cost an undo step more at every action (a goal's plan comes alone, §1, §4;
+        # alternatives are looked for when an action fails: see widen).
+        shorter = rival  # the planner returns tidy plans
+        others = [p for p in self.plans[1:] if p.actions != shorter.actions]
+        self.plans = sorted([shorter, *others], key=lambda q: q.cost)[: self.settings.alternatives]
+        self.stats.shortcuts += 1
+        return True
 
     # -- the machinery --------------------------------------------------------
 
@@ -932,27 +954,51 @@ class OnlinePlanSet(PlanSet):
         with self._timed():
             self._as_good_as_fresh(state, self._repairer)
 
-    def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> None:
+    def reconsider(self, state: State) -> bool:
+        """§2.4's rule at resumption: after a change from outside that may have opened a
+        cheaper way while the goal waited (a door opened), its best plan, still valid, is
+        compared with a plan made afresh (unless the estimate proves it optimal): naive
+        plans afresh there, and on-line never settles for a longer way than naive.
+        Returns whether the best plan is known to be as good as a fresh one."""
+        if not self._fresh_due:
+            return False
+        self._fresh_due = False
+        self._refresh(state)
+        best = self.best
+        if best is None:
+            return False
+        with self._timed():
+            if self._as_good_as_fresh(state, self._repairer):
+                return True
+            # No plan afresh (the goal's methods may not start again from part of it
+            # done): the lowest task above the first step is re-decomposed instead.
+            first = next((i for i, s in enumerate(best.steps) if s.record is not None), len(best.steps))
+            self._rival_from(state, best, first)
+            return True
+
+    def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> bool:
         """§2.4: the best plan took the place of a broken one: it must be no worse than a
         plan made afresh from ``state`` — proven by the estimate, or else compared.
+        Returns whether it is known to be now (False: the search for a fresh plan found none).
 
         The search is shared (``repairer``) with a repair that reached the goal itself.
         """
         if not self.plans or self._proven_optimal(self.plans[0], state):
-            return
+            return bool(self.plans)
         goal: list[TaskEntry] = [(self.goal, None)]
         known = repairer().known_cost(state, goal)
         if known is not None and known >= self.plans[0].cost - 1e-9:
-            return  # a search this update made for the goal's very task found nothing cheaper
+            return True  # a search this update made for the goal's very task found nothing cheaper
         fresh = repairer().search(state, goal, one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
-            return
+            return fresh is not None
         self.stats.fresher += 1
         # The plan it beat goes: a plan worse than one made afresh from the same belief is
         # no alternative worth keeping valid at every action (alternatives come when an
         # action fails, §2.2).
         others = [p for p in self.plans[1:] if p.actions != fresh.actions]
         self.plans = [fresh, *others][: max(self.settings.alternatives, 1)]
+        return True
 
     def _proven_optimal(self, p: Plan, state: State) -> bool:
         """Whether the admissible estimate proves no plan from ``state`` is cheaper."""

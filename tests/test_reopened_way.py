@@ -1,0 +1,141 @@
+"""A way opened from outside while a goal waited on the stack is taken when it resumes
+(docs/design.md §2.3, §2.4: on-line never settles for a longer route than naive;
+:meth:`PlanSet.reconsider`).
+
+A goal planned while a door is shut keeps a detour that stays valid when the door opens.
+Naive plans afresh when the goal resumes after an emergency, and goes through the door;
+on-line must too — it compares the kept plan with a plan made afresh, or, where the
+goal's methods cannot start again from part of it done, with its lowest task done again.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from htnagent.domains.museum import nodes_domain
+from htnagent.events import ActionStarted
+from htnagent.runtime import Runtime
+from htnagent.scenario import load_scenario, parse_scenario
+from htnagent.simulation import RunReport, run_scenario
+from htnagent.terms import Atom
+
+SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
+
+
+def door_scenario(agents: str, opens: float) -> dict[str, Any]:
+    # arc22 (n18-n12) is shut before the goal is planned; the emergency pulls the robot to
+    # n22; the door opens while goto(n1) waits under it.
+    two = agents == "guide"
+    return {
+        "name": "a door opens while the goal waits",
+        "map": "museum_map.yaml",
+        "robot": {"start": "n40", "speed": 1.0},
+        "agents": (
+            [
+                {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
+                {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
+            ]
+            if two
+            else [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
+        ),
+        "goals": [
+            {"agent": agents, "task": "goto(n1)" if two else "goto_node(n1)", "when": {"time": 1}},
+            {
+                "agent": agents,
+                "task": "goto(n22)" if two else "goto_node(n22)",
+                "emergency": True,
+                "when": {"time": 3},
+            },
+        ],
+        "events": [{"when": {"time": 0}, "close": "arc22"}, {"when": {"time": opens}, "open": "arc22"}],
+    }
+
+
+async def run(data: dict[str, Any], mode: str, base: Path = SCENARIOS) -> tuple[RunReport, list[str]]:
+    moves: list[str] = []
+
+    def observe(event: object) -> None:
+        if isinstance(event, ActionStarted) and event.agent in ("navigator", "courier"):
+            moves.append(event.action)
+
+    report = await run_scenario(parse_scenario(data, "<test>", base), replanning=mode, observers=[observe])
+    assert report.succeeded or mode == "naive"
+    return report, moves
+
+
+@pytest.mark.parametrize("agents", ["navigator", "guide"])
+async def test_a_door_opened_while_the_goal_waited_is_used_when_it_resumes(agents: str) -> None:
+    online, moves = await run(door_scenario(agents, opens=6), "online")
+    naive, _ = await run(door_scenario(agents, opens=6), "naive")
+    assert online.summary.distance == pytest.approx(naive.summary.distance)
+    assert "move(n18,n12,arc22)" in moves  # through the door, not round it (64.85 m)
+    assert online.summary.distance < 50
+
+
+async def test_a_door_shut_while_the_goal_waited_costs_no_search_at_resumption() -> None:
+    # Shutting a door opens no way: the kept plan, still valid, stays the cheapest, and
+    # the resumption is not compared with a plan made afresh.
+    runs = []
+    for extra in ([], [{"when": {"time": 4}, "close": "arc30"}]):
+        data = door_scenario("navigator", opens=6)
+        data["events"] = [{"when": {"time": 0}, "close": "arc22"}, *extra]
+        runtimes: list[Runtime] = []
+        report = await run_scenario(parse_scenario(data, "<test>", SCENARIOS), on_start=runtimes.append)
+        assert report.succeeded
+        runs.append((report.summary.distance, runtimes[0].agents["navigator"].stats.expansions))
+    assert runs[0] == runs[1]
+
+
+def test_which_changes_open_ways_in_the_museum() -> None:
+    domain = nodes_domain(load_scenario(SCENARIOS / "museum.yaml").world)
+    here = domain.initial_state("n40")
+    shut = here.updated((Atom("closed", ("arc22",)),), ())
+    assert domain.opens_ways(shut, here)  # a door opened: `not closed(A)` may hold now
+    assert not domain.opens_ways(here, shut)  # a door shut: nothing can hold that did not
+    assert not domain.opens_ways(here, here)
+    assert domain.opens_ways(here, domain.initial_state("n35"))  # at(n35) appeared: a move reads it
+
+
+RING = """(define (problem ring) (:domain courier)
+  (:objects r1 - robot p1 p2 - parcel hall a b c office - room)
+  (:htn :ordered-subtasks (and (deliver p1 office)))
+  (:init (at r1 hall) (in p1 hall) (in p2 hall)
+         (door hall a) (door a b) (door b c) (door c office) (door hall office)))
+"""
+
+
+async def test_in_hddl_the_lowest_task_is_done_again_when_no_plan_afresh_exists(tmp_path: Path) -> None:
+    # A one-way ring hall → a → b → c → office, and a door hall → office shut at the start.
+    # deliver(p1,office) is on its way round the ring, carrying p1, when an emergency
+    # suspends the first move; the door opens meanwhile.  No plan afresh exists (deliver
+    # has no method for a parcel already carried: naive fails), but the lowest task
+    # above the resumed move, done again, rolls the move back and takes the door.
+    (tmp_path / "ring.hddl").write_text(RING)
+    data = {
+        "name": "ring",
+        "robot": {"durations": {"move": 4}},
+        "agents": [
+            {
+                "name": "courier",
+                "domain": {"hddl": str(SCENARIOS / "courier_hddl_domain.hddl"), "problem": "ring.hddl"},
+                "executor": "robot",
+                "suspendable": ["move"],
+            }
+        ],
+        "goals": [
+            {"agent": "courier", "task": "deliver(p1,office)", "when": {"time": 1}},
+            {"agent": "courier", "task": "pick(r1,p2,hall)", "emergency": True, "when": {"time": 3}},
+        ],
+        "events": [
+            {"when": {"time": 0}, "delete": ["door(hall,office)"]},
+            {"when": {"time": 3.5}, "add": ["door(hall,office)"]},
+        ],
+    }
+    report, moves = await run(data, "online", tmp_path)
+    assert report.succeeded
+    assert "move(r1,hall,office)" in moves
+    assert not any(m.startswith("move(r1,b,") for m in moves)  # not round the ring
+    assert report.summary.t < 12  # the move rolled back and the door taken, not 20 s round the ring
