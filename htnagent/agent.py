@@ -666,7 +666,8 @@ class Agent(ExecutorActor):
         if not self.domain.knows(action):
             return True
         ps = self._planset(action)
-        ps.ensure(predicted)
+        if ps.ensure(predicted) and ps.best is not None:
+            _ = ps.best.shown  # worked out now: showing the plan when the order comes is then free
         if len(self._ready) >= 4:
             self._ready.pop(next(iter(self._ready)))
         self._ready[action] = (predicted.key(), ps)
