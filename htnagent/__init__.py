@@ -13,13 +13,32 @@ from __future__ import annotations
 
 import importlib
 import logging
+import sys
+import types
 from typing import TYPE_CHECKING, Any
 
 logging.getLogger("htnagent").addHandler(logging.NullHandler())
 
-# ``htnagent.plan`` is also a module (plans as values), which importing it would bind
-# here: bind the planning function now, once that module is loaded (both are light).
-from htnagent.planner import plan  # noqa: E402
+
+class _Package(types.ModuleType):
+    """This package: ``htnagent.plan`` is the planning function, loaded on first use.
+
+    ``htnagent.plan`` is also a module (plans as values), and importing a submodule binds
+    its name in the package: that binding is ignored, the function stays.
+    """
+
+    @property
+    def plan(self) -> Any:
+        from htnagent.planner import plan
+
+        return plan
+
+    @plan.setter
+    def plan(self, value: Any) -> None:
+        pass
+
+
+sys.modules[__name__].__class__ = _Package
 
 _WHERE = {
     "Agent": "agent",

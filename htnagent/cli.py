@@ -20,6 +20,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import functools
+import io
 import json
 import os
 import re
@@ -32,8 +33,9 @@ from typing import NoReturn, Self, TextIO
 
 import anyio
 from rich.console import Console
+from rich.text import Text
 
-from htnagent.console import JsonLines, LiveTrace, print_summary
+from htnagent.console import JsonLines, LiveTrace, print_summary, printable
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
@@ -45,7 +47,7 @@ from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
 from htnagent.planner import PlanStatus, Search, plan
 from htnagent.plot import check_plot_target, draw_run
-from htnagent.report import write_report
+from htnagent.report import check_report_target, write_report
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.simulation import RunReport, run_scenario
 from htnagent.terms import Atom, parse
@@ -188,6 +190,12 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     the signal handlers a run installs stay until then instead of being put
     back -- a late Ctrl-C is then noted, never a traceback.
     """
+    if owns_process:
+        # Names come from the user's files: a terminal that cannot show a character gets
+        # an escape, never an encoding error.
+        for stream in (sys.stdout, sys.stderr):
+            if isinstance(stream, io.TextIOWrapper):
+                stream.reconfigure(errors="backslashreplace")
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -214,6 +222,8 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
         if isinstance(error, HtnAgentError):
             return _fail(str(error))
         raise
+    except MemoryError:
+        return _fail("out of memory: the input is too large for the memory this process may use")
     except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
@@ -396,6 +406,7 @@ def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) ->
 
 
 def _report(args: argparse.Namespace) -> int:
+    check_report_target(args.html, args.trace)
     events = read_trace(args.trace)
     scenario = load_scenario(args.scenario) if args.scenario else None
     agents = scenario.agent_names if scenario is not None else ()
@@ -440,7 +451,7 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             observers.append(JsonLines(sys.stdout))
         else:
             mode = args.replanning or scenario.replanning
-            console.print(f"[bold]{scenario.name}[/bold]  ({mode} replanning)")
+            console.print(Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)"))
             observers.append(LiveTrace(console, scenario.agent_names))
         run = functools.partial(
             run_scenario,
@@ -479,7 +490,7 @@ def _save(what: str, file: str, draw: Callable[[], None], console: Console, quie
         print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
     else:
         if not quiet:
-            console.print(f"{what} saved to {file}")
+            console.print(Text(printable(f"{what} saved to {file}")))
 
 
 class _RunSignals:

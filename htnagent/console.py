@@ -38,6 +38,14 @@ from htnagent.events import (
 _STYLES = ["bold cyan", "bold green", "bold magenta", "bold yellow", "bold blue"]
 
 
+def printable(text: str) -> str:
+    """``text`` with control characters written as escapes (``\\x1b``, ``\\n``): names come
+    from the user's files, and the terminal must show them, not obey them."""
+    if text.isprintable():
+        return text
+    return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
+
+
 class JsonLines:
     """Writes each event as one JSON line, the ``summary`` last (docs/contracts.md ``run --json``).
 
@@ -78,6 +86,8 @@ class LiveTrace:
             f"{agent:<10} ", style=_STYLES[level % len(_STYLES)] if agent in self.level else "bold red"
         )
         line.append_text(text)
+        if not line.plain.isprintable():  # a name with control characters: shown escaped, unstyled
+            line = Text(printable(line.plain))
         self.console.print(line, soft_wrap=True, highlight=False)
 
 
@@ -135,13 +145,13 @@ def print_summary(console: Console, summary: Summary) -> None:
     table.add_column("status")
     for g in summary.goals:
         status = g.status + (f" ({g.reason})" if g.reason else "")
-        table.add_row(g.agent, g.goal, Text(status, style="green" if g.status == "success" else "red"))
+        style = "green" if g.status == "success" else "red"
+        table.add_row(Text(printable(g.agent)), Text(printable(g.goal)), Text(printable(status), style=style))
     console.print(table)
     where = summary.robot
     if where:  # a robot on a map (an HDDL agent's robot is on none)
         place = f"at {where['at']}" if "at" in where else f"on {where.get('on')}"
-        console.print(
-            f"robot {place}; travelled {summary.distance:.2f} m through {' '.join(summary.visited)}"
-        )
+        travelled = f"robot {place}; travelled {summary.distance:.2f} m through {' '.join(summary.visited)}"
+        console.print(Text(printable(travelled)))
     planning = ", ".join(f"{k} {v:.1f} ms" for k, v in summary.planning_ms.items())
-    console.print(f"planning time: {planning}")
+    console.print(Text(printable(f"planning time: {planning}")))

@@ -57,6 +57,13 @@ messages) pays for the repeats, so they are bounded.
 ALIAS_RATIO = 1
 """Aliases may repeat at most this many times as many values as the file writes out."""
 
+MAX_GOALS = 100_000
+"""Most goals a scenario may give.  Each becomes a checked record, a ticket and a trace of its
+own: at this bound a scenario takes some 150 MB; 1.5 million goals (a 50 MB file) took 1.8 GB."""
+
+MAX_EVENTS = 100_000
+"""Most world events (doors shut and opened, facts changed) a scenario may give, for the same reason."""
+
 MAX_TERM_DEPTH = 32
 """Deepest nesting of a text form such as ``resume(move(n40,n35,arc59))`` (depth 2).
 

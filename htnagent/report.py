@@ -20,6 +20,8 @@ from __future__ import annotations
 import html
 import json
 import math
+import os
+import stat
 from pathlib import Path
 
 from htnagent.errors import PlotError
@@ -41,6 +43,30 @@ _TOP = 30
 _MAP_WIDTH = 560
 _MAX_TIERS = 6
 """Rows of mark labels above the timeline, at most."""
+
+
+def check_report_target(file: str, source: str) -> None:
+    """Fail early, before the trace is read, if the page could not be written to ``file``:
+    no name, the trace itself (it would be overwritten), a folder, or anything but a regular
+    file (writing to a FIFO would wait for a reader for ever)."""
+    if not file:
+        raise PlotError("--html: give the name of the page to write")
+    try:
+        info: os.stat_result | None = os.stat(file)
+    except (OSError, ValueError):
+        info = None  # not there (or no such name): writing says why if it cannot
+    if info is None:
+        return
+    if stat.S_ISDIR(info.st_mode):
+        raise PlotError(f"{file}: is a directory; give a file name for the page")
+    if not stat.S_ISREG(info.st_mode):
+        raise PlotError(f"{file}: is not a regular file; give a file name for the page")
+    try:
+        same = os.path.samefile(file, source)
+    except (OSError, ValueError):
+        same = False
+    if same:
+        raise PlotError(f"{file}: is the trace being read; give the page another name")
 
 
 def write_report(history: History, file: str, *, scenario: Scenario | None = None, source: str = "") -> None:

@@ -232,9 +232,16 @@ async def run_scenario(
             else:
                 schedule(ev.when, lambda ev=ev: apply_event(ev.closes, ev.arc))  # type: ignore[misc]
 
+        first_open = 0  # tickets before it are given and ended: each is looked at once
+
         def check_done() -> None:
-            if all(t is not None and runtime.outcomes[t].done for t in tickets):
-                settled.set()
+            nonlocal first_open
+            while first_open < len(tickets):
+                t = tickets[first_open]
+                if t is None or not runtime.outcomes[t].done:
+                    return
+                first_open += 1
+            settled.set()
 
         def on_idle() -> None:
             # Nothing is in flight and no timer is left: nothing more can happen.

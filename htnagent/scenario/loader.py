@@ -18,6 +18,7 @@ from pathlib import Path
 from pydantic import ValidationError
 
 from htnagent.errors import ScenarioError
+from htnagent.limits import MAX_EVENTS, MAX_GOALS
 from htnagent.scenario.checks import cross_check
 from htnagent.scenario.hddl_agent import no_map
 from htnagent.scenario.map_file import load_map
@@ -57,6 +58,10 @@ def parse_scenario(
         )
     if "nodes" in data and "arcs" in data and "agents" not in data:
         raise ScenarioError(file, "", "this is a map, not a scenario; a scenario names its map under map:")
+    for key, bound in (("goals", MAX_GOALS), ("events", MAX_EVENTS)):
+        items = data.get(key)
+        if isinstance(items, list) and len(items) > bound:
+            raise ScenarioError(file, key, f"{len(items):,} {key}; a scenario may give at most {bound:,}")
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as e:

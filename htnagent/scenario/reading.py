@@ -15,6 +15,7 @@ directly, in one loop that keeps its own stack, so the bounds are checked as
 the document is read, before anything has grown.  The values are those of
 ``yaml.safe_load`` (the YAML 1.1 types, merge keys ``<<``), except that:
 
+- as in YAML 1.2, ``1:30`` is a string (base 60 is not read) and ``1e9`` a float;
 - a key may appear once in a mapping (PyYAML keeps the last silently);
 - an alias may not name a collection that contains it (a recursive value);
 - the tags ``!!set``, ``!!omap``, ``!!pairs`` and application tags are refused.
@@ -205,14 +206,21 @@ _WORDS: dict[str, str] = {
 _NUMERIC_START = frozenset("0123456789+-.")
 
 
+_EXPONENT = re.compile(r"[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)[eE][-+]?[0-9]+")
+"""A float YAML 1.2 reads and YAML 1.1 leaves a string (no dot: ``1e9``, ``1e-6``)."""
+
+
 def _plain_tag(value: str) -> str:
-    """The tag YAML 1.1 gives a plain scalar: what PyYAML's resolver says, without its cost."""
+    """The tag a plain scalar gets: what PyYAML's resolver says (YAML 1.1), without its cost —
+    except that, as in YAML 1.2, base 60 (``1:30``) is a string and ``1e9`` a float."""
     first = value[:1]
     if first in _NUMERIC_START and first:
         for tag, pattern in _IMPLICIT[first]:
             if pattern.match(value):
-                return str(tag)
-        return _STR
+                # Base 60 is read digit group by digit group, in time that grows as the
+                # square of the length, and may overflow a float: YAML 1.2 dropped it.
+                return _STR if tag in (_INT, _FLOAT) and ":" in value else str(tag)
+        return _FLOAT if _EXPONENT.fullmatch(value) else _STR
     return _WORDS.get(value, _STR)
 
 
@@ -259,7 +267,7 @@ def _scalar(event: Any, file: str) -> Any:
         return _CONSTRUCTOR.construct_object(node, deep=True)
     except ScenarioError:
         raise
-    except ValueError as e:
+    except (ValueError, OverflowError) as e:
         if tag == _INT and "digits" in str(e):  # Python refuses to read more than 4,300 digits
             digits = sum(c.isdigit() for c in value)
             raise _at(event, file, f"a whole number of {digits:,} digits is too long") from None

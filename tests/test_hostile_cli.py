@@ -1,0 +1,191 @@
+"""The command line against hostile names, streams, targets and sizes (each case was found by
+an outside check: a traceback, a hang, or time growing as the square of the input).
+
+- names from the user's files are shown, never obeyed: rich markup (``[/]``) and control
+  characters (an escape sequence, a newline) in a scenario's or an agent's name;
+- a terminal that cannot show a character gets an escape, not an encoding error;
+- ``report --html`` refuses the trace itself, a FIFO, a folder and no name, before reading;
+- a scenario's goals and events are bounded, and ending goals costs each one look;
+- running out of memory is one line;
+- ``import htnagent`` loads nothing heavy, so Ctrl-C is handled from the first moment.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+
+import htnagent.cli
+from htnagent.cli import main
+from htnagent.runtime import Runtime
+from htnagent.scenario import parse_scenario
+from htnagent.simulation import run_scenario
+
+REPO = Path(__file__).resolve().parents[1]
+SCENARIOS = REPO / "scenarios"
+
+
+def write(tmp_path: Path, data: dict[str, Any], name: str = "s.yaml") -> Path:
+    path = tmp_path / name
+    path.write_text(yaml.safe_dump(data, allow_unicode=True))
+    return path
+
+
+def small(name: str = "small", guide: str = "guide", navigator: str = "navigator") -> dict[str, Any]:
+    return {
+        "name": name,
+        "map": str(SCENARIOS / "museum_map.yaml"),
+        "robot": {"start": "n40", "speed": 1.0},
+        "agents": [
+            {"name": guide, "domain": "museum.areas", "executor": navigator},
+            {"name": navigator, "domain": "museum.nodes", "executor": "robot"},
+        ],
+        "goals": [{"agent": guide, "task": "goto(n38)"}],
+    }
+
+
+@pytest.mark.parametrize(
+    ("name", "guide", "navigator"),
+    [("[/]", "guide", "navigator"), ("a[/b]", "[/]", "navigator"), ("[bold]x", "guide", "[red]n")],
+)
+def test_markup_in_names_is_shown_as_written(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], name: str, guide: str, navigator: str
+) -> None:
+    assert main(["run", str(write(tmp_path, small(name, guide, navigator)))]) == 0
+    out = capsys.readouterr().out
+    assert name in out and guide in out and navigator in out
+
+
+def test_control_characters_in_names_are_escaped(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    data = small("\x1b[31mRED\x1b[0m\r\nINJECTED", "guide", "nav\x1b[2J")
+    assert main(["run", str(write(tmp_path, data))]) == 0
+    out = capsys.readouterr().out
+    assert "\x1b" not in out and "\r" not in out
+    assert "\\x1b[31mRED" in out and "nav\\x1b[2J" in out
+
+
+def test_a_terminal_that_cannot_show_a_character_gets_an_escape() -> None:
+    env = {**os.environ, "PYTHONIOENCODING": "ascii"}
+    done = subprocess.run(
+        [sys.executable, "-m", "htnagent", "run", str(SCENARIOS / "museum.yaml")],
+        capture_output=True,
+        env=env,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr.decode(errors="replace")[-500:]
+    assert b"Traceback" not in done.stderr
+    assert b"\\u25c6 goal" in done.stdout  # the goal's mark, escaped
+
+
+@pytest.fixture
+def trace(tmp_path: Path) -> Path:
+    path = tmp_path / "run.jsonl"
+    with path.open("w") as out:
+        done = subprocess.run(
+            [sys.executable, "-m", "htnagent", "run", str(SCENARIOS / "museum.yaml"), "--json"],
+            stdout=out,
+            timeout=120,
+        )
+    assert done.returncode == 0
+    return path
+
+
+def test_report_refuses_to_overwrite_its_trace(trace: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    before = trace.read_bytes()
+    assert main(["report", str(trace), "--html", str(trace)]) == 2
+    assert "is the trace being read" in capsys.readouterr().err
+    assert trace.read_bytes() == before
+
+
+@pytest.mark.skipif(not hasattr(os, "mkfifo"), reason="no FIFOs here")
+def test_report_to_a_fifo_is_refused_without_blocking(
+    trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    fifo = tmp_path / "page.html"
+    os.mkfifo(fifo)
+    assert main(["report", str(trace), "--html", str(fifo)]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("target", ["", "."])
+def test_report_needs_a_file_name(trace: Path, capsys: pytest.CaptureFixture[str], target: str) -> None:
+    assert main(["report", str(trace), "--html", target]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and ("give the name" in err or "is a directory" in err)
+
+
+@pytest.mark.parametrize("key", ["goals", "events"])
+def test_goals_and_events_are_bounded(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, key: str
+) -> None:
+    monkeypatch.setattr(htnagent.scenario.loader, f"MAX_{key.upper()}", 10)
+    data = small()
+    data["goals"] = [{"agent": "guide", "task": "goto(n38)"}] * 11 if key == "goals" else data["goals"]
+    if key == "events":
+        data["events"] = [{"when": {"time": i}, "close": "arc1"} for i in range(11)]
+    assert main(["check", str(write(tmp_path, data))]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and f"11 {key}; a scenario may give at most 10" in err
+
+
+class _Counting(dict[int, Any]):
+    looks = 0
+
+    def __getitem__(self, key: int) -> Any:
+        _Counting.looks += 1
+        return super().__getitem__(key)
+
+
+async def test_ending_goals_looks_at_each_once() -> None:
+    # Whether every goal has ended was asked by scanning every ticket at each goal's end:
+    # 50,000 goals took 9 minutes.  Each ticket is now looked at once after it ends.
+    n = 2_000
+    data = small()
+    data["agents"] = [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
+    data["goals"] = [{"agent": "navigator", "task": "goto_node(n40)"}] * n  # there already
+
+    def counting(runtime: Runtime) -> None:
+        runtime.outcomes = _Counting(runtime.outcomes)
+
+    _Counting.looks = 0
+    report = await run_scenario(parse_scenario(data, "<many>", SCENARIOS), on_start=counting)
+    assert report.succeeded and len(report.summary.goals) == n
+    assert _Counting.looks <= 3 * n
+
+
+def test_running_out_of_memory_is_one_line(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def exhausted(*args: object, **kwargs: object) -> None:
+        raise MemoryError
+
+    monkeypatch.setattr(htnagent.cli, "load_scenario", exhausted)
+    assert main(["check", str(SCENARIOS / "museum.yaml")]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "out of memory" in err
+
+
+def test_importing_the_package_loads_nothing_heavy() -> None:
+    # python -m htnagent imports the package before its signal handlers can be set: the
+    # longer that takes, the longer Ctrl-C meets Python's own handling (a traceback).
+    probe = (
+        "import sys, htnagent; heavy = [m for m in ('htnagent.planner', 'pydantic', 'anyio', 'rich')"
+        " if m in sys.modules]; print(heavy)"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    assert done.stdout.strip() == "[]", done.stderr
+
+
+def test_htnagent_plan_is_the_planning_function_whatever_is_imported() -> None:
+    probe = (
+        "import htnagent; first = htnagent.plan; import htnagent.plan; from htnagent.plan import Plan;"
+        " from htnagent import plan; print(first is plan, callable(plan), Plan.__name__)"
+    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
+    assert done.stdout.split() == ["True", "True", "Plan"], done.stderr
