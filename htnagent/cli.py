@@ -440,9 +440,9 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     scenario = load_scenario(args.scenario)
     if scenario.remote:
         import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
-    if args.plot:
+    if args.plot is not None:
         check_plot_target(args.plot)
-    if args.timeline:
+    if args.timeline is not None:
         check_plot_target(args.timeline, "--timeline")
     with _RunSignals(restore=restore_signals) as signals:
         observers: list[Observer] = []

@@ -29,6 +29,8 @@ def check_plot_target(file: str, option: str = "--plot") -> None:
         import matplotlib  # noqa: F401
     except ImportError:
         raise PlotError(f"{file}: {option} needs matplotlib: pip install 'htnagent[plot]'") from None
+    if not file:
+        raise PlotError(f"{option}: give the name of the picture to write (ending in .png)")
     path = Path(file)
     if path.suffix.lower() != ".png":
         raise PlotError(f"{file}: {option} writes PNG; give a file name ending in .png")

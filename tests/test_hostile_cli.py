@@ -189,3 +189,11 @@ def test_htnagent_plan_is_the_planning_function_whatever_is_imported() -> None:
     )
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert done.stdout.split() == ["True", "True", "Plan"], done.stderr
+
+
+@pytest.mark.parametrize("option", ["--plot", "--timeline"])
+def test_an_empty_picture_name_is_refused(capsys: pytest.CaptureFixture[str], option: str) -> None:
+    pytest.importorskip("matplotlib")
+    assert main(["run", str(SCENARIOS / "museum.yaml"), option, ""]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "give the name of the picture" in err
