@@ -159,6 +159,18 @@ BROKEN = [
         "predicate door takes 2 arguments in courier, not 1",
     ),
     (
+        "task-argument-type",
+        {"goals": [{"agent": "courier", "task": "deliver(office,p1)"}]},
+        "goals[0].task",
+        "argument 1, office, is a room; deliver wants a parcel there",
+    ),
+    (
+        "fact-argument-type",
+        {"events": [{"when": {"time": 1}, "add": ["door(hall,p1)"]}]},
+        "events[0].add[0]",
+        "argument 2, p1, is a parcel; door wants a room there",
+    ),
+    (
         "fact-with-variables",
         {"events": [{"when": {"time": 1}, "delete": ["door(hall,?x)"]}]},
         "events[0].delete[0]",

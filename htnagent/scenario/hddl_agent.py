@@ -220,13 +220,15 @@ def check_hddl_task(planning: HddlPlanning, agent: str, task: Atom, file: str, w
             file, where, f"agent {agent}'s domain {hddl.name} has no task {task.name} (its tasks: {known})"
         )
     _check_arguments(planning, task, len(declared.params), f"{task.name} takes", file, where)
+    _check_types(planning, task, declared.params, file, where)
 
 
 def check_fact(planning: HddlPlanning, fact: Atom, file: str, where: str) -> None:
     """Raise ScenarioError at ``where`` unless ``fact`` is a ground fact of one of the HDDL
     domain's predicates, naming objects of the problem (an event's ``add``/``delete``)."""
-    _declared_predicate(planning.hddl, fact, file, where)
+    predicate = _declared_predicate(planning.hddl, fact, file, where)
     _check_ground(planning, fact, file, where)
+    _check_types(planning, fact, predicate.params, file, where)
 
 
 def _declared_predicate(domain: m.Domain, fact: Atom, file: str, where: str) -> m.Predicate:
@@ -251,6 +253,22 @@ def _check_arguments(
 ) -> None:
     _check_arity(planning.hddl, term, arity, what, file, where)
     _check_ground(planning, term, file, where)
+
+
+def _check_types(
+    planning: HddlPlanning, term: Atom, params: tuple[m.Typed, ...], file: str, where: str
+) -> None:
+    """Each argument (an object or constant, checked before) is of its parameter's type."""
+    hddl = planning.hddl
+    kinds = {o.name: o.types for o in (*hddl.constants, *planning.problem.objects)}
+    for i, (arg, param) in enumerate(zip(term.args, params, strict=True), start=1):
+        have = kinds[str(arg)]
+        if not any(set(param.types) & hddl.supertypes(kind) for kind in have):
+            wanted = " or ".join(param.types)
+            kind = " or ".join(have)
+            raise ScenarioError(
+                file, where, f"{term}: argument {i}, {arg}, is a {kind}; {term.name} wants a {wanted} there"
+            )
 
 
 def _check_ground(planning: HddlPlanning, term: Atom, file: str, where: str) -> None:
