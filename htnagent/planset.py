@@ -982,7 +982,14 @@ class OnlinePlanSet(PlanSet):
         Returns whether it is known to be now (False: the search for a fresh plan found none).
 
         The search is shared (``repairer``) with a repair that reached the goal itself.
+        Once known, no comparison is due for a way opened earlier (:meth:`reconsider`).
         """
+        known = self._fresher_kept(state, repairer)
+        if known:
+            self._fresh_due = False
+        return known
+
+    def _fresher_kept(self, state: State, repairer: Callable[[], Repairer]) -> bool:
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return bool(self.plans)
         goal: list[TaskEntry] = [(self.goal, None)]
