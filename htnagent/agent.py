@@ -298,7 +298,9 @@ class Agent(ExecutorActor):
             # an emergency or a suspension came with the last result.
             self._end(entry, GoalStatus.SUCCESS)
             return
-        if entry.stop_requested or any(e.arrival > entry.arrival for e in self.emergencies):
+        if entry.stop_requested or (
+            self.emergencies and any(e.arrival > entry.arrival for e in self.emergencies)
+        ):
             # Algorithm 3: an emergency that arrived after this goal suspends it (one that
             # arrived with it, in the same instant, waits until it has ended).
             self._suspend_current(entry)

@@ -41,6 +41,7 @@ Pure and synchronous: the agent runtime calls it; no event loop inside.
 
 from __future__ import annotations
 
+import operator
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, replace
@@ -175,7 +176,7 @@ class PlanSet:
     @property
     def finished(self) -> bool:
         """Whether some kept plan has nothing left to do: the goal is achieved."""
-        return any(not p.steps for p in self.plans)
+        return not all(map(_STEPS, self.plans))  # no generator: asked before every action
 
     def __len__(self) -> int:
         return len(self.plans)
@@ -1046,6 +1047,8 @@ class OnlinePlanSet(PlanSet):
 
 # -- helpers -----------------------------------------------------------------------------------------
 
+
+_STEPS = operator.attrgetter("steps")
 
 _KINDS: dict[Replanning, type[PlanSet]] = {Replanning.ONLINE: OnlinePlanSet, Replanning.NAIVE: NaivePlanSet}
 """The plan-set class of each replanning mode (``PlanSet(..., mode)`` picks from it)."""

@@ -50,7 +50,8 @@ class Trace:
         if self.closed:
             return
         event.t = round(self.clock.now(), 6)
-        log.debug("%s", event)
+        if log.isEnabledFor(logging.DEBUG):
+            log.debug("%s", event)
         for observer in list(self.observers):
             try:
                 observer(event)
