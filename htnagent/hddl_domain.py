@@ -335,11 +335,16 @@ class _Translator:
         self.work = 0
         self.out = PlanningDomain(domain.name)
         self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
+        # Millions of objects may share a few types: each type's supertypes are found once,
+        # and objects of the same types share one set.
+        above = functools.cache(domain.supertypes)
+        shared: dict[frozenset[str], frozenset[str]] = {}
         for o in self.timed((*domain.constants, *problem.objects)):
             kinds: set[str] = set(self.objects.get(o.name, ()))
             for t in o.types:
-                kinds |= domain.supertypes(t)
-            self.objects[o.name] = frozenset(kinds)
+                kinds |= above(t)
+            frozen = frozenset(kinds)
+            self.objects[o.name] = shared.setdefault(frozen, frozen)
         self.type_predicates: dict[tuple[str, ...], str] = {}
         self.fresh = itertools.count()
         # What the early checks of :meth:`early` work from, each made once.
@@ -407,10 +412,11 @@ class _Translator:
                     if lit.positive and not lit.variables and lit.atom.name in dynamic
                 )
         facts: list[Atom] = list(p.init)
+        typing = [(frozenset(types), predicate) for types, predicate in self.type_predicates.items()]
         for name, kinds in self.timed(self.objects.items()):
             facts.append(Atom(EQ, (name, name)))
-            for types, predicate in self.type_predicates.items():
-                if kinds & set(types):
+            for types, predicate in typing:
+                if kinds & types:
                     facts.append(Atom(predicate, (name,)))
         self.out.facts = tuple(facts)
         self.out.task_costs = _least_costs(self.out)
