@@ -41,7 +41,7 @@ from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
 from htnagent.hddl.reader import read_domain, read_problem
-from htnagent.hddl_domain import actions_of, ipc_plan, solve
+from htnagent.hddl_domain import actions_of, ipc_plan, solve, translate
 from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
@@ -251,6 +251,9 @@ def _check(args: argparse.Namespace) -> int:
                 f"check --hddl takes DOMAIN PROBLEM, not {len(files)} files (see {PROG} check --help)"
             )
         domain, problem = _read_hddl(files[0], files[1])
+        # What plan --hddl (and a scenario agent) refuses beyond the files' own checks, the
+        # translation refuses (a formula that multiplies out too far): check runs it too.
+        translate(domain, problem)
         print(_hddl_summary(domain, problem))
         return EXIT_OK
     if len(files) != 1:

@@ -40,6 +40,7 @@ import math
 import time
 from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
+from typing import TypeVar
 
 from htnagent.domain import Domain as PlanningDomain
 from htnagent.domain import Effect, Suspension
@@ -78,6 +79,12 @@ MAX_GROUNDINGS = 20_000
 
 MAX_DISJUNCTS = 256
 """The most methods or operators one HDDL method or action may become (``or``, ``when``)."""
+
+CLOCK_EVERY = 4096
+"""How much work the translation does between two readings of the clock, when it has a
+deadline (:func:`solve` with a timeout): objects or facts gone through, literals made."""
+
+_T = TypeVar("_T")
 
 _Conjunct = tuple[Literal, ...]
 _FALSE: list[_Conjunct] = []
@@ -170,12 +177,20 @@ at once (Barman's and Depots's largest problems take it under 0.2 s); past that,
 time is better spent on the greedy search."""
 
 
+class _OutOfTime(Exception):
+    """The deadline of a translation passed (:func:`solve` makes it a timed-out result)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Solved:
     """What :func:`solve` found: the translated problem, the search that ended it with its
-    settings, and the result (expansions and seconds of every search it ran)."""
+    settings, and the result (expansions and seconds of every search it ran).
 
-    planning: HddlPlanning
+    ``planning`` is None when the time ran out during the translation: the result is then
+    :attr:`~htnagent.planner.PlanStatus.TIMED_OUT`, after no expansion.
+    """
+
+    planning: HddlPlanning | None
     search: Search
     settings: PlannerSettings
     result: PlanResult
@@ -191,8 +206,13 @@ def solve(
 ) -> Solved:
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
-    in method order for :data:`DFS_SECONDS` (or a fifth of a shorter limit), then greedy
+    in method order for :data:`DFS_SECONDS` (or a fifth of a shorter time left), then greedy
     best-first for the rest.
+
+    The ``timeout`` bounds the translation and the searches together: the translation reads
+    the clock as it goes (every :data:`CLOCK_EVERY` objects, facts or literals), and when
+    the time runs out there, the result is :attr:`~htnagent.planner.PlanStatus.TIMED_OUT`
+    as when a search runs out of it.
 
     Some domains are written for SHOP's order (Barman: depth-first solves at once what
     greedy search loses itself in), others need the estimate (Blocksworld): the portfolio
@@ -200,22 +220,37 @@ def solve(
     has explored every node (there are no cycles: each state and task list is expanded
     once), so that answer is final.
     """
-    planning = translate(domain, problem)
-    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
-    if search is not None:
-        settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=timeout)
-        return Solved(planning, search, settings, run(settings))
     started = time.perf_counter()
+    deadline = None if timeout is None else started + timeout
+    try:
+        planning = _Translator(domain, problem, frozenset(), {}, deadline).run()
+    except _OutOfTime:
+        settings = PlannerSettings(
+            alternatives=1, budget=budget, search=search or Search.DFS, time_limit=timeout
+        )
+        out_of_time = PlanResult(PlanStatus.TIMED_OUT, seconds=time.perf_counter() - started)
+        return Solved(None, settings.search, settings, out_of_time)
+    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
+
+    def time_left() -> float | None:
+        # The planner takes a positive limit: a search started at the deadline reads the clock
+        # after its first few hundred nodes, as any search past its time does.
+        return None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+
+    if search is not None:
+        settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
+        return Solved(planning, search, settings, run(settings))
+    left = time_left()
     first = PlannerSettings(
         alternatives=1,
         budget=budget,
         search=Search.DFS,
-        time_limit=min(timeout * DFS_SHARE, DFS_SECONDS) if timeout is not None else DFS_SECONDS,
+        time_limit=min(left * DFS_SHARE, DFS_SECONDS) if left is not None else DFS_SECONDS,
     )
     tried = run(first)
     if tried.status in (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE) or tried.expansions >= budget:
         return Solved(planning, Search.DFS, first, tried)
-    left = None if timeout is None else max(timeout - (time.perf_counter() - started), 1e-3)
+    left = time_left()
     then = PlannerSettings(
         alternatives=1, budget=budget - tried.expansions, search=Search.GBFS, time_limit=left
     )
@@ -284,19 +319,32 @@ def ipc_plan(plan: Plan) -> IpcPlan:
 
 class _Translator:
     def __init__(
-        self, domain: m.Domain, problem: m.Problem, suspendable: frozenset[str], started: dict[str, Started]
+        self,
+        domain: m.Domain,
+        problem: m.Problem,
+        suspendable: frozenset[str],
+        started: dict[str, Started],
+        deadline: float | None = None,
     ) -> None:
         self.hddl = domain
         self.problem = problem
         self.suspendable = suspendable
         self.started = started
+        # With a deadline (a time.perf_counter() value), the work since the clock was last read.
+        self.deadline = deadline
+        self.work = 0
         self.out = PlanningDomain(domain.name)
         self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
-        for o in (*domain.constants, *problem.objects):
+        # Millions of objects may share a few types: each type's supertypes are found once,
+        # and objects of the same types share one set.
+        above = functools.cache(domain.supertypes)
+        shared: dict[frozenset[str], frozenset[str]] = {}
+        for o in self.timed((*domain.constants, *problem.objects)):
             kinds: set[str] = set(self.objects.get(o.name, ()))
             for t in o.types:
-                kinds |= domain.supertypes(t)
-            self.objects[o.name] = frozenset(kinds)
+                kinds |= above(t)
+            frozen = frozenset(kinds)
+            self.objects[o.name] = shared.setdefault(frozen, frozen)
         self.type_predicates: dict[tuple[str, ...], str] = {}
         self.fresh = itertools.count()
         # What the early checks of :meth:`early` work from, each made once.
@@ -305,6 +353,33 @@ class _Translator:
         self.reaching: dict[str, list[tuple[str, tuple[frozenset[str], ...]]]] = {}
         self.patterns: dict[str, list[tuple[str, tuple[frozenset[str], ...]]]] = {}
         self.typed_objects: dict[tuple[str, ...], frozenset[str]] = {}
+
+    # -- the clock ---------------------------------------------------------------------------
+
+    def spend(self, work: int) -> None:
+        """Count ``work`` done; after every :data:`CLOCK_EVERY`, stop if the deadline has passed.
+
+        The unit is one object or fact gone through, or one literal made: what a large
+        problem has millions of, each costing about the same (a fraction of a microsecond).
+        """
+        if self.deadline is None:
+            return
+        self.work += work
+        if self.work >= CLOCK_EVERY:
+            self.work = 0
+            if time.perf_counter() > self.deadline:
+                raise _OutOfTime
+
+    def timed(self, items: Iterable[_T]) -> Iterable[_T]:
+        """The items, with the clock read every :data:`CLOCK_EVERY` of them (see :meth:`spend`)."""
+        if self.deadline is None:
+            return items
+        return self._timed(items)
+
+    def _timed(self, items: Iterable[_T]) -> Iterator[_T]:
+        for item in items:
+            self.spend(1)
+            yield item
 
     # -- the whole ---------------------------------------------------------------------------
 
@@ -337,14 +412,19 @@ class _Translator:
                     if lit.positive and not lit.variables and lit.atom.name in dynamic
                 )
         facts: list[Atom] = list(p.init)
-        for name, kinds in self.objects.items():
+        typing = [(frozenset(types), predicate) for types, predicate in self.type_predicates.items()]
+        for name, kinds in self.timed(self.objects.items()):
             facts.append(Atom(EQ, (name, name)))
-            for types, predicate in self.type_predicates.items():
-                if kinds & set(types):
+            for types, predicate in typing:
+                if kinds & types:
                     facts.append(Atom(predicate, (name,)))
         self.out.facts = tuple(facts)
         self.out.task_costs = _least_costs(self.out)
+        # The start state indexes every fact at once (a second or so for millions of them):
+        # the clock is read before and after.
+        self.spend(CLOCK_EVERY)
         state = State.from_facts(self.out.facts, self.out)
+        self.spend(CLOCK_EVERY)
         return HddlPlanning(self.out, state, tuple(tasks), self.hddl, p)
 
     # -- actions and methods -----------------------------------------------------------------
@@ -377,6 +457,7 @@ class _Translator:
                     else None
                 )
                 self.out.operator(str(head), pre=text, add=add, delete=delete, cost=1.0, suspend=suspend)
+                self.spend(len(text) + len(add) + len(delete))
 
     @staticmethod
     def suspension(
@@ -469,6 +550,7 @@ class _Translator:
             self.out.method(
                 str(head), method.name, when=[str(x) for x in ordered], do=[str(c) for c in calls]
             )
+            self.spend(len(ordered) + len(calls))
 
     def early(self, calls: Sequence[Atom], kinds: Mapping[str, tuple[str, ...]]) -> tuple[Literal, ...]:
         """What the subtasks require that must already hold when the method is chosen.
@@ -627,7 +709,7 @@ class _Translator:
 
     def of_type(self, types: tuple[str, ...]) -> list[str]:
         wanted = set(types)
-        return [o for o, kinds in self.objects.items() if kinds & wanted]
+        return [o for o, kinds in self.timed(self.objects.items()) if kinds & wanted]
 
     # -- formulas ----------------------------------------------------------------------------
 
@@ -689,7 +771,7 @@ class _Translator:
             raise src.error(
                 at, f"this quantifier stands for over {MAX_GROUNDINGS:,} formulas (one per object)"
             )
-        for values in itertools.product(*domains):
+        for values in self.timed(itertools.product(*domains)):
             yield {p.name: v for p, v in zip(params, values, strict=True)}
 
     def all_of(self, parts: Iterable[list[_Conjunct]], src: m.Source, at: int) -> list[_Conjunct]:
@@ -709,6 +791,7 @@ class _Translator:
                 merged = _merge(x, y)
                 if merged is not None:
                     out.append(merged)
+                self.spend(len(x) + len(y))  # what merging them cost
         return out
 
     def any_of(self, parts: Iterable[list[_Conjunct]], src: m.Source, at: int) -> list[_Conjunct]:

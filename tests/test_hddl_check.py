@@ -18,6 +18,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from bench.hddl_read import suite_pairs
 from htnagent.cli import main
 from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
@@ -29,7 +30,8 @@ from htnagent.terms import Atom
 HERE = Path(__file__).resolve().parent / "hddl"
 REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
-FEATURES = SHARED / "data" / "ipc" / "feature-tests"
+IPC = SHARED / "data" / "ipc"
+FEATURES = IPC / "feature-tests"
 VERIFY = SHARED / "tools" / "hddl-verify" / "hddl-verify"
 VERIFIER_BUILT = (
     Path(os.environ.get("HDDL_VERIFY_HOME", Path.home() / ".cache" / "hddl-verify")) / "pandaPIparser"
@@ -424,6 +426,84 @@ def test_check_hddl_refuses_bad_input_in_one_line(tmp_path: Path, capsys: pytest
     )
     assert main(["check", str(HERE / "courier-domain.hddl"), str(HERE / "courier.hddl")]) == 2
     assert "check takes one SCENARIO" in _one_error_line(capsys.readouterr().err)
+
+
+SWEEP_DOMAIN = """(define (domain sweep) (:requirements :typing :hierarchy :conditional-effects)
+  (:types room) (:predicates (dirty ?x - room) (swept))
+  (:task clean :parameters ())
+  (:method m-clean :parameters () :task (clean) :ordered-subtasks (sweep))
+  (:action sweep :parameters ()
+    :effect (and (swept) (forall (?x - room) (when (dirty ?x) (not (dirty ?x)))))))
+"""
+
+
+def _sweep(tmp_path: Path, rooms: int) -> tuple[str, str, str]:
+    """The sweep domain, a problem with ``rooms`` rooms, and a scenario with an agent on them."""
+    domain = tmp_path / "sweep-domain.hddl"
+    domain.write_text(SWEEP_DOMAIN)
+    names = " ".join(f"room{i}" for i in range(rooms))
+    problem = tmp_path / "sweep.hddl"
+    problem.write_text(
+        f"(define (problem p) (:domain sweep) (:objects {names} - room) (:htn :ordered-subtasks (clean))"
+        " (:init (dirty room0)))"
+    )
+    agent = "{name: sweeper, domain: {hddl: sweep-domain.hddl, problem: sweep.hddl}, executor: robot}"
+    scenario = tmp_path / "sweep.yaml"
+    scenario.write_text(
+        f"name: sweep\nrobot: {{}}\nagents: [{agent}]\ngoals: [{{agent: sweeper, task: clean}}]\n"
+    )
+    return str(domain), str(problem), str(scenario)
+
+
+def test_check_hddl_refuses_what_plan_hddl_refuses(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A when under a forall is a conditional effect per room: the translation into a planning
+    # domain takes 8, and refuses a ninth at the action.  check --hddl translates as plan
+    # --hddl and a scenario agent do, so it refuses in the same line.
+    domain, problem, scenario = _sweep(tmp_path, rooms=9)
+    refused = (
+        f"htnagent: error: {domain}:5:3: action sweep: more than 8 conditional effects, "
+        "which htnagent does not take"
+    )
+    for args in (
+        ["plan", "--hddl", domain, problem],
+        ["check", "--hddl", domain, problem],
+        ["check", scenario],
+    ):
+        assert main(args) == 2, args
+        out, err = capsys.readouterr()
+        assert out == ""
+        assert _one_error_line(err) == refused
+
+
+def test_check_hddl_takes_what_plan_hddl_takes(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    domain, problem, scenario = _sweep(tmp_path, rooms=8)
+    assert main(["check", "--hddl", domain, problem]) == 0
+    assert capsys.readouterr().out.startswith("ok: domain sweep:")
+    assert main(["plan", "--hddl", domain, problem]) == 0
+    assert capsys.readouterr().out == "sweep\n"
+    assert main(["check", scenario]) == 0
+
+
+def _first_and_last_of_each_suite() -> list[tuple[Path, Path]]:
+    pairs: dict[str, list[tuple[Path, Path]]] = {}
+    if IPC.is_dir():
+        for suite, domain, problem in suite_pairs(IPC):
+            pairs.setdefault(suite, []).append((domain, problem))
+    return [pair for found in pairs.values() for pair in dict.fromkeys((found[0], found[-1]))]
+
+
+@pytest.mark.skipif(not IPC.is_dir(), reason=f"no IPC benchmark domains at {IPC}")
+@pytest.mark.parametrize(
+    ("domain", "problem"), _first_and_last_of_each_suite(), ids=lambda p: f"{p.parent.name}/{p.name}"
+)
+def test_check_hddl_takes_the_ipc_problems(
+    domain: Path, problem: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # plan --hddl takes them all (bench ipc); check --hddl, translating them too, must as well.
+    assert main(["check", "--hddl", str(domain), str(problem)]) == 0
+    assert capsys.readouterr().out.startswith("ok: domain ")
 
 
 def test_verify_exits_0_for_a_valid_plan(capsys: pytest.CaptureFixture[str]) -> None:

@@ -385,6 +385,36 @@ def test_plan_hddl_timeout(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert "timeout" in capsys.readouterr().err
 
 
+@pytest.mark.parametrize("search", [*ORDERS, None])
+def test_the_timeout_bounds_the_translation_too(courier: Domain, search: Search | None) -> None:
+    # The time limit counts from when the files have been read: one that has passed before
+    # the translation is done ends the solve there, as a search out of time ends.  (Without
+    # the translation's own clock, the courier is solved before the search first reads it.)
+    problem = read_problem(HERE / "courier.hddl", courier)
+    solved = solve(courier, problem, search=search, timeout=1e-9)
+    assert solved.result.status is PlanStatus.TIMED_OUT
+    assert solved.result.expansions == 0
+    assert solved.planning is None
+
+
+def test_plan_hddl_timeout_while_a_large_problem_is_translated(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 100,000 rooms: read in a fraction of a second, translated (a type and an equality fact
+    # for each) in several times the limit; the search would be over at once.
+    rooms = " ".join(f"o{i}" for i in range(100_000))
+    problem = tmp_path / "big.hddl"
+    problem.write_text(
+        "(define (problem big) (:domain courier)"
+        f" (:objects r1 - robot p1 - parcel hall office {rooms} - room)"
+        " (:htn :ordered-subtasks (and (deliver p1 office)))"
+        " (:init (at r1 hall) (in p1 hall) (door hall office)))"
+    )
+    domain = Path(__file__).resolve().parents[1] / "scenarios" / "courier_hddl_domain.hddl"
+    assert main(["plan", "--hddl", str(domain), str(problem), "--timeout", "0.01"]) == 1
+    assert capsys.readouterr() == ("", "htnagent: no plan: timeout (no plan within 0.01 s)\n")
+
+
 @pytest.mark.parametrize(
     ("args", "says"),
     [
