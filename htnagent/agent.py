@@ -419,7 +419,8 @@ class Agent(ExecutorActor):
             plans.ensure(final)
             plans.shorten_detours(final)
         if plans.best is not None:
-            _ = plans.best.shown  # worked out now: showing the plan at resumption is then free
+            # Worked out now: showing the plan at resumption, and following it, are then free.
+            _ = plans.best.shown, plans.best.actions
         entry.ready = _Ready(belief.key(), tuple(suspended), plans, cleared)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
@@ -669,7 +670,7 @@ class Agent(ExecutorActor):
             return True
         ps = self._planset(action)
         if ps.ensure(predicted) and ps.best is not None:
-            _ = ps.best.shown  # worked out now: showing the plan when the order comes is then free
+            _ = ps.best.shown, ps.best.actions  # worked out now: free when the order comes
         if len(self._ready) >= 4:
             self._ready.pop(next(iter(self._ready)))
         self._ready[action] = (predicted.key(), ps)

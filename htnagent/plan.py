@@ -84,6 +84,16 @@ class Plan:
         assert self._actions is not None
         return self._actions
 
+    def rest(self) -> Plan:
+        """The plan without its first step (once that step is done), keeping what was
+        worked out of it: its actions and text, sliced, are not walked again."""
+        rest = Plan(self.steps[1:])
+        if self._actions is not None:
+            object.__setattr__(rest, "_actions", self._actions[1:])
+        if self._shown is not None:
+            object.__setattr__(rest, "_shown", self._shown[1:])
+        return rest
+
     def text(self) -> list[str]:
         """The actions in the text form of docs/contracts.md."""
         return list(self.shown)

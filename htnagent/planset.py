@@ -432,7 +432,7 @@ class NaivePlanSet(PlanSet):
         with self._timed():
             # A plan valid from ``before`` that ran the action is valid from ``after``.
             trusted = before is self._checked
-            ran = [Plan(p.steps[1:]) for p in self.plans if p.steps and p.steps[0].action == action]
+            ran = [p.rest() for p in self.plans if p.steps and p.steps[0].action == action]
             self.plans = [p for p in ran[:1] if trusted or self._valid(p, after)]
             self._checked = after
 
@@ -621,11 +621,12 @@ class OnlinePlanSet(PlanSet):
         if len(self.plans) == 1 and not self.revival and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
             # valid from ``before``, ran the action; it moves on and is valid from ``after``.
-            steps = self.plans[0].steps
+            ran = self.plans[0]
+            steps = ran.steps
             if steps and steps[0].action == action:
                 with self._timed():
                     self.done = Done(steps[0], self.done)
-                    self.plans = [Plan(steps[1:])]
+                    self.plans = [ran.rest()]
                     self._checked = after
                     self.revival.tick()
                 return
@@ -641,7 +642,7 @@ class OnlinePlanSet(PlanSet):
             for p in self.plans:
                 if p.steps and p.steps[0].action == action:
                     # §2.1: the plan that ran the action moves on.
-                    kept.append(_Kept(Plan(p.steps[1:]), trusted))
+                    kept.append(_Kept(p.rest(), trusted))
                 elif undo is not None:
                     # §2.1: another plan stays valid by undoing the action first.
                     if restores is None:
@@ -669,7 +670,7 @@ class OnlinePlanSet(PlanSet):
 
         def moved_on(p: Plan) -> Plan | None:
             if p.steps and p.steps[0].action == action:
-                return Plan(p.steps[1:])
+                return p.rest()
             if undo is not None:
                 return Plan(self._behind(undo, p.steps))
             return None

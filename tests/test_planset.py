@@ -537,3 +537,15 @@ def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
     # The repair proved the goal impossible from this belief: no second search for it.
     from_scratch = ps.stats.from_scratch
     assert not ps.ensure(walled) and ps.stats.from_scratch == from_scratch
+
+
+def test_a_plan_moved_on_keeps_its_actions_and_text_without_walking_them_again() -> None:
+    steps = tuple(Step(Atom("go", (f"n{i}", f"n{i + 1}")), 1.0) for i in range(50))
+    whole = Plan(steps)
+    fresh = Plan(steps[1:])
+    assert whole.rest() == fresh and whole.rest().actions == fresh.actions
+    _ = whole.actions, whole.shown
+    rest = whole.rest()
+    # Worked out on the whole plan, sliced for the rest: not walked step by step again.
+    assert rest._actions == fresh.actions and rest._shown == fresh.shown
+    assert rest.text() == fresh.text() and rest.cost == fresh.cost
