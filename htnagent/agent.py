@@ -825,6 +825,8 @@ class Agent(ExecutorActor):
         """
         if self.current is entry:
             self.current = None
+        if len(self._spent) >= 64:  # goals ending one after another with no action between
+            self._spent.clear()
         self._spent.append(entry)
         # What was kept below for resuming the goal's stopped actions is of no use now.
         self._clear_suspended(entry)

@@ -150,13 +150,23 @@ async def test_ending_goals_looks_at_each_once() -> None:
     data["agents"] = [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}]
     data["goals"] = [{"agent": "navigator", "task": "goto_node(n40)"}] * n  # there already
 
+    runtimes: list[Runtime] = []
+    held: list[int] = []
+
     def counting(runtime: Runtime) -> None:
         runtime.outcomes = _Counting(runtime.outcomes)
+        runtimes.append(runtime)
+
+    def spent(event: object) -> None:
+        # Ended goals are let go of after the next order, or at the latest 64 ends later.
+        held.append(len(runtimes[0].agents["navigator"]._spent))
 
     _Counting.looks = 0
-    report = await run_scenario(parse_scenario(data, "<many>", SCENARIOS), on_start=counting)
+    scenario = parse_scenario(data, "<many>", SCENARIOS)
+    report = await run_scenario(scenario, on_start=counting, observers=[spent])
     assert report.succeeded and len(report.summary.goals) == n
     assert _Counting.looks <= 3 * n
+    assert max(held) <= 64
 
 
 def test_running_out_of_memory_is_one_line(
