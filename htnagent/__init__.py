@@ -29,13 +29,21 @@ class _Package(types.ModuleType):
 
     @property
     def plan(self) -> Any:
+        chosen = self.__dict__.get("_plan")
+        if chosen is not None:
+            return chosen
         from htnagent.planner import plan
 
         return plan
 
     @plan.setter
     def plan(self, value: Any) -> None:
-        pass
+        if not isinstance(value, types.ModuleType):  # a submodule's binding is not taken
+            self.__dict__["_plan"] = value
+
+    @plan.deleter
+    def plan(self) -> None:
+        self.__dict__.pop("_plan", None)
 
 
 sys.modules[__name__].__class__ = _Package

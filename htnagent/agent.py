@@ -895,8 +895,8 @@ def _make_ready(plans: PlanSet, belief: State, suspended: list[Atom]) -> list[At
     plan does not need (they are to be cleared).  Algorithm 2, §2.7, §2.8."""
     plans.confirm_achieved(belief)
     plans.ensure(belief)
-    if not plans.reconsider(belief):  # compared with a plan made afresh: no shorter way to look for
-        plans.shorten_detours(belief)
+    plans.reconsider(belief)  # a way opened while it waited: as good as a plan made afresh
+    plans.shorten_detours(belief)  # and its lowest task done again, which can be cheaper still
     best = plans.best
     # A plan that rolls an action back, or finishes it later (after walking back to where
     # it was stopped), still needs what was kept for it.

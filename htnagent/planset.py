@@ -207,6 +207,7 @@ class PlanSet:
         self._unsolvable = other._unsolvable
         self._stale = other._stale
         self._stale_since = other._stale_since
+        self._fresh_due = other._fresh_due
         return replaced
 
     def rebase(self, state: State) -> None:
@@ -843,7 +844,7 @@ class OnlinePlanSet(PlanSet):
         with self._timed():
             return self._rival_from(state, best, first)
 
-    def _rival_from(self, state: State, best: Plan, first: int) -> bool:
+    def _rival_from(self, state: State, best: Plan, first: int, repairer: Repairer | None = None) -> bool:
         """Re-decompose the lowest compound task above ``best``'s step ``first`` (the
         goal, if none is left) from ``state``, followed by the rest of ``best``; select the
         rival if it is cheaper (a repair as in §2.4).  Returns whether it was."""
@@ -863,7 +864,7 @@ class OnlinePlanSet(PlanSet):
         # the estimate of the rival's tasks: then the search is not worth making.
         if best.cost <= heuristic(self.domain, [head], state) + fixed + 1e-9:
             return False
-        rival = self._repairer().search(state, tasks, one_plan(self.settings))
+        rival = (repairer or self._repairer()).search(state, tasks, one_plan(self.settings))
         if rival is None or rival.cost >= best.cost - 1e-9:
             return False
         # The detour it beat is not kept as an alternative: it walks back over the
@@ -970,12 +971,21 @@ class OnlinePlanSet(PlanSet):
         if best is None:
             return False
         with self._timed():
-            if self._as_good_as_fresh(state, self._repairer):
+            made: list[Repairer] = []
+
+            def repairer() -> Repairer:
+                if not made:
+                    made.append(self._repairer())
+                return made[0]
+
+            if self._as_good_as_fresh(state, repairer):
                 return True
             # No plan afresh (the goal's methods may not start again from part of it
-            # done): the lowest task above the first step is re-decomposed instead.
+            # done): the lowest task above the first step is re-decomposed instead (not
+            # the goal itself: that is the search that just found nothing).
             first = next((i for i, s in enumerate(best.steps) if s.record is not None), len(best.steps))
-            self._rival_from(state, best, first)
+            if first < len(best.steps):
+                self._rival_from(state, best, first, repairer())
             return True
 
     def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> bool:
@@ -995,10 +1005,11 @@ class OnlinePlanSet(PlanSet):
         if not self.plans or self._proven_optimal(self.plans[0], state):
             return bool(self.plans)
         goal: list[TaskEntry] = [(self.goal, None)]
-        known = repairer().known_cost(state, goal)
+        searches = repairer()
+        known = searches.known_cost(state, goal)
         if known is not None and known >= self.plans[0].cost - 1e-9:
             return True  # a search this update made for the goal's very task found nothing cheaper
-        fresh = repairer().search(state, goal, one_plan(self.settings))
+        fresh = searches.search(state, goal, one_plan(self.settings))
         if fresh is None or fresh.cost >= self.plans[0].cost - 1e-9:
             return fresh is not None
         self.stats.fresher += 1

@@ -59,7 +59,8 @@ def check_report_target(file: str, source: str) -> None:
         return
     if stat.S_ISDIR(info.st_mode):
         raise PlotError(f"{file}: is a directory; give a file name for the page")
-    if not stat.S_ISREG(info.st_mode):
+    if not (stat.S_ISREG(info.st_mode) or stat.S_ISCHR(info.st_mode) or _is_stdout(info)):
+        # A FIFO nobody reads would make writing wait for ever (/dev/stdout into a pipe is fine).
         raise PlotError(f"{file}: is not a regular file; give a file name for the page")
     try:
         same = os.path.samefile(file, source)
@@ -67,6 +68,13 @@ def check_report_target(file: str, source: str) -> None:
         same = False
     if same:
         raise PlotError(f"{file}: is the trace being read; give the page another name")
+
+
+def _is_stdout(info: os.stat_result) -> bool:
+    try:
+        return os.path.samestat(info, os.fstat(1))
+    except OSError:
+        return False
 
 
 def write_report(history: History, file: str, *, scenario: Scenario | None = None, source: str = "") -> None:

@@ -207,3 +207,45 @@ def test_an_empty_picture_name_is_refused(capsys: pytest.CaptureFixture[str], op
     assert main(["run", str(SCENARIOS / "museum.yaml"), option, ""]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "give the name of the picture" in err
+
+
+def test_base_60_through_an_explicit_tag_is_refused_at_once(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = small()
+    path = write(tmp_path, data)
+    path.write_text(path.read_text() + "planner: {budget: !!int 1:" + "59:" * 200_000 + "5}\n")
+    assert main(["check", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "base-60 numbers are not read" in err
+
+
+def test_a_name_yaml_reads_as_a_number_says_to_quote_it(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    data = small()
+    data["robot"]["start"] = 1e1
+    assert main(["check", str(write(tmp_path, data))]) == 2
+    assert "robot.start: expected text, got 10.0 (a number: put a name in quotes" in capsys.readouterr().err
+
+
+def test_report_may_write_to_its_own_stdout(trace: Path) -> None:
+    # /dev/stdout into a pipe is a FIFO, but it is this process's own output: no one waits.
+    done = subprocess.run(
+        [sys.executable, "-m", "htnagent", "report", str(trace), "--html", "/dev/stdout"],
+        capture_output=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(b"<!DOCTYPE html>")
+
+
+def test_htnagent_plan_can_be_replaced_and_put_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    import htnagent
+
+    planning = htnagent.plan
+    replaced = object()
+    monkeypatch.setattr(htnagent, "plan", replaced)
+    assert getattr(htnagent, "plan") is replaced  # noqa: B009 (the module's attribute, read anew)
+    monkeypatch.undo()
+    assert htnagent.plan is planning

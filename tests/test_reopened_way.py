@@ -15,12 +15,16 @@ from typing import Any
 
 import pytest
 
+from htnagent.agent import _make_ready
+from htnagent.domain import Domain, State
 from htnagent.domains.museum import nodes_domain
 from htnagent.events import ActionStarted
+from htnagent.planner import PlannerSettings
+from htnagent.planset import PlanSet, Replanning
 from htnagent.runtime import Runtime
 from htnagent.scenario import load_scenario, parse_scenario
 from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import Atom
+from htnagent.terms import Atom, parse
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
@@ -139,3 +143,89 @@ async def test_in_hddl_the_lowest_task_is_done_again_when_no_plan_afresh_exists(
     assert "move(r1,hall,office)" in moves
     assert not any(m.startswith("move(r1,b,") for m in moves)  # not round the ring
     assert report.summary.t < 12  # the move rolled back and the door taken, not 20 s round the ring
+
+
+def parcel_domain() -> Domain:
+    # A corridor p0 … p6 with a side room y linked to p2 and (through a door) to p6.
+    # deliver's methods start from the parcel where it lies, or drop it and start again:
+    # a plan made afresh for a carried parcel redoes work.
+    d = Domain("parcel")
+    d.operator(
+        "step(?x,?y)",
+        pre=["at(?x)", "link(?x,?y)", "not closed(?x,?y)"],
+        add=["at(?y)"],
+        delete=["at(?x)"],
+        undo="step(?y,?x)",
+    )
+    d.operator(
+        "pick(?p,?r)", pre=["at(?r)", "in(?p,?r)"], add=["holding(?p)"], delete=["in(?p,?r)"], cost=5.0
+    )
+    d.operator(
+        "drop(?p,?r)", pre=["at(?r)", "holding(?p)"], add=["in(?p,?r)"], delete=["holding(?p)"], cost=5.0
+    )
+    d.method("reach(?n)", "here", when=["at(?n)"])
+    d.method("reach(?n)", "go", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"])
+    d.method("deliver(?p,?t)", "done", when=["in(?p,?t)"])
+    fetch = ["reach(?r)", "pick(?p,?r)", "reach(?t)", "drop(?p,?t)"]
+    d.method("deliver(?p,?t)", "fetch", when=["in(?p,?r)", "not in(?p,?t)"], do=fetch)
+    d.method("deliver(?p,?t)", "again", when=["holding(?p)", "at(?x)"], do=["drop(?p,?x)", "deliver(?p,?t)"])
+    links = [
+        ("p0", "p1"),
+        ("p1", "p2"),
+        ("p2", "p3"),
+        ("p3", "p4"),
+        ("p4", "p5"),
+        ("p5", "p6"),
+        ("p2", "y"),
+        ("y", "p6"),
+    ]
+    d.facts = tuple(Atom("link", pair) for x, y in links for pair in ((x, y), (y, x)))
+    return d
+
+
+def test_a_way_opened_while_waiting_is_weighed_against_the_lowest_task_done_again_too() -> None:
+    # The parcel is carried back along the corridor when an emergency takes the robot into
+    # y; the door y-p6 opens meanwhile.  Afresh, the parcel is dropped and fetched again
+    # (16); the kept plan walks back round the corridor (10); its lowest task done again
+    # goes through the door (6).  The comparison with a plan made afresh must not stop the
+    # detour check that finds it.
+    d = parcel_domain()
+    shut = (Atom("closed", ("y", "p6")), Atom("closed", ("p6", "y")))
+    belief = State.from_facts([*d.facts, Atom("at", ("p3",)), Atom("in", ("par", "p0")), *shut], d)
+    ps = PlanSet(d, parse("deliver(par,p6)"), Replanning.ONLINE, PlannerSettings(alternatives=1))
+    ps.make(belief)
+
+    def done(action: str) -> None:
+        nonlocal belief
+        after = d.apply(belief, parse(action))
+        assert after is not None
+        ps.action_succeeded(parse(action), belief, after)
+        belief = after
+
+    for action in ["step(p3,p2)", "step(p2,p1)", "step(p1,p0)", "pick(par,p0)", "step(p0,p1)", "step(p1,p2)"]:
+        assert ps.best is not None and ps.best.text()[0] == action
+        done(action)
+    ps.lazy = True  # stacked: the emergency walks into y
+    done("step(p2,y)")
+    opened = belief.updated((), shut)
+    ps.belief_changed(belief, opened)
+    ps.lazy = False
+    _make_ready(ps, opened, [])
+    assert ps.best is not None and ps.best.text() == ["step(y,p6)", "drop(par,p6)"]
+
+
+async def test_the_comparison_due_is_made_once() -> None:
+    # Made on the copy readied ahead, it is taken over with it: the goal, once resumed,
+    # is not due another one (it would search afresh at its next resumption for nothing).
+    runtimes: list[Runtime] = []
+    due: list[bool] = []
+
+    def observe(event: object) -> None:
+        if isinstance(event, ActionStarted) and event.agent == "navigator":
+            current = runtimes[0].agents["navigator"].current
+            due.append(current is not None and current.plans._fresh_due)
+
+    scenario = parse_scenario(door_scenario("navigator", opens=6), "<test>", SCENARIOS)
+    report = await run_scenario(scenario, observers=[observe], on_start=runtimes.append)
+    assert report.succeeded
+    assert not due[-1]

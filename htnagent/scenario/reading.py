@@ -246,6 +246,9 @@ def _scalar(event: Any, file: str) -> Any:
         tag = _plain_tag(value)
     if tag == _STR:
         return value
+    if tag in (_INT, _FLOAT) and ":" in value:  # only through an explicit !!int or !!float
+        reason = f"cannot read {shown(value)}: base-60 numbers are not read; write it in decimal"
+        raise _at(event, file, reason)
     try:
         if tag == _INT:
             body = value[1:] if value[:1] in "+-" else value

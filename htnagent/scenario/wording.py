@@ -99,6 +99,9 @@ def _reason(detail: ErrorDetails, at: list[object]) -> str:
         wanted = ctx.get("min_length") if kind == "too_short" else ctx.get("max_length")
         return f"expected {wanted} items, got {ctx.get('actual_length')}"
     if kind == "string_type":
+        if isinstance(got, int | float) and not isinstance(got, bool):
+            # YAML reads 12, 1e1 and 0x1f as numbers: a name written so needs quotes.
+            return f"expected text, got {shown(got)} (a number: put a name in quotes, '1e1')"
         return f"expected text, got {shown(got)}"
     if kind == "string_too_short":
         return "must not be empty"
