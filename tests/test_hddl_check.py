@@ -96,6 +96,7 @@ def test_a_plan_reads_into_steps_root_and_decompositions() -> None:
         ("==>\nroot 1\n1 go -> m x\n", "p.plan:3:11: expected an ID (a whole number), got 'x'"),
         ("==>\nroot 1\nroot 2\n", "p.plan:3:1: a second root line (the first is line 2)"),
         ("==>\n()\nroot\n", "p.plan:2:1: expected an action, root or decomposition line, got '()'"),
+        ("==>\n0 move a b\nroot 0\n", "p.plan:3: no '<==' line after the plan; was it cut short?"),
     ],
 )
 def test_each_malformed_plan_is_one_line_at_its_place(text: str, message: str) -> None:
@@ -539,3 +540,19 @@ def test_verify_exits_2_for_bad_input(tmp_path: Path, capsys: pytest.CaptureFixt
     assert _one_error_line(capsys.readouterr().err) == (
         "htnagent: error: the following arguments are required: --hddl (see htnagent verify --help)"
     )
+
+
+@pytest.mark.parametrize("end", ["\r", "\r\n"])
+def test_hddl_files_with_other_line_ends_read_alike(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], end: str
+) -> None:
+    # Written with \r alone (old Mac style), a file was one line: its first ';' comment ran
+    # to the end of the file, and the file read as empty.
+    names = []
+    for kind in ("domain", "problem"):
+        source = REPO / "scenarios" / f"courier_hddl_{kind}.hddl"
+        target = tmp_path / source.name
+        target.write_bytes(source.read_bytes().replace(b"\n", end.encode()))
+        names.append(str(target))
+    assert main(["check", "--hddl", *names]) == 0
+    assert capsys.readouterr().out.startswith("ok")

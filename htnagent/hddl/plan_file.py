@@ -19,8 +19,8 @@ parentheses, ``0 (move a b)``.  Names are case-insensitive as in HDDL
 (lowered); pandaPIparser compares them as written unless run with ``-l``.
 
 :func:`read_plan` refuses what is not in this form -- a line that is neither,
-an ID that is not a whole number or is given twice, no ``==>`` or no ``root``
--- as one :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
+an ID that is not a whole number or is given twice, no ``==>``, no ``root``
+or no ``<==`` (a plan cut short) -- as one :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
 Whether the plan is a *valid* one is :mod:`htnagent.hddl.check`'s business.
 :func:`format_plan` writes a plan in the format, with the names spelled as the
 HDDL files spell them (:func:`spellings`).
@@ -101,11 +101,13 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
     root: tuple[int, ...] | None = None
     root_line = 0
     ids: dict[int, int] = {}
+    ended = False
     for i in range(start + 1, len(lines)):
         number = i + 1
         line = lines[i]
         stripped = line.strip()
         if stripped.startswith("<=="):
+            ended = True
             break
         if not stripped or stripped.startswith(";"):
             continue
@@ -148,6 +150,8 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
         decompositions.append(Decomposition(ident, task, method, subtasks, number))
     if root is None:
         raise HddlError(file, "no 'root' line after the actions (it lists the root task IDs)")
+    if not ended:
+        raise HddlError(file, "no '<==' line after the plan; was it cut short?", len(lines))
     return IpcPlan(file, tuple(steps), root, tuple(decompositions), root_line)
 
 

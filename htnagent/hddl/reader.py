@@ -97,12 +97,16 @@ def parse_problem(text: str, domain: Domain, file: str = "<problem>") -> Problem
 
 
 def read_file(path: str | Path, what: str, max_bytes: int | None = None) -> str:
-    """The text of a file a user names (a regular file, within the size bound), or HddlError."""
+    """The text of a file a user names (a regular file, within the size bound), or HddlError.
+
+    Line ends are made ``\n``: a file written with ``\r`` alone (old Mac style) would
+    otherwise be one line, its first ``;`` comment running to the end of the file."""
     try:
-        return read_text(path, what, max_bytes)
+        text = read_text(path, what, max_bytes)
     except ScenarioError as e:  # the reading of scenario files, said the HDDL way
         line = int(e.where[5:]) if e.where.startswith("line ") and e.where[5:].isdigit() else None
         raise HddlError(e.file, e.reason, line) from None
+    return text.replace("\r\n", "\n").replace("\r", "\n") if "\r" in text else text
 
 
 def _definition(source: Source, kind: str) -> SList:
