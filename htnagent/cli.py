@@ -413,6 +413,17 @@ def _report(args: argparse.Namespace) -> int:
     events = read_trace(args.trace)
     scenario = load_scenario(args.scenario) if args.scenario else None
     agents = scenario.agent_names if scenario is not None else ()
+    if scenario is not None:
+        # The map and the lanes come from the scenario: it must be the one the trace ran.
+        traced = {e.agent for e in events} - {"runtime", "world", "robot"}
+        strangers = sorted(traced - set(agents))
+        if strangers:
+            raise ScenarioError(
+                args.scenario,
+                "agents",
+                f"the trace's agent {strangers[0]!r} is not in this scenario "
+                f"(its agents: {', '.join(agents)}); give the scenario the trace ran",
+            )
     history = History.from_events(events, agents)
     write_report(history, args.html, scenario=scenario, source=args.trace)
     return EXIT_OK

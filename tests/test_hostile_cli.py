@@ -249,3 +249,17 @@ def test_htnagent_plan_can_be_replaced_and_put_back(monkeypatch: pytest.MonkeyPa
     assert getattr(htnagent, "plan") is replaced  # noqa: B009 (the module's attribute, read anew)
     monkeypatch.undo()
     assert htnagent.plan is planning
+
+
+def test_report_refuses_a_scenario_the_trace_did_not_run(
+    trace: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    page = tmp_path / "page.html"
+    other = SCENARIOS / "courier_hddl.yaml"
+    assert main(["report", str(trace), "--html", str(page), "--scenario", str(other)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "the trace's agent 'guide' is not in this scenario" in err
+    assert not page.exists()
+    assert (
+        main(["report", str(trace), "--html", str(page), "--scenario", str(SCENARIOS / "museum.yaml")]) == 0
+    )
