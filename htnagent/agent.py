@@ -198,8 +198,9 @@ class Agent(ExecutorActor):
         self._arrivals = itertools.count(1)
         self._later: deque[Callable[[], None]] = deque()
         self._spent: list[object] = []
-        """Plans a resumption replaced and goals that ended: let go of once the next order
-        is on its way (§4: freeing what was kept for long is work like any other)."""
+        """Plans a resumption replaced, goals that ended and held goals the parent cleared:
+        let go of once the next order is on its way (§4: freeing what was kept for long is
+        work like any other)."""
         self._prepared: _Prepared | None = None
         self._orphaned = False
         self._hint: Atom | None = None

@@ -273,11 +273,10 @@ class PlanSet:
         self.plans = []
         self._fresh_due = False
 
-    def reconsider(self, state: State) -> bool:
+    def reconsider(self, state: State) -> None:
         """At resumption, after a change from outside that may have opened a cheaper way,
-        make the best plan as good as one made afresh.  Returns whether it is known to be
-        (never, unless on-line: see :meth:`OnlinePlanSet.reconsider`)."""
-        return False
+        make the best plan as good as one made afresh (on-line only: see
+        :meth:`OnlinePlanSet.reconsider`; naive plans afresh anyway)."""
 
     def confirm_achieved(self, state: State) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
@@ -867,7 +866,7 @@ class OnlinePlanSet(PlanSet):
         rival = (repairer or self._repairer()).search(state, tasks, one_plan(self.settings))
         if rival is None or rival.cost >= best.cost - 1e-9:
             return False
-        # The detour it beat is not kept as an alternative: it walks back over the
+        # The plan it beat is not kept as an alternative: a detour walks back over the
         # emergency's route only to go the way the rival goes, and keeping it valid would
         # cost an undo step more at every action (a goal's plan comes alone, §1, §4;
         # alternatives are looked for when an action fails: see widen).
@@ -957,19 +956,18 @@ class OnlinePlanSet(PlanSet):
         with self._timed():
             self._as_good_as_fresh(state, self._repairer)
 
-    def reconsider(self, state: State) -> bool:
+    def reconsider(self, state: State) -> None:
         """§2.4's rule at resumption: after a change from outside that may have opened a
         cheaper way while the goal waited (a door opened), its best plan, still valid, is
         compared with a plan made afresh (unless the estimate proves it optimal): naive
-        plans afresh there, and on-line never settles for a longer way than naive.
-        Returns whether the best plan is known to be as good as a fresh one."""
+        plans afresh there, and on-line never settles for a longer way than naive."""
         if not self._fresh_due:
-            return False
+            return
         self._fresh_due = False
         self._refresh(state)
         best = self.best
         if best is None:
-            return False
+            return
         with self._timed():
             made: list[Repairer] = []
 
@@ -979,14 +977,13 @@ class OnlinePlanSet(PlanSet):
                 return made[0]
 
             if self._as_good_as_fresh(state, repairer):
-                return True
+                return
             # No plan afresh (the goal's methods may not start again from part of it
             # done): the lowest task above the first step is re-decomposed instead (not
             # the goal itself: that is the search that just found nothing).
             first = next((i for i, s in enumerate(best.steps) if s.record is not None), len(best.steps))
             if first < len(best.steps):
                 self._rival_from(state, best, first, repairer())
-            return True
 
     def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> bool:
         """§2.4: the best plan took the place of a broken one: it must be no worse than a

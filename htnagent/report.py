@@ -47,8 +47,8 @@ _MAX_TIERS = 6
 
 def check_report_target(file: str, source: str) -> None:
     """Fail early, before the trace is read, if the page could not be written to ``file``:
-    no name, the trace itself (it would be overwritten), a folder, or anything but a regular
-    file (writing to a FIFO would wait for a reader for ever)."""
+    no name, the trace itself (it would be overwritten), a folder, or a FIFO or socket
+    (writing would wait for a reader for ever) other than this process's own stdout."""
     if not file:
         raise PlotError("--html: give the name of the page to write")
     try:

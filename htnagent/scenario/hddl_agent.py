@@ -260,7 +260,7 @@ def _check_types(
 ) -> None:
     """Each argument (an object or constant, checked before) is of its parameter's type."""
     hddl = planning.hddl
-    kinds = {o.name: o.types for o in (*hddl.constants, *planning.problem.objects)}
+    kinds = _object_kinds(planning)
     for i, (arg, param) in enumerate(zip(term.args, params, strict=True), start=1):
         have = kinds[str(arg)]
         if not any(set(param.types) & hddl.supertypes(kind) for kind in have):
@@ -271,10 +271,23 @@ def _check_types(
             )
 
 
+_KINDS: list[tuple[HddlPlanning, dict[str, tuple[str, ...]]]] = []
+"""The last problem's objects and constants with their types (a scenario's goals and events
+are checked one after another against the same problem)."""
+
+
+def _object_kinds(planning: HddlPlanning) -> dict[str, tuple[str, ...]]:
+    """Each object of the problem and constant of its domain, with its types."""
+    if not _KINDS or _KINDS[0][0] is not planning:
+        kinds = {o.name: o.types for o in (*planning.hddl.constants, *planning.problem.objects)}
+        _KINDS[:] = [(planning, kinds)]
+    return _KINDS[0][1]
+
+
 def _check_ground(planning: HddlPlanning, term: Atom, file: str, where: str) -> None:
     if not term.is_ground:
         raise ScenarioError(file, where, f"{term} has variables; name objects of the problem")
-    objects = {o.name for o in (*planning.hddl.constants, *planning.problem.objects)}
+    objects = _object_kinds(planning)
     for arg in term.args:
         if not isinstance(arg, str) or arg not in objects:
             raise ScenarioError(
