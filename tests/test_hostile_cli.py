@@ -37,6 +37,14 @@ def write(tmp_path: Path, data: dict[str, Any], name: str = "s.yaml") -> Path:
     return path
 
 
+def refused(args: list[str], capsys: pytest.CaptureFixture[str]) -> str:
+    """Run the command line: exit 2 and one line on stderr, which is returned."""
+    assert main(args) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1, err
+    return err
+
+
 def small(name: str = "small", guide: str = "guide", navigator: str = "navigator") -> dict[str, Any]:
     return {
         "name": name,
@@ -115,9 +123,8 @@ def test_report_to_a_fifo_is_refused_without_blocking(
 
 @pytest.mark.parametrize("target", ["", "."])
 def test_report_needs_a_file_name(trace: Path, capsys: pytest.CaptureFixture[str], target: str) -> None:
-    assert main(["report", str(trace), "--html", target]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and ("give the name" in err or "is a directory" in err)
+    err = refused(["report", str(trace), "--html", target], capsys)
+    assert "give the name" in err or "is a directory" in err
 
 
 @pytest.mark.parametrize("key", ["goals", "events"])
@@ -129,9 +136,8 @@ def test_goals_and_events_are_bounded(
     data["goals"] = [{"agent": "guide", "task": "goto(n38)"}] * 11 if key == "goals" else data["goals"]
     if key == "events":
         data["events"] = [{"when": {"time": i}, "close": "arc1"} for i in range(11)]
-    assert main(["check", str(write(tmp_path, data))]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and f"11 {key}; a scenario may give at most 10" in err
+    err = refused(["check", str(write(tmp_path, data))], capsys)
+    assert f"11 {key}; a scenario may give at most 10" in err
 
 
 class _Counting(dict[int, Any]):
@@ -176,9 +182,8 @@ def test_running_out_of_memory_is_one_line(
         raise MemoryError
 
     monkeypatch.setattr(htnagent.cli, "load_scenario", exhausted)
-    assert main(["check", str(SCENARIOS / "museum.yaml")]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "out of memory" in err
+    err = refused(["check", str(SCENARIOS / "museum.yaml")], capsys)
+    assert "out of memory" in err
 
 
 def test_importing_the_package_loads_nothing_heavy() -> None:
@@ -204,9 +209,8 @@ def test_htnagent_plan_is_the_planning_function_whatever_is_imported() -> None:
 @pytest.mark.parametrize("option", ["--plot", "--timeline"])
 def test_an_empty_picture_name_is_refused(capsys: pytest.CaptureFixture[str], option: str) -> None:
     pytest.importorskip("matplotlib")
-    assert main(["run", str(SCENARIOS / "museum.yaml"), option, ""]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "give the name of the picture" in err
+    err = refused(["run", str(SCENARIOS / "museum.yaml"), option, ""], capsys)
+    assert "give the name of the picture" in err
 
 
 def test_base_60_through_an_explicit_tag_is_refused_at_once(
@@ -215,9 +219,8 @@ def test_base_60_through_an_explicit_tag_is_refused_at_once(
     data = small()
     path = write(tmp_path, data)
     path.write_text(path.read_text() + "planner: {budget: !!int 1:" + "59:" * 200_000 + "5}\n")
-    assert main(["check", str(path)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "base-60 numbers are not read" in err
+    err = refused(["check", str(path)], capsys)
+    assert "base-60 numbers are not read" in err
 
 
 def test_a_name_yaml_reads_as_a_number_says_to_quote_it(
@@ -256,9 +259,8 @@ def test_report_refuses_a_scenario_the_trace_did_not_run(
 ) -> None:
     page = tmp_path / "page.html"
     other = SCENARIOS / "courier_hddl.yaml"
-    assert main(["report", str(trace), "--html", str(page), "--scenario", str(other)]) == 2
-    err = capsys.readouterr().err
-    assert err.count("\n") == 1 and "the trace's agent 'guide' is not in this scenario" in err
+    err = refused(["report", str(trace), "--html", str(page), "--scenario", str(other)], capsys)
+    assert "the trace's agent 'guide' is not in this scenario" in err
     assert not page.exists()
     assert (
         main(["report", str(trace), "--html", str(page), "--scenario", str(SCENARIOS / "museum.yaml")]) == 0
