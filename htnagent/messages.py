@@ -15,9 +15,18 @@ from __future__ import annotations
 
 from typing import Literal
 
-from pydantic import BaseModel, ConfigDict
+from pydantic import BaseModel, ConfigDict, InstanceOf
 
-from htnagent.terms import Atom
+from htnagent.terms import Atom as _Atom
+
+Atom = InstanceOf[_Atom]
+"""A task or action in a message: an :class:`~htnagent.terms.Atom` taken as it is.
+
+Checked by type only: validating it as the named tuple it is would rebuild it, argument
+by argument — the better part of the cost of a message on the way to the robot (issue
+#12), and a copy where the very object was meant (text forms and hashes are worked out
+once per object).  Messages from another process are parsed into atoms first
+(:mod:`htnagent.remote.codec`)."""
 
 
 class _Message(BaseModel):

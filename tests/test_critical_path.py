@@ -194,3 +194,24 @@ async def test_only_the_goal_that_resumes_is_copied_and_updated_ahead(
     assert report.succeeded
     # Expect: the resuming goal's copy, and the copy of it that is made ready.
     assert copies and max(copies) == 2
+
+
+# -- an order carries the very action the agent planned ------------------------------------------
+
+
+def test_a_message_carries_the_atom_itself_and_refuses_what_is_not_one() -> None:
+    from pydantic import ValidationError
+
+    from htnagent.messages import BeliefUpdate, Execute, Resume, Submit
+    from htnagent.terms import atom
+
+    # Validated as the named tuple it is, an atom was rebuilt argument by argument: a copy,
+    # and the better part of a message's cost on the way to the robot (issue #12).
+    action = atom("drive(truck-0,city-loc-1,city-loc-2)")
+    assert Execute(action=action, seq=1).action is action
+    assert Resume(action=action, seq=2).action is action
+    assert Submit(goal=action, ticket=3).goal is action
+    assert BeliefUpdate(add=(action,)).add[0] is action
+    for wrong in ("drive(a,b,c)", ("drive", ("a",)), None):
+        with pytest.raises(ValidationError):
+            Execute(action=wrong, seq=1)  # type: ignore[arg-type]
