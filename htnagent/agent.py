@@ -464,9 +464,12 @@ class Agent(ExecutorActor):
                 for _ in range(self.executor.levels_below()):
                     await anyio.lowlevel.checkpoint()
                 self._spent.clear()
-                self._flush()
-                if self._prepare_resumption(action):
-                    await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
+                # §4: an emergency that came meanwhile (given as this very order reached
+                # the robot) is seen first; the upkeep waits for the next order.
+                if not any(isinstance(m, Submit) and m.emergency for m in self.inbox.waiting()):
+                    self._flush()
+                    if self._prepare_resumption(action):
+                        await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
             result = await self._await_result(running)
         finally:
             if running.timer is not None:

@@ -27,7 +27,7 @@ import itertools
 import math
 import time
 from collections import deque
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from typing import Generic, TypeVar
 
@@ -261,6 +261,10 @@ class Mailbox(Generic[T]):
             await self._wakeup.wait()
         self._held += 1
         return self._queue.popleft()
+
+    def waiting(self) -> Iterator[T]:
+        """The messages waiting to be received, oldest first (they stay waiting)."""
+        return iter(self._queue)
 
     def receive_nowait(self) -> T | None:
         """The next message if one is waiting, else None (never blocks).

@@ -19,7 +19,8 @@ from htnagent.domain import State
 from htnagent.events import GoalFinished, GoalReceived, MessageSent, RobotMoving, TraceEvent
 from htnagent.planset import OnlinePlanSet, PlanSet
 from htnagent.runtime import Runtime
-from htnagent.scenario import load_scenario
+from htnagent.scenario import load_scenario, parse_scenario
+from htnagent.scenario.reading import read_yaml
 from htnagent.simulation import run_scenario
 from htnagent.terms import Atom
 
@@ -215,3 +216,42 @@ def test_a_message_carries_the_atom_itself_and_refuses_what_is_not_one() -> None
     for wrong in ("drive(a,b,c)", ("drive", ("a",)), None):
         with pytest.raises(ValidationError):
             Execute(action=wrong, seq=1)  # type: ignore[arg-type]
+
+
+# -- an emergency that comes as an order reaches the robot is seen before the upkeep (§4) -------------
+
+
+async def test_an_emergency_given_as_the_order_reaches_the_robot_is_seen_before_the_upkeep(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # goto(n28) runs over the stacked goto(n1), whose upkeep for each of goto(n28)'s
+    # actions waits until the next order is on its way.  An application watching the
+    # robot gives a second emergency the moment that order's first move starts, while
+    # the guide lets its order through: the guide must ask for the suspension before it
+    # works off that upkeep (§4: nothing that keeps the suspended plans valid may delay
+    # the reaction), not after.
+    order: list[str] = []  # from the moment the application gives the emergency
+    flush = Agent._flush
+
+    def recording_flush(self: Agent) -> None:
+        if order and self._later and self.name == "guide":
+            order.append("upkeep")
+        flush(self)
+
+    monkeypatch.setattr(Agent, "_flush", recording_flush)
+    runtimes: list[Runtime] = []
+
+    def observe(event: TraceEvent) -> None:
+        if isinstance(event, RobotMoving) and event.action == "move(n31,n29,arc50)" and not order:
+            order.append("emergency")
+            runtimes[0].submit("guide", Atom("goto", ("n38",)), emergency=True)
+        elif order and isinstance(event, MessageSent) and event.agent == "guide" and event.kind == "suspend":
+            order.append("suspend")
+
+    data = read_yaml(SCENARIOS / "nested_emergencies.yaml", "scenario")
+    del data["goals"][2]  # the second emergency is the application's
+    scenario = parse_scenario(data, "nested_emergencies.yaml", SCENARIOS)
+    report = await run_scenario(scenario, replanning="online", observers=[observe], on_start=runtimes.append)
+    assert report.succeeded
+    assert order[:2] == ["emergency", "suspend"], order
+    assert "upkeep" in order
