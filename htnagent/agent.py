@@ -372,9 +372,10 @@ class Agent(ExecutorActor):
             # Made ready while the last action before this moment ran (_get_ready): the
             # plans, and which suspended actions to clear, are already worked out.
             self._spent.append(entry.plans.adopt(ready.plans))
-            for action, after in ready.cleared:
+            for clear, after in ready.cleared:
+                action = clear.action
                 entry.suspended.remove(action)
-                self.order(self.executor, Clear(action=action))
+                self.order(self.executor, clear)
                 before, self.belief = self.belief, after  # worked out ahead, from this belief
                 update = functools.partial(_cleared, action, before, after)
                 self._maintain(update, skip=entry.plans)
@@ -410,11 +411,11 @@ class Agent(ExecutorActor):
         suspended = [a for a in entry.suspended if a not in settled]
         unused = _make_ready(plans, belief, suspended)
         final = belief
-        cleared: list[tuple[Atom, State]] = []
+        cleared: list[tuple[Clear, State]] = []
         for action in unused:
             after = self.domain.clear(final, action)
             plans.suspension_cleared(action, final, after)
-            cleared.append((action, after))
+            cleared.append((Clear(action=action), after))  # the order too: sent as it is
             final = after
         if unused:
             plans.ensure(final)
@@ -915,8 +916,8 @@ class _Ready:
     belief: tuple[object, ...]
     suspended: tuple[Atom, ...]
     plans: PlanSet
-    cleared: list[tuple[Atom, State]]
-    """The suspended actions to clear, each with the belief once it is cleared."""
+    cleared: list[tuple[Clear, State]]
+    """The orders clearing the suspended actions, each with the belief once it is cleared."""
 
     def holds_for(self, belief: State, entry: GoalEntry) -> bool:
         """Whether things went as predicted: the belief and the goal's suspended actions."""
