@@ -40,13 +40,15 @@ def check_plot_target(file: str, option: str = "--plot") -> None:
         except FileNotFoundError:
             info = None
         if info is None:
-            folder = path.parent
+            # A link to a file not yet there: the picture is written where it points.
+            new = os.path.realpath(file) if os.path.islink(file) else file
+            folder = Path(new).parent
             if not folder.is_dir():
                 raise PlotError(f"{file}: the folder {folder} does not exist")
             # O_NONBLOCK: a FIFO made meanwhile must not block the check.
-            fd = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NONBLOCK, 0o666)
+            fd = os.open(new, os.O_WRONLY | os.O_CREAT | os.O_EXCL | _NONBLOCK, 0o666)
             os.close(fd)
-            os.unlink(file)
+            os.unlink(new)
         elif stat.S_ISDIR(info.st_mode):
             raise PlotError(f"{file}: is a directory; give a file name ending in .png")
         elif not stat.S_ISREG(info.st_mode):

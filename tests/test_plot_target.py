@@ -52,6 +52,7 @@ def test_a_folder_that_refuses_writing_is_found_before_the_run(
     [
         (lambda p: p.mkdir(), "is a directory"),
         (lambda p: os.mkfifo(p), "is not a regular file"),
+        (lambda p: p.symlink_to(p.parent / "gone" / "x.png"), "the folder"),
     ],
 )
 def test_a_target_that_is_not_a_file_is_refused_before_the_run(
@@ -74,6 +75,14 @@ def test_a_folder_that_is_a_file_is_refused_before_the_run(
 ) -> None:
     (tmp_path / "file").write_text("")
     assert "Not a directory" in refused_before_the_run(str(tmp_path / "file" / "run.png"), capsys)
+
+
+def test_a_link_to_a_picture_not_yet_made_is_followed(tmp_path: Path) -> None:
+    # The check once tried to create the link itself, and said "File exists".
+    link = tmp_path / "latest.png"
+    link.symlink_to(tmp_path / "run-42.png")
+    check_plot_target(str(link))
+    assert link.is_symlink() and not (tmp_path / "run-42.png").exists()
 
 
 def test_the_check_leaves_no_file_behind_and_an_existing_file_untouched(tmp_path: Path) -> None:
