@@ -306,6 +306,10 @@ class Agent(ExecutorActor):
             # arrived with it, in the same instant, waits until it has ended).
             self._suspend_current(entry)
             return
+        # §2.4: a way opened from outside since its plan was made (a door, while the action
+        # ran) is weighed now, before the next action — where naive, had its plan broken
+        # meanwhile, would plan afresh with the door open.
+        ps.reconsider(self.belief)
         if not ps.ensure(self.belief):
             status = ps.last_status.value if ps.last_status else "none"
             # No plan from here: the parent should not ask the same again from its belief.
@@ -316,12 +320,15 @@ class Agent(ExecutorActor):
             return
         best = ps.best
         assert best is not None
-        if self._shown is None or best.actions != self._shown:
+        # What was shown, less the actions done since: the same tuple while the plan just
+        # moves on (Plan.later_actions), else compared.
+        actions = best.actions
+        if self._shown is None or (actions is not self._shown and actions != self._shown):
             self.trace.emit(
                 PlanSelected(agent=self.name, goal=str(entry.goal), plan=best.shown, cost=round(best.cost, 6))
             )
         action = best.steps[0].action
-        self._shown = best.actions[1:]
+        self._shown = best.later_actions
         result, asked = await self._act(action)
         if isinstance(result, Success) or (isinstance(result, Suspended) and asked):
             entry.failures.pop(action, None)
@@ -422,7 +429,7 @@ class Agent(ExecutorActor):
             plans.shorten_detours(final)
         if plans.best is not None:
             # Worked out now: showing the plan at resumption, and following it, are then free.
-            _ = plans.best.shown, plans.best.actions
+            _ = plans.best.shown, plans.best.later_actions
         entry.ready = _Ready(belief.key(), tuple(suspended), plans, cleared)
 
     def _clear_suspended(self, entry: GoalEntry, actions: list[Atom] | None = None) -> None:
@@ -675,7 +682,7 @@ class Agent(ExecutorActor):
             return True
         ps = self._planset(action)
         if ps.ensure(predicted) and ps.best is not None:
-            _ = ps.best.shown, ps.best.actions  # worked out now: free when the order comes
+            _ = ps.best.shown, ps.best.later_actions  # worked out now: free when the order comes
         if len(self._ready) >= 4:
             self._ready.pop(next(iter(self._ready)))
         self._ready[action] = (predicted.key(), ps)

@@ -67,6 +67,7 @@ class Plan:
     _cost: float | None = field(default=None, init=False, repr=False, compare=False)
     _actions: tuple[Atom, ...] | None = field(default=None, init=False, repr=False, compare=False)
     _shown: tuple[str, ...] | None = field(default=None, init=False, repr=False, compare=False)
+    _later: tuple[Atom, ...] | None = field(default=None, init=False, repr=False, compare=False)
 
     @property
     def cost(self) -> float:
@@ -84,12 +85,21 @@ class Plan:
         assert self._actions is not None
         return self._actions
 
+    @property
+    def later_actions(self) -> tuple[Atom, ...]:
+        """The actions after the first (worked out once, and the very actions of :meth:`rest`:
+        what is left to do is then known unchanged by identity)."""
+        if self._later is None:
+            object.__setattr__(self, "_later", self.actions[1:])
+        assert self._later is not None
+        return self._later
+
     def rest(self) -> Plan:
         """The plan without its first step (once that step is done), keeping what was
         worked out of it: its actions and text, sliced, are not walked again."""
         rest = Plan(self.steps[1:])
         if self._actions is not None:
-            object.__setattr__(rest, "_actions", self._actions[1:])
+            object.__setattr__(rest, "_actions", self.later_actions)
         if self._shown is not None:
             object.__setattr__(rest, "_shown", self._shown[1:])
         return rest

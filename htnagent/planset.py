@@ -274,9 +274,9 @@ class PlanSet:
         self._fresh_due = False
 
     def reconsider(self, state: State) -> None:
-        """At resumption, after a change from outside that may have opened a cheaper way,
-        make the best plan as good as one made afresh (on-line only: see
-        :meth:`OnlinePlanSet.reconsider`; naive plans afresh anyway)."""
+        """Before the goal acts again, after a change from outside that may have opened a
+        cheaper way, make the best plan as good as one made afresh (on-line only: see
+        :meth:`OnlinePlanSet.reconsider`)."""
 
     def confirm_achieved(self, state: State) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
@@ -807,8 +807,8 @@ class OnlinePlanSet(PlanSet):
         """The world changed from outside (§2.3): every plan that reads a changed fact is re-checked.
 
         A kept plan still valid may no longer be the cheapest when the change opened a
-        way (a door opened): the goal is then compared with a plan made afresh when it
-        resumes (:meth:`reconsider`), as naive would plan it then.
+        way (a door opened): the goal is then compared with a plan made afresh before its
+        next action, or when it resumes (:meth:`reconsider`), as naive would plan it then.
         """
         with self._timed():
             if self.domain.opens_ways(before, after):
@@ -957,10 +957,11 @@ class OnlinePlanSet(PlanSet):
             self._as_good_as_fresh(state, self._repairer)
 
     def reconsider(self, state: State) -> None:
-        """§2.4's rule at resumption: after a change from outside that may have opened a
-        cheaper way while the goal waited (a door opened), its best plan, still valid, is
-        compared with a plan made afresh (unless the estimate proves it optimal): naive
-        plans afresh there, and on-line never settles for a longer way than naive."""
+        """§2.4's rule after a change from outside that may have opened a cheaper way (a
+        door opened) while the goal waited on the stack, or while its action ran: its best
+        plan, still valid, is compared with a plan made afresh (unless the estimate proves
+        it optimal) before the goal acts again.  Naive plans afresh at resumption, and
+        when its plan breaks; on-line never settles for a longer way than naive."""
         if not self._fresh_due:
             return
         self._fresh_due = False

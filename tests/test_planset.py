@@ -549,3 +549,6 @@ def test_a_plan_moved_on_keeps_its_actions_and_text_without_walking_them_again()
     # Worked out on the whole plan, sliced for the rest: not walked step by step again.
     assert rest._actions == fresh.actions and rest._shown == fresh.shown
     assert rest.text() == fresh.text() and rest.cost == fresh.cost
+    # What is left once the first step is done is the very tuple the agent kept when it
+    # showed the plan: unchanged by identity, with no comparison of the two.
+    assert rest.actions is whole.later_actions == fresh.actions
