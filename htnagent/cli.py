@@ -515,7 +515,8 @@ class _RunSignals:
     the middle of the runtime or of printing the summary, and a second signal
     during shutdown changes nothing.  The handlers in place before are put back
     on exit if ``restore``.  Only the main thread can take signals over;
-    elsewhere this does nothing (and a run there is stopped by its caller).
+    elsewhere this does nothing (and a run there is stopped by its caller).  A
+    signal ignored when the run starts (``trap '' INT``) stays ignored.
     """
 
     SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -531,7 +532,8 @@ class _RunSignals:
     def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
             for sig in self.SIGNALS:
-                self._saved.append((sig, signal.signal(sig, self._note)))
+                if signal.getsignal(sig) is not signal.SIG_IGN:
+                    self._saved.append((sig, signal.signal(sig, self._note)))
         return self
 
     def __exit__(

@@ -12,6 +12,8 @@ traceback) however early or late it comes:
 - Once the command has returned, signals are ignored: at shutdown Python would
   put the default actions back, and a late SIGTERM would kill the process
   after its result was printed.
+- A signal the process was started ignoring (``trap '' INT``, the background
+  jobs of a non-interactive shell) stays ignored throughout, as Python leaves it.
 """
 
 import os
@@ -26,8 +28,9 @@ def _interrupted(signum: int, frame: object) -> None:
 
 def run() -> NoReturn:
     """Run the command line on ``sys.argv`` and exit with its code."""
-    signal.signal(signal.SIGINT, _interrupted)
-    signal.signal(signal.SIGTERM, _interrupted)
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        if signal.getsignal(sig) is not signal.SIG_IGN:
+            signal.signal(sig, _interrupted)
     from htnagent.cli import main  # after the handlers, on purpose
 
     try:

@@ -166,3 +166,25 @@ def test_a_second_signal_while_the_run_winds_down_is_ignored(second: signal.Sign
     assert proc.returncode == 130
     assert err == "htnagent: interrupted\n"
     assert json.loads((first + out).splitlines()[-1])["event"] == "summary"
+
+
+def test_a_signal_ignored_when_the_command_starts_stays_ignored() -> None:
+    # A background job of a non-interactive shell (or `trap '' INT`) starts with SIGINT
+    # ignored; plain Python keeps ignoring it, and so must the command: the run goes on.
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "htnagent", "run", MUSEUM, "--speed", "40"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_IGN),
+    )
+    deadline = time.monotonic() + 30
+    while not handlers_installed(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    for _ in range(3):  # before the run, as it starts, and during it
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert "interrupted" not in err and out.strip()  # the run went to its end
