@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import errno
 import functools
 import io
 import json
@@ -37,6 +38,7 @@ from rich.text import Text
 
 from htnagent.console import JsonLines, LiveTrace, print_summary, printable
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.events import TraceEvent
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
@@ -196,6 +198,30 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
         for stream in (sys.stdout, sys.stderr):
             if isinstance(stream, io.TextIOWrapper):
                 stream.reconfigure(errors="backslashreplace")
+        if sys.stdout is None:  # started with it closed: say so when output is written
+            sys.stdout = _ClosedOutput()
+        code = _main(argv, owns_process)
+        try:
+            sys.stdout.flush()  # what is still buffered: a full disk is said, not ignored
+        except OSError as e:
+            failed = _output_failed(e)
+            return failed if code == EXIT_OK else code
+        return code
+    return _main(argv, owns_process)
+
+
+def _output_failed(error: OSError) -> int:
+    if isinstance(error, BrokenPipeError):
+        # The reader of our output went away (| head): stop quietly.
+        devnull = os.open(os.devnull, os.O_WRONLY)
+        os.dup2(devnull, sys.stdout.fileno())
+        return EXIT_FAILED
+    if error.filename is not None:
+        return _fail(f"{error.filename}: {error.strerror or error}")
+    return _fail(f"cannot write the output: {error.strerror or error}")
+
+
+def _main(argv: Sequence[str] | None, owns_process: bool) -> int:
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
@@ -227,11 +253,8 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
         print(f"{PROG}: interrupted", file=sys.stderr)
         return EXIT_INTERRUPTED
-    except BrokenPipeError:
-        # The reader of our output went away (| head): stop quietly.
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        return EXIT_FAILED
+    except OSError as e:  # writing the output (files read or written are checked on the way)
+        return _output_failed(e)
 
 
 def _fail(message: str, code: int = EXIT_INVALID) -> int:
@@ -459,23 +482,24 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     if args.timeline is not None:
         check_plot_target(args.timeline, "--timeline")
     with _RunSignals(restore=restore_signals) as signals:
-        observers: list[Observer] = []
         console = Console(highlight=False)
         if args.json:
-            observers.append(JsonLines(sys.stdout))
+            printer = _Printer(JsonLines(sys.stdout))
         else:
             mode = args.replanning or scenario.replanning
             console.print(Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)"))
-            observers.append(LiveTrace(console, scenario.agent_names))
+            printer = _Printer(LiveTrace(console, scenario.agent_names))
         run = functools.partial(
             run_scenario,
             scenario,
             replanning=args.replanning,
             speed=args.speed,
-            observers=observers,
+            observers=[printer],
             keep_events=bool(args.plot or args.timeline),
         )
         report = anyio.run(_until_interrupted, run, signals)
+        if printer.error is not None:
+            raise printer.error  # the run went on without its trace: say so (main)
         if not args.json:
             print_summary(console, report.summary)
         if args.plot:
@@ -493,6 +517,29 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
+
+
+class _Printer:
+    """Prints the trace as the run goes; output that cannot be written (a full disk, a
+    reader gone) ends the printing, not the run, and is reported after it."""
+
+    def __init__(self, printer: Observer) -> None:
+        self.printer = printer
+        self.error: OSError | None = None
+
+    def __call__(self, event: TraceEvent) -> None:
+        if self.error is None:
+            try:
+                self.printer(event)
+            except OSError as e:
+                self.error = e
+
+
+class _ClosedOutput(io.TextIOBase):
+    """Standard output when the process was started without one (``>&-``)."""
+
+    def write(self, text: str) -> int:
+        raise OSError(errno.EBADF, "standard output is closed")
 
 
 def _save(what: str, file: str, draw: Callable[[], None], console: Console, quiet: bool) -> None:

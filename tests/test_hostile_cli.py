@@ -265,3 +265,40 @@ def test_report_refuses_a_scenario_the_trace_did_not_run(
     assert (
         main(["report", str(trace), "--html", str(page), "--scenario", str(SCENARIOS / "museum.yaml")]) == 0
     )
+
+
+@pytest.mark.skipif(not Path("/dev/full").exists(), reason="needs /dev/full")
+@pytest.mark.parametrize("output", ["full", "closed"])
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["run", "museum.yaml", "--json"],
+        ["run", "museum.yaml"],
+        ["check", "museum.yaml"],
+        ["plan", "--hddl", "courier_hddl_domain.hddl", "courier_hddl_problem.hddl", "--format", "ipc"],
+    ],
+)
+def test_output_that_cannot_be_written_is_an_error_not_a_success(args: list[str], output: str) -> None:
+    # A full disk, or no standard output at all: the trace or the answer is lost, and the
+    # command must say so -- not exit 0 (the trace printer's failure was swallowed as a
+    # broken observer's), and not with a traceback.
+    argv = [
+        sys.executable,
+        "-m",
+        "htnagent",
+        *[str(SCENARIOS / a) if a.endswith((".yaml", ".hddl")) else a for a in args],
+    ]
+    with open("/dev/full", "w") as full:
+        done = subprocess.run(
+            argv,
+            stdout=full if output == "full" else subprocess.DEVNULL,
+            stderr=subprocess.PIPE,
+            text=True,
+            timeout=120,
+            # >&-: the command starts with no standard output.
+            preexec_fn=None if output == "full" else lambda: os.close(1),
+        )
+    lines = done.stderr.splitlines()
+    assert done.returncode == 2 and len(lines) == 1, done.stderr
+    reason = "No space left on device" if output == "full" else "standard output is closed"
+    assert lines[0] == f"htnagent: error: cannot write the output: {reason}"
