@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import functools
 import itertools
+import math
 import time
 from collections import deque
 from collections.abc import Callable
@@ -45,6 +46,7 @@ from anyio.abc import TaskStatus
 from htnagent.actions import ROLLBACK, half_done, resumed
 from htnagent.clock import Clock, TimerHandle
 from htnagent.domain import Domain, State
+from htnagent.errors import SettingsError
 from htnagent.events import (
     ActionFinished,
     ActionStarted,
@@ -159,6 +161,21 @@ class AgentConfig:
     stack is deep.  Goals deeper than this let their plans go and are planned afresh
     if they come back to the top (as in naive replanning).  No real use nests so deep.
     """
+
+    def __post_init__(self) -> None:
+        timeout = self.action_timeout
+        if timeout is not None and not (
+            isinstance(timeout, int | float) and timeout > 0 and math.isfinite(timeout)
+        ):
+            raise SettingsError(
+                f"agent {self.name}: action_timeout must be a positive number of seconds, not {timeout!r}"
+            )
+        for name, least in (("max_failures", 1), ("max_depth", 1), ("maintained_depth", 0)):
+            value = getattr(self, name)
+            if not isinstance(value, int) or isinstance(value, bool) or value < least:
+                raise SettingsError(
+                    f"agent {self.name}: {name} must be a whole number of at least {least}, not {value!r}"
+                )
 
 
 class Agent(ExecutorActor):

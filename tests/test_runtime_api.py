@@ -96,6 +96,25 @@ def test_a_runtime_needs_an_agent() -> None:
         Runtime([], robot())
 
 
+@pytest.mark.parametrize(
+    ("setting", "value"),
+    [
+        ("action_timeout", 0),
+        ("action_timeout", -1.0),
+        ("action_timeout", float("nan")),
+        ("action_timeout", float("inf")),
+        ("max_failures", 0),
+        ("max_depth", 0),
+        ("maintained_depth", -1),
+        ("max_failures", 2.5),
+    ],
+)
+def test_an_agent_setting_out_of_range_is_refused_when_given(setting: str, value: float) -> None:
+    # An action timeout of 0 or NaN was taken, and every action then failed at once.
+    with pytest.raises(SettingsError, match=f"agent courier: {setting} must be"):
+        courier(**{setting: value})
+
+
 # -- determinism ------------------------------------------------------------------------------------
 
 
