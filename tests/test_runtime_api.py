@@ -112,7 +112,7 @@ def test_a_runtime_needs_an_agent() -> None:
 def test_an_agent_setting_out_of_range_is_refused_when_given(setting: str, value: float) -> None:
     # An action timeout of 0 or NaN was taken, and every action then failed at once.
     with pytest.raises(SettingsError, match=f"agent courier: {setting} must be"):
-        courier(**{setting: value})
+        courier("a", **{setting: value})
 
 
 # -- determinism ------------------------------------------------------------------------------------
