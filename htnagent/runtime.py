@@ -21,6 +21,7 @@ Works under asyncio and trio (anyio).
 from __future__ import annotations
 
 import itertools
+import logging
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -39,6 +40,8 @@ from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submi
 from htnagent.progress import ProgressListener
 from htnagent.terms import Atom
 from htnagent.trace import EventStream, Observer, Trace
+
+log = logging.getLogger("htnagent")
 
 ExecutorFactory = Callable[[Clock, Trace], ExecutorActor]
 
@@ -274,7 +277,13 @@ class Runtime:
             while len(self._ended) > self.keep_outcomes:
                 self.outcomes.pop(self._ended.popleft(), None)
         for callback in list(self._end_callbacks):
-            callback(outcome)
+            # One that raises is dropped, as a trace observer is: the agents go on.
+            try:
+                callback(outcome)
+            except Exception as exc:
+                log.warning("dropping goal-end callback %r: %r", callback, exc)
+                if callback in self._end_callbacks:
+                    self._end_callbacks.remove(callback)
 
     def fail_unfinished(self, reason: str) -> None:
         """End every goal that has not ended, as a failure (the run is over)."""
@@ -296,7 +305,10 @@ class Runtime:
         return remove
 
     def on_goal_end(self, callback: Callable[[GoalOutcome], None]) -> Callable[[], None]:
-        """Call ``callback`` with each goal's outcome as the goal ends; returns the remover."""
+        """Call ``callback`` with each goal's outcome as the goal ends; returns the remover.
+
+        A callback that raises is dropped (with a warning in the log); the runtime goes on.
+        """
         self._end_callbacks.append(callback)
         return lambda: self._end_callbacks.remove(callback) if callback in self._end_callbacks else None
 

@@ -207,3 +207,23 @@ async def test_what_the_runtime_refuses_is_an_htnagent_error() -> None:
         assert isinstance(error, HtnAgentError)
     assert isinstance(setting.value, ValueError) and isinstance(name.value, KeyError)
     assert str(name.value) == "no agent named 'boss'; agents: courier"
+
+
+@pytest.mark.parametrize("hook", ["subscribe", "on_progress", "on_goal_end"])
+async def test_a_callback_that_raises_is_dropped_and_the_runtime_goes_on(hook: str) -> None:
+    # A goal-end callback that raised tore the whole runtime down, where a trace observer
+    # or a progress listener that raises is dropped and the agents go on.
+    calls: list[object] = []
+
+    def broken(value: object) -> None:
+        calls.append(value)
+        raise ZeroDivisionError("the user's callback")
+
+    with anyio.fail_after(GUARD):
+        async with Runtime([courier()], robot()) as rt:
+            getattr(rt, hook)(broken)
+            first = await rt.achieve(COURIER, atom("goto(d)"))
+            second = await rt.achieve(COURIER, atom("goto(a)"))
+    assert first.status is second.status is GoalStatus.SUCCESS
+    # Dropped after it raised (a progress listener is each actor's: the courier's and the robot's).
+    assert len(calls) == (2 if hook == "on_progress" else 1)
