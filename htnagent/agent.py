@@ -496,6 +496,12 @@ class Agent(ExecutorActor):
                     if self._prepare_resumption(action):
                         await anyio.lowlevel.checkpoint()  # the child agent gets ready meanwhile
             result = await self._await_result(running)
+            if isinstance(result, Suspended) and not self.domain.can_suspend(action):
+                # The executor stopped half way an action the domain says cannot be: the
+                # belief cannot follow, and nothing will resume it.  It failed.
+                self.order(self.executor, Clear(action=ordered))
+                reason = f"the executor stopped {action} half way, which cannot be suspended"
+                result = Failure(action=action, seq=seq, reason=reason)
         finally:
             if running.timer is not None:
                 running.timer.cancel()

@@ -12,6 +12,7 @@ httpx transport) and the runtime wraps it in an :class:`AdapterActor`.
 
 from __future__ import annotations
 
+import asyncio
 from abc import ABC, abstractmethod
 from enum import Enum
 from types import TracebackType
@@ -92,6 +93,23 @@ class Executor(ABC):
         await self.aclose()
 
 
+def stray_cancellation(exc: BaseException) -> bool:
+    """Whether ``exc`` is a ``CancelledError`` that no cancellation of this task sent.
+
+    Under asyncio any code may raise one (a user's executor, say); taken for a
+    cancellation it would end the task that serves the executor quietly, and nothing
+    would answer the orders waiting for it.  A real cancellation is under way when the
+    task is being cancelled (``Task.cancelling``), and must go on up, never swallowed.
+    """
+    if not isinstance(exc, asyncio.CancelledError):
+        return False
+    try:
+        task = asyncio.current_task()
+    except RuntimeError:  # not under asyncio (trio): asyncio's CancelledError cancels nothing
+        return True
+    return task is not None and task.cancelling() == 0
+
+
 class ExecutorActor(ABC):
     """An executor that speaks the message protocol directly.
 
@@ -162,12 +180,17 @@ class AdapterActor(ExecutorActor):
                     self._running[order.seq] = order.action
                     tg.start_soon(self._carry_out, order)
                 elif isinstance(order, Suspend):
-                    await self._suspend(order)
+                    # In a task of its own: a user's suspend that never returns must not keep
+                    # the orders after it waiting (nor time from passing: an action timeout
+                    # then ends the action).
+                    tg.start_soon(self._suspend, order)
                 elif isinstance(order, Clear):
                     try:
                         await self.executor.clear(order.action)
-                    except Exception as exc:  # a faulty executor must not stop the runtime
-                        self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc}"))
+                    except BaseException as exc:  # a faulty executor must not stop the runtime
+                        if not isinstance(exc, Exception) and not stray_cancellation(exc):
+                            raise
+                        self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc!r}"))
 
     async def _suspend(self, order: Suspend) -> None:
         try:
@@ -176,8 +199,10 @@ class AdapterActor(ExecutorActor):
             if ok:
                 await self.executor.suspend(order.action)
                 return  # the running execute answers Suspended
-        except Exception as exc:
-            self.trace.emit(ExecutorError(agent=self.name, error=f"suspend: {exc}"))
+        except BaseException as exc:
+            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+                raise
+            self.trace.emit(ExecutorError(agent=self.name, error=f"suspend: {exc!r}"))
         self.reply(Refused(action=order.action, seq=order.seq))
 
     async def _carry_out(self, order: Execute | Resume) -> None:
@@ -187,7 +212,9 @@ class AdapterActor(ExecutorActor):
                 outcome = await self.executor.resume(order.action)
             else:
                 outcome = await self.executor.execute(order.action)
-        except Exception as exc:
+        except BaseException as exc:
+            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+                raise  # a cancellation (the runtime closing), KeyboardInterrupt, SystemExit
             self.reply(Failure(action=order.action, seq=order.seq, reason=f"executor raised {exc!r}"))
             return
         finally:

@@ -35,7 +35,7 @@ from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError, SettingsError, UnknownNameError
 from htnagent.events import AgentCrashed
-from htnagent.executor import AdapterActor, Executor, ExecutorActor
+from htnagent.executor import AdapterActor, Executor, ExecutorActor, stray_cancellation
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
 from htnagent.progress import ProgressListener
 from htnagent.terms import Atom
@@ -200,7 +200,9 @@ class Runtime:
         started = _Started(task_status)
         try:
             await actor.run(task_status=started)
-        except Exception as exc:  # a crashed actor becomes failures, never a hang
+        except BaseException as exc:  # a crashed actor becomes failures, never a hang
+            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+                raise  # a cancellation (the runtime closing), KeyboardInterrupt, SystemExit
             if not started.done:
                 raise  # it never served: the runtime cannot start (tg.start raises it)
             reason = f"{actor.name} crashed: {exc!r}"
