@@ -30,6 +30,7 @@ once defined here are still importable from here.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TypeVar
@@ -127,8 +128,10 @@ class Operator:
                     )
         if self.undo is not None and self.undo.variables() - self.head.variables():
             raise DomainError(f"operator {self.head}: undo {self.undo} uses unbound variables")
-        if isinstance(self.cost, int | float) and self.cost < 0:
-            raise DomainError(f"operator {self.head}: negative cost {self.cost}")
+        if isinstance(self.cost, int | float) and not (0 <= self.cost < math.inf):
+            raise DomainError(
+                f"operator {self.head}: cost {self.cost}: a cost is a finite number, not negative"
+            )
 
     @property
     def name(self) -> str:
@@ -139,8 +142,10 @@ class Operator:
         """The cost of the ground action."""
         c = self.cost
         value = float(c(action)) if callable(c) else float(c)
-        if value < 0:
-            raise DomainError(f"operator {self.head}: negative cost {value} for {action}")
+        if not 0 <= value < math.inf:  # NaN too: plans could no longer be put in cost order
+            raise DomainError(
+                f"operator {self.head}: cost {value} for {action}: a cost is a finite number, not negative"
+            )
         return value
 
     def applicable(self, state: State, bindings: Bindings) -> Bindings | None:

@@ -231,17 +231,22 @@ def test_undo_with_unbound_variable_is_rejected() -> None:
         Domain("d").operator("move(?f,?t)", pre=["via(?v)"], undo="move(?t,?v)")
 
 
-def test_negative_cost_is_rejected() -> None:
-    with pytest.raises(DomainError, match="negative cost"):
-        Domain("d").operator("wait", cost=-1)
+@pytest.mark.parametrize("cost", [-1, float("nan"), float("inf")])
+def test_a_cost_that_is_negative_or_not_a_number_is_rejected(cost: float) -> None:
+    with pytest.raises(DomainError, match=f"cost {cost}: a cost is a finite number, not negative"):
+        Domain("d").operator("wait", cost=cost)
 
 
-def test_cost_function_giving_a_negative_cost_is_rejected_when_costed() -> None:
+@pytest.mark.parametrize("given", ["3", "nan", "inf"])
+def test_cost_function_giving_a_negative_cost_or_not_a_number_is_rejected_when_costed(given: str) -> None:
+    # A NaN cost was taken, and plans were then no longer in cost order (NaN compares
+    # false with everything): the first plan found was not the cheapest.
     d = Domain("d")
     d.operator("pay(?x)", cost=lambda action: -float(str(action.args[0])))
     assert d.actions.cost(parse("pay(-2)")) == 2.0
-    with pytest.raises(DomainError, match=r"negative cost -3.0 for pay\(3\)"):
-        d.actions.cost(parse("pay(3)"))
+    value = -float(given)
+    with pytest.raises(DomainError, match=rf"cost {value} for pay\({given}\): a cost is a finite number"):
+        d.actions.cost(parse(f"pay({given})"))
 
 
 def test_method_subtask_with_unbound_variable_is_rejected() -> None:
