@@ -40,6 +40,9 @@ TaskEntry = tuple[Atom, Decomposition | None]
 _INF = float("inf")
 
 _MIN_EXTRA = 500
+
+_MAX_TASK_LIST = 10_000
+"""How long a node's task list may grow (at least four times the tasks given): see ``_search``."""
 """Expansions the alternatives may always take, however quickly the first plan came."""
 
 
@@ -338,6 +341,12 @@ def _search(
         return 0.0
 
     root_tasks = tuple(t for t, _ in entries)
+    # A method that puts its own task back in front of more (t -> t t) grows the task list
+    # by one at each expansion, and each node copies its list: a search that would take
+    # time and memory growing as the square of the budget.  Lists longer than this are
+    # not followed (the search then ends as out of budget, not as unsolvable).
+    max_tasks = max(_MAX_TASK_LIST, 4 * len(root_tasks))
+    cut = False
     root = _new(
         _Node,
         (
@@ -498,6 +507,9 @@ def _search(
                 if first_way is None:
                     continue
                 child_tasks = first_way + rest_t
+                if len(child_tasks) > max_tasks:
+                    cut = True
+                    continue
                 h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
                 if h == _INF:
                     continue
@@ -523,6 +535,9 @@ def _search(
             for subtasks in listed:
                 rec = _new(_Pending, (task, method_name, record))
                 child_tasks = subtasks + rest_t
+                if len(child_tasks) > max_tasks:
+                    cut = True
+                    continue
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
                     continue
@@ -536,7 +551,7 @@ def _search(
     found.sort(key=lambda p: p.cost)
     if found:
         status = PlanStatus.SOLVED
-    elif heap:
+    elif heap or cut:
         status = PlanStatus.BUDGET_EXHAUSTED
     else:
         status = PlanStatus.UNSOLVABLE

@@ -91,3 +91,15 @@ def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
         assert not gc.isenabled()  # a caller's own choice is left as it was
     finally:
         gc.enable()
+
+
+def test_a_method_that_grows_its_own_task_list_ends_as_out_of_budget() -> None:
+    # t -> t t puts one more task in the list at each expansion, and each node copies its
+    # list: with the default budget the search took memory without end (18 GB in two
+    # minutes).  Lists beyond a bound are not followed: out of budget, not unsolvable.
+    d = Domain("grow")
+    d.operator("flip(?x)", add=["on(?x)"], cost=0.0)
+    d.method("t(?x)", "again", when=[], do=["t(?x)", "t(?x)"])
+    result = plan(d, d.initial_state(), [parse("t(a)")], PlannerSettings(alternatives=1))
+    assert result.status is PlanStatus.BUDGET_EXHAUSTED
+    assert result.expansions < 20_000
