@@ -247,11 +247,14 @@ class Agent(ExecutorActor):
 
     def _start_next(self) -> bool:
         """Make the next goal the running one; False when there is none."""
-        if self.emergencies:
+        top = self.stack[-1] if self.stack and not self.stack[-1].held else None
+        if self.emergencies and (top is None or self.emergencies[-1].arrival > top.arrival):
             # Algorithm 3: the latest emergency first (two in one instant: the later one).
+            # One that came before the goal on top of the stack waits under it, as it
+            # would have had that goal not been suspended (by a still later emergency).
             self._begin(self.emergencies.pop())
             return True
-        if self.stack and not self.stack[-1].held:
+        if top is not None:
             # Algorithm 3: nothing is left above the suspended goal: pop and resume it.
             self._resume(self.stack.pop())
             return True
@@ -321,6 +324,11 @@ class Agent(ExecutorActor):
         ):
             # Algorithm 3: an emergency that arrived after this goal suspends it (one that
             # arrived with it, in the same instant, waits until it has ended).
+            if not ps.plans and ps.ensure(self.belief) and _achieved(ps):
+                # Its plans were lost while the last action ran (a door shut on the robot's
+                # arc), but that action achieved it (§2.8): it ended, it is not suspended.
+                self._end(entry, GoalStatus.SUCCESS)
+                return
             self._suspend_current(entry)
             return
         # §2.4: a way opened from outside since its plan was made (a door, while the action
@@ -337,6 +345,12 @@ class Agent(ExecutorActor):
             return
         best = ps.best
         assert best is not None
+        if best.steps and best.steps[0].record is None and ps.shorten_detours(self.belief):
+            # §2.1 put the undo of the action just done in front of a plan made (repaired)
+            # while it ran: from where the action ended, the goal's own way may be shorter
+            # than walking back (§2.4: no worse than naive, which plans afresh here).
+            best = ps.best
+            assert best is not None
         # What was shown, less the actions done since: the same tuple while the plan just
         # moves on (Plan.later_actions), else compared.
         actions = best.actions
