@@ -110,6 +110,16 @@ def stray_cancellation(exc: BaseException) -> bool:
     return task is not None and task.cancelling() == 0
 
 
+def must_propagate(exc: BaseException) -> bool:
+    """Whether ``exc``, raised by code the runtime calls (a user's executor), must go on up:
+    a real cancellation, an interrupt, an exit.  Anything else is that code's failure."""
+    if isinstance(exc, KeyboardInterrupt | SystemExit | BaseExceptionGroup):
+        return True
+    if isinstance(exc, anyio.get_cancelled_exc_class() | asyncio.CancelledError):
+        return not stray_cancellation(exc)
+    return False
+
+
 class ExecutorActor(ABC):
     """An executor that speaks the message protocol directly.
 
@@ -188,7 +198,7 @@ class AdapterActor(ExecutorActor):
                     try:
                         await self.executor.clear(order.action)
                     except BaseException as exc:  # a faulty executor must not stop the runtime
-                        if not isinstance(exc, Exception) and not stray_cancellation(exc):
+                        if must_propagate(exc):
                             raise
                         self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc!r}"))
 
@@ -200,7 +210,7 @@ class AdapterActor(ExecutorActor):
                 await self.executor.suspend(order.action)
                 return  # the running execute answers Suspended
         except BaseException as exc:
-            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+            if must_propagate(exc):
                 raise
             self.trace.emit(ExecutorError(agent=self.name, error=f"suspend: {exc!r}"))
         self.reply(Refused(action=order.action, seq=order.seq))
@@ -213,7 +223,7 @@ class AdapterActor(ExecutorActor):
             else:
                 outcome = await self.executor.execute(order.action)
         except BaseException as exc:
-            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+            if must_propagate(exc):
                 raise  # a cancellation (the runtime closing), KeyboardInterrupt, SystemExit
             self.reply(Failure(action=order.action, seq=order.seq, reason=f"executor raised {exc!r}"))
             return

@@ -35,7 +35,7 @@ from htnagent.agent import Agent, AgentConfig, GoalStatus
 from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError, SettingsError, UnknownNameError
 from htnagent.events import AgentCrashed
-from htnagent.executor import AdapterActor, Executor, ExecutorActor, stray_cancellation
+from htnagent.executor import AdapterActor, Executor, ExecutorActor, must_propagate
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
 from htnagent.progress import ProgressListener
 from htnagent.terms import Atom
@@ -201,7 +201,7 @@ class Runtime:
         try:
             await actor.run(task_status=started)
         except BaseException as exc:  # a crashed actor becomes failures, never a hang
-            if not isinstance(exc, Exception) and not stray_cancellation(exc):
+            if must_propagate(exc):
                 raise  # a cancellation (the runtime closing), KeyboardInterrupt, SystemExit
             if not started.done:
                 raise  # it never served: the runtime cannot start (tg.start raises it)

@@ -126,3 +126,21 @@ def test_a_cancelled_error_raised_by_the_executor_is_a_failed_action(backend: st
                 return (await rt.achieve("agent", parse("reach(c)"))).reason
 
     assert "executor raised CancelledError()" in anyio.run(main, backend=backend)
+
+
+class _Odd(BaseException):
+    """A user's own BaseException subclass."""
+
+
+@pytest.mark.parametrize("raised", [_Odd("odd"), GeneratorExit()])
+async def test_an_executor_raising_another_base_exception_fails_the_action(raised: BaseException) -> None:
+    # It tore the whole runtime down (an exception group out of `async with`).
+    class Raising(Executor):
+        async def execute(self, action: Atom) -> ActionOutcome:
+            raise raised
+
+    with anyio.fail_after(GUARD):
+        async with Runtime([corridor(False)], Raising()) as rt:
+            outcome = await rt.achieve("agent", parse("reach(c)"))
+    assert outcome.status is GoalStatus.FAILURE
+    assert "executor raised" in outcome.reason
