@@ -47,7 +47,7 @@ from htnagent.hddl_domain import actions_of, ipc_plan, solve, translate
 from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.plan import Plan
-from htnagent.planner import PlanStatus, Search, plan
+from htnagent.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.plot import check_plot_target, draw_run
 from htnagent.report import check_report_target, write_report
 from htnagent.scenario import Scenario, load_scenario
@@ -575,6 +575,7 @@ class _RunSignals:
 
     def _note(self, signum: int, frame: FrameType | None) -> None:
         self.received += 1
+        stop_searches()  # a search under way ends now: the run then sees the signal
 
     def __enter__(self) -> Self:
         if threading.current_thread() is threading.main_thread():
@@ -586,6 +587,7 @@ class _RunSignals:
     def __exit__(
         self, kind: type[BaseException] | None, error: BaseException | None, tb: TracebackType | None
     ) -> None:
+        stop_searches(False)
         if self._restore:
             for sig, handler in reversed(self._saved):
                 signal.signal(sig, handler)  # type: ignore[arg-type]  # as getsignal gave it

@@ -57,6 +57,26 @@ class PlanStatus(Enum):
     """The expansion budget ran out before any plan was found."""
     TIMED_OUT = "timed_out"
     """The time limit (:attr:`PlannerSettings.time_limit`) ran out before any plan was found."""
+    INTERRUPTED = "interrupted"
+    """The process was asked to stop (:func:`stop_searches`) before any plan was found."""
+
+
+class _StopRequest:
+    requested = False
+
+
+_STOP = _StopRequest()
+
+
+def stop_searches(requested: bool = True) -> None:
+    """Make every search under way end at its next look at the clock, and every search
+    started until this is called with ``False``, as :attr:`PlanStatus.INTERRUPTED`.
+
+    For a process asked to stop (the command line's Ctrl-C and SIGTERM): a search is
+    synchronous code, and a long one would otherwise keep the event loop — and the
+    process — from seeing the request until it returned.
+    """
+    _STOP.requested = requested
 
 
 class Search(Enum):
@@ -398,12 +418,13 @@ def _search(
     expansions = 0
     limit = settings.budget
     timed_out = False
+    stop = _STOP
     # The clock is read every 256 nodes taken off the open list -- not expansions: a long
     # run of nodes already expanded (or of lazy ways) expands nothing.
     ticks = 0
     while heap and len(found) < k:
         ticks += 1
-        if deadline is not None and not ticks & 255 and time.perf_counter() > deadline:
+        if not ticks & 255 and (stop.requested or (deadline is not None and time.perf_counter() > deadline)):
             limit = expansions  # out of time: end as when the budget runs out
             timed_out = True
         if expansions >= limit:
@@ -411,6 +432,8 @@ def _search(
                 break  # the alternatives' share of the search is spent
             found.sort(key=lambda p: p.cost)
             out_of = PlanStatus.TIMED_OUT if timed_out else PlanStatus.BUDGET_EXHAUSTED
+            if timed_out and stop.requested:
+                out_of = PlanStatus.INTERRUPTED
             status = PlanStatus.SOLVED if found else out_of
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
         popped_entry = heappop(heap)

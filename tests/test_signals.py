@@ -188,3 +188,68 @@ def test_a_signal_ignored_when_the_command_starts_stays_ignored() -> None:
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert "interrupted" not in err and out.strip()  # the run went to its end
+
+
+GROWING_DOMAIN = """(define (domain g5)
+  (:requirements :typing :hierarchy :negative-preconditions :method-preconditions)
+  (:types thing - object)
+  (:predicates (on ?x - thing) (won))
+  (:task loop :parameters (?x - thing))
+  (:action flip :parameters (?x - thing) :precondition (not (on ?x)) :effect (on ?x))
+  (:action unflip :parameters (?x - thing) :precondition (on ?x) :effect (not (on ?x)))
+  (:method m-base :parameters (?x - thing) :task (loop ?x) :precondition (won) :ordered-subtasks ())
+  (:method m-loop :parameters (?x - thing) :task (loop ?x)
+    :ordered-subtasks (and (loop ?x) (flip ?x) (unflip ?x) (loop ?x))))
+"""
+GROWING_PROBLEM = """(define (problem gp) (:domain g5)
+  (:objects b - thing) (:htn :ordered-subtasks (and (loop b))) (:init))
+"""
+
+
+def test_a_signal_during_a_long_search_ends_the_run_at_once(tmp_path: Path) -> None:
+    # The planner is synchronous: the run used to see the signal only once the search
+    # returned (seconds; for ever on a domain growing without end).  Now the search ends
+    # at its next look at the clock, as interrupted.
+    (tmp_path / "d.hddl").write_text(GROWING_DOMAIN)
+    (tmp_path / "p.hddl").write_text(GROWING_PROBLEM)
+    (tmp_path / "s.yaml").write_text(
+        "name: a long search\nrobot: {}\n"
+        "agents:\n  - {name: a, domain: {hddl: d.hddl, problem: p.hddl}, executor: robot}\n"
+        "goals:\n  - {agent: a, task: loop(b)}\n"
+    )
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "htnagent", "run", str(tmp_path / "s.yaml"), "--json"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    deadline = time.monotonic() + 30
+    while not handlers_installed(proc.pid) and time.monotonic() < deadline:
+        time.sleep(0.01)
+    time.sleep(1.0)  # well into the search (it takes seconds)
+    sent = time.monotonic()
+    proc.send_signal(signal.SIGTERM)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 130 and err == "htnagent: interrupted\n", err
+    assert time.monotonic() - sent < 1.5
+    summary = json.loads(out.splitlines()[-1])
+    assert summary["goals"][0]["reason"] == "no plan for loop(b) (interrupted)"
+
+
+def test_a_search_asked_to_stop_ends_as_interrupted_and_the_next_runs_again() -> None:
+    from htnagent.domain import Domain
+    from htnagent.planner import PlannerSettings, PlanStatus, plan, stop_searches
+    from htnagent.terms import parse
+
+    d = Domain("grow")
+    d.operator("flip(?x)", add=["on(?x)"], cost=0.0)
+    d.method("t(?x)", "again", when=[], do=["t(?x)", "t(?x)"])
+    settings = PlannerSettings(alternatives=1, budget=5_000)
+    stop_searches()
+    try:
+        stopped = plan(d, d.initial_state(), [parse("t(a)")], settings)
+    finally:
+        stop_searches(False)
+    assert stopped.status is PlanStatus.INTERRUPTED and stopped.expansions < 256
+    assert plan(d, d.initial_state(), [parse("t(a)")], settings).status is PlanStatus.BUDGET_EXHAUSTED
