@@ -9,14 +9,12 @@ trace, is what triggers read, so the trace's wording can change freely.
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
+from htnagent.listeners import Listeners
 from htnagent.terms import Atom
-
-log = logging.getLogger("htnagent")
 
 
 class Phase(Enum):
@@ -47,23 +45,8 @@ class Progress:
 ProgressListener = Callable[[Progress], None]
 
 
-class ProgressListeners:
+class ProgressListeners(Listeners[Progress]):
     """The listeners of one runtime's actors; a listener must not block."""
 
     def __init__(self) -> None:
-        self._listeners: list[ProgressListener] = []
-
-    def add(self, listener: ProgressListener) -> Callable[[], None]:
-        """Call ``listener`` with every report; returns a function that removes it."""
-        self._listeners.append(listener)
-        return lambda: self._listeners.remove(listener) if listener in self._listeners else None
-
-    def report(self, progress: Progress) -> None:
-        """Tell every listener (one that raises is dropped, the actors go on)."""
-        for listener in list(self._listeners):
-            try:
-                listener(progress)
-            except Exception as exc:
-                log.warning("dropping progress listener %r: %r", listener, exc)
-                if listener in self._listeners:
-                    self._listeners.remove(listener)
+        super().__init__("progress listener")

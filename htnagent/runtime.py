@@ -21,7 +21,6 @@ Works under asyncio and trio (anyio).
 from __future__ import annotations
 
 import itertools
-import logging
 from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -36,12 +35,11 @@ from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError, SettingsError, UnknownNameError
 from htnagent.events import AgentCrashed
 from htnagent.executor import AdapterActor, Executor, ExecutorActor, must_propagate
+from htnagent.listeners import Listeners
 from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
 from htnagent.progress import ProgressListener
 from htnagent.terms import Atom
 from htnagent.trace import EventStream, Observer, Trace
-
-log = logging.getLogger("htnagent")
 
 ExecutorFactory = Callable[[Clock, Trace], ExecutorActor]
 
@@ -135,7 +133,7 @@ class Runtime:
         self._tg: TaskGroup | None = None
         self._state = "new"
         self._streams: list[EventStream] = []
-        self._end_callbacks: list[Callable[[GoalOutcome], None]] = []
+        self._end_callbacks: Listeners[GoalOutcome] = Listeners("goal-end callback")
 
     # -- lifetime -------------------------------------------------------------------
 
@@ -278,14 +276,7 @@ class Runtime:
         if self.keep_outcomes is not None:
             while len(self._ended) > self.keep_outcomes:
                 self.outcomes.pop(self._ended.popleft(), None)
-        for callback in list(self._end_callbacks):
-            # One that raises is dropped, as a trace observer is: the agents go on.
-            try:
-                callback(outcome)
-            except Exception as exc:
-                log.warning("dropping goal-end callback %r: %r", callback, exc)
-                if callback in self._end_callbacks:
-                    self._end_callbacks.remove(callback)
+        self._end_callbacks.report(outcome)
 
     def fail_unfinished(self, reason: str) -> None:
         """End every goal that has not ended, as a failure (the run is over)."""
@@ -311,8 +302,7 @@ class Runtime:
 
         A callback that raises is dropped (with a warning in the log); the runtime goes on.
         """
-        self._end_callbacks.append(callback)
-        return lambda: self._end_callbacks.remove(callback) if callback in self._end_callbacks else None
+        return self._end_callbacks.add(callback)
 
     def subscribe(self, observer: Observer) -> Callable[[], None]:
         """Call ``observer`` with every trace event; returns the unsubscribe function."""
