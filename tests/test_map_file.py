@@ -98,12 +98,6 @@ def test_names_written_as_numbers_are_their_text() -> None:
             "expected one of ends, length",
         ),
         (small(arcs={"arc1": {"ends": ["n1", "n2"], "length": 0}}), "map.arcs.arc1.length", "greater than 0"),
-        (
-            # The same length 0, by two nodes at one place: it was taken.
-            small(nodes={**SMALL["nodes"], "n2": {"area": "a1", "x": 0, "y": 0}}),
-            "map.arcs.arc1",
-            "n1 and n2 are at the same place: give the arc its length",
-        ),
     ],
 )
 def test_map_errors_name_the_key_path_and_the_reason(data: object, where: str, reason: str) -> None:

@@ -186,16 +186,7 @@ def _world(spec: MapFile, file: str, pre: str) -> WorldMap:
             raise ScenarioError(
                 file, f"{pre}arcs.{name}", f"an arc must join two different nodes, not {a} to itself"
             )
-        if length is None:
-            length = hypot(na.x - nb.x, na.y - nb.y)
-            if not length > 0:  # as a length written 0 is refused
-                raise ScenarioError(
-                    file,
-                    f"{pre}arcs.{name}",
-                    f"{a} and {b} are at the same place: give the arc its length "
-                    f"({{ends: [{a}, {b}], length: L}})",
-                )
-        arcs[name] = Arc(name, a, b, length)
+        arcs[name] = Arc(name, a, b, length if length is not None else hypot(na.x - nb.x, na.y - nb.y))
     return WorldMap(tuple(areas), nodes, arcs, grid)
 
 
