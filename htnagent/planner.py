@@ -42,7 +42,8 @@ _INF = float("inf")
 _MIN_EXTRA = 500
 
 _MAX_TASK_LIST = 10_000
-"""How long a node's task list may grow (at least four times the tasks given): see ``_search``."""
+"""How long a node's task list may grow (at least four times the tasks given, or what they
+decompose into at once): see ``_search``."""
 """Expansions the alternatives may always take, however quickly the first plan came."""
 
 
@@ -364,8 +365,12 @@ def _search(
     # A method that puts its own task back in front of more (t -> t t) grows the task list
     # by one at each expansion, and each node copies its list: a search that would take
     # time and memory growing as the square of the budget.  Lists longer than this are
-    # not followed (the search then ends as out of budget, not as unsolvable).
+    # not followed (the search then ends as out of budget, not as unsolvable).  What the
+    # tasks given decompose into at once is given too (HDDL's initial network is one task).
     max_tasks = max(_MAX_TASK_LIST, 4 * len(root_tasks))
+    # The clock is read every 256 nodes; with task lists of thousands, each node costs as
+    # much as its list is long, and it is read at every node.
+    every = 255 if max_tasks == _MAX_TASK_LIST else 0
     cut = False
     root = _new(
         _Node,
@@ -424,7 +429,9 @@ def _search(
     ticks = 0
     while heap and len(found) < k:
         ticks += 1
-        if not ticks & 255 and (stop.requested or (deadline is not None and time.perf_counter() > deadline)):
+        if not ticks & every and (
+            stop.requested or (deadline is not None and time.perf_counter() > deadline)
+        ):
             limit = expansions  # out of time: end as when the budget runs out
             timed_out = True
         if expansions >= limit:
@@ -531,8 +538,11 @@ def _search(
                     continue
                 child_tasks = first_way + rest_t
                 if len(child_tasks) > max_tasks:
-                    cut = True
-                    continue
+                    if node is not root:
+                        cut = True
+                        continue
+                    max_tasks = 4 * len(child_tasks)  # the network given, as a task (HDDL's root)
+                    every = 0
                 h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
                 if h == _INF:
                     continue
@@ -559,8 +569,11 @@ def _search(
                 rec = _new(_Pending, (task, method_name, record))
                 child_tasks = subtasks + rest_t
                 if len(child_tasks) > max_tasks:
-                    cut = True
-                    continue
+                    if node is not root:
+                        cut = True
+                        continue
+                    max_tasks = 4 * len(child_tasks)  # the network given, as a task (HDDL's root)
+                    every = 0
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
                     continue

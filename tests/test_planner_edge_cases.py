@@ -5,6 +5,9 @@ from __future__ import annotations
 import gc
 import math
 
+import pytest
+
+from htnagent import planner
 from htnagent.domain import Domain, State
 from htnagent.planner import PlannerSettings, PlanStatus, plan
 from htnagent.terms import Atom, parse
@@ -93,13 +96,27 @@ def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
         gc.enable()
 
 
-def test_a_method_that_grows_its_own_task_list_ends_as_out_of_budget() -> None:
+def test_a_method_that_grows_its_own_task_list_ends_as_out_of_budget(monkeypatch: pytest.MonkeyPatch) -> None:
     # t -> t t puts one more task in the list at each expansion, and each node copies its
     # list: with the default budget the search took memory without end (18 GB in two
     # minutes).  Lists beyond a bound are not followed: out of budget, not unsolvable.
+    monkeypatch.setattr(planner, "_MAX_TASK_LIST", 200)  # 10,000 by default: the same, slower
     d = Domain("grow")
     d.operator("flip(?x)", add=["on(?x)"], cost=0.0)
     d.method("t(?x)", "again", when=[], do=["t(?x)", "t(?x)"])
     result = plan(d, d.initial_state(), [parse("t(a)")], PlannerSettings(alternatives=1))
     assert result.status is PlanStatus.BUDGET_EXHAUSTED
-    assert result.expansions < 20_000
+    assert result.expansions <= 200
+
+
+def test_a_network_given_as_one_task_may_be_as_long_as_it_decomposes_into(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # HDDL's initial network is one task decomposing into the whole network: a list longer
+    # than the bound on growth is what was given, not growth, and is planned.
+    monkeypatch.setattr(planner, "_MAX_TASK_LIST", 200)
+    d = Domain("many")
+    d.operator("tick(?x)", cost=1.0)
+    d.method("all(?x)", "each", when=[], do=["tick(?x)"] * 300)
+    result = plan(d, d.initial_state(), [parse("all(a)")], PlannerSettings(alternatives=1))
+    assert result.status is PlanStatus.SOLVED and len(result.plans[0].steps) == 300
