@@ -223,7 +223,7 @@ class Agent(ExecutorActor):
         self._hint: Atom | None = None
         self._ready: dict[Atom, tuple[tuple[object, ...], PlanSet]] = {}
         self._shown: tuple[Atom, ...] | None = None
-        self._undo_of_done: Atom | None = None  # the undo of the running goal's last action done
+        self._done: Atom | None = None  # the running goal's last action, when it succeeded
 
     # -- the loop ------------------------------------------------------------------------
 
@@ -272,7 +272,7 @@ class Agent(ExecutorActor):
         self.current = entry
         entry.plans.lazy = False  # the running goal's plans are repaired at once
         self._shown = None
-        self._undo_of_done = None
+        self._done = None
 
     def _take_order(self, order: Execute | Resume | Clear) -> bool:
         """Algorithm 5: the parent's orders while this agent is its executor."""
@@ -347,8 +347,13 @@ class Agent(ExecutorActor):
             return
         best = ps.best
         assert best is not None
-        undo = self._undo_of_done
-        if undo is not None and best.steps[0].action == undo and ps.shorten_detours(self.belief):
+        first = best.steps[0]
+        if (
+            self._done is not None
+            and first.record is None  # a step plan upkeep put in front
+            and first.action == self.domain.actions.undo_of(self._done)
+            and ps.shorten_detours(self.belief)
+        ):
             # §2.1 put the undo of the action just done in front of a plan made (repaired)
             # while it ran: from where the action ended, the goal's own way may be shorter
             # than walking back (§2.4: no worse than naive, which plans afresh here).
@@ -364,11 +369,9 @@ class Agent(ExecutorActor):
         action = best.steps[0].action
         self._shown = best.later_actions
         result, asked = await self._act(action)
-        self._undo_of_done = None
+        self._done = action if isinstance(result, Success) and self.current is entry else None
         if isinstance(result, Success) or (isinstance(result, Suspended) and asked):
             entry.failures.pop(action, None)
-            if isinstance(result, Success) and self.current is entry:
-                self._undo_of_done = self.domain.actions.undo_of(action)
             return
         # A failure, or an executor that stopped the action without being asked (its
         # belief follows, but the action did not get done): count it, so that an

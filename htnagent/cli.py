@@ -398,8 +398,10 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
             why = f"timeout (no plan within {args.timeout:g} s)"
         elif result.status is PlanStatus.BUDGET_EXHAUSTED:
             why = f"budget (no plan within {solved.settings.budget:,} expansions)"
-        else:
+        elif result.status is PlanStatus.UNSOLVABLE:
             why = "unsolvable (the whole search space holds no plan)"
+        else:
+            why = result.status.value
         print(f"{PROG}: no plan: {why}", file=sys.stderr)
         return EXIT_FAILED
     spelling = spellings(domain.source.text, problem.source.text)

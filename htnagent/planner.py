@@ -40,11 +40,11 @@ TaskEntry = tuple[Atom, Decomposition | None]
 _INF = float("inf")
 
 _MIN_EXTRA = 500
+"""Expansions the alternatives may always take, however quickly the first plan came."""
 
 _MAX_TASK_LIST = 10_000
 """How long a node's task list may grow (at least four times the tasks given, or what they
 decompose into at once): see ``_search``."""
-"""Expansions the alternatives may always take, however quickly the first plan came."""
 
 
 class PlanStatus(Enum):
@@ -372,6 +372,17 @@ def _search(
     # much as its list is long, and it is read at every node.
     every = 255 if max_tasks == _MAX_TASK_LIST else 0
     cut = False
+
+    def too_long(tasks: int, parent: _Node) -> bool:
+        """A child's list of ``tasks`` is past the bound: growth, not followed — unless its
+        parent is the root, whose decomposition is the network given (the bound follows it)."""
+        nonlocal max_tasks, every, cut
+        if parent is not root:
+            cut = True
+            return True
+        max_tasks, every = 4 * tasks, 0
+        return False
+
     root = _new(
         _Node,
         (
@@ -537,12 +548,8 @@ def _search(
                 if first_way is None:
                     continue
                 child_tasks = first_way + rest_t
-                if len(child_tasks) > max_tasks:
-                    if node is not root:
-                        cut = True
-                        continue
-                    max_tasks = 4 * len(child_tasks)  # the network given, as a task (HDDL's root)
-                    every = 0
+                if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
+                    continue
                 h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
                 if h == _INF:
                     continue
@@ -568,12 +575,8 @@ def _search(
             for subtasks in listed:
                 rec = _new(_Pending, (task, method_name, record))
                 child_tasks = subtasks + rest_t
-                if len(child_tasks) > max_tasks:
-                    if node is not root:
-                        cut = True
-                        continue
-                    max_tasks = 4 * len(child_tasks)  # the network given, as a task (HDDL's root)
-                    every = 0
+                if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
+                    continue
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
                     continue
