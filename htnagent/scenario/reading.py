@@ -302,6 +302,10 @@ def load_yaml_text(text: str, file: str) -> Any:
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
         where = f"line {mark.line + 1}, column {mark.column + 1}" if mark is not None else ""
+        if e.problem is not None and "maximum nesting depth" in e.problem:
+            # libyaml (PyYAML >= 6.0.3) refuses flow nesting past 1,000 levels in its own
+            # words before our builder sees level MAX_YAML_DEPTH; the refusal is the same.
+            raise ScenarioError(file, where, f"nested more than {MAX_YAML_DEPTH} levels deep") from None
         reason = e.problem or e.context or "invalid YAML"
         if e.context and e.context_mark is not None and e.problem:
             reason += f" ({e.context} at line {e.context_mark.line + 1})"
