@@ -27,11 +27,11 @@ import time
 from pathlib import Path
 from typing import Any
 
-from htnagent.domain import Domain
 from htnagent.domains import nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.planner import PlannerSettings, PlanResult, plan
-from htnagent.terms import Atom
+from htnagent.domains.maps import WorldMap, generate_map
+from htnagent.model.domain import Domain
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, PlanResult, plan
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

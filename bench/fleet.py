@@ -3,8 +3,8 @@
 Each robot is the museum scenario of ``scenarios/museum.yaml`` — a guide over a
 navigator over a simulated robot, n40 → n1 with an emergency to n28 half way
 along arc59 (here at t = 2.06 s, when the robot is there) — in its own
-:class:`~htnagent.runtime.Runtime`.  All the runtimes share one
-:class:`~htnagent.clock.Clock` (one time keeper, no polling per robot) and one
+:class:`~htnagent.system.runtime.Runtime`.  All the runtimes share one
+:class:`~htnagent.runtime.clock.Clock` (one time keeper, no polling per robot) and one
 event loop; the domains (built once from the map) are shared too.  For 10, 100
 and 1,000 robots it measures the wall time until every goal has ended, the
 cost per robot, the messages per second and the memory per agent (resident set
@@ -30,13 +30,13 @@ from anyio.abc import TaskStatus
 
 from bench.machine import machine_line
 from htnagent.agent import AgentConfig, GoalStatus
-from htnagent.clock import Clock
-from htnagent.events import MessageSent, TraceEvent
 from htnagent.executors.robot import Robot, RobotWorld
-from htnagent.runtime import Runtime
+from htnagent.model.terms import parse
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.events import MessageSent, TraceEvent
+from htnagent.runtime.trace import Trace
 from htnagent.scenario import load_scenario
-from htnagent.terms import parse
-from htnagent.trace import Trace
+from htnagent.system.runtime import Runtime
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = Path(__file__).resolve().parent / "results"

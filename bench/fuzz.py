@@ -19,7 +19,7 @@ Two paths, reported apart in ``bench/results/fuzz.json``:
 - ``subprocess``: ``python -m htnagent ...`` in a real process per command,
   with a 5 s timeout and ``RLIMIT_AS`` of 1 GB -- the user's path exactly.
   Every tenth input goes this way, and every input that uses a special file.
-- ``in_process``: the other inputs, through :func:`htnagent.cli.main` inside
+- ``in_process``: the other inputs, through :func:`htnagent.cli.commands.main` inside
   long-lived worker processes (also limited to 1 GB, a 5 s alarm per command,
   restarted after a timeout or a memory error).  This is about fifty times
   cheaper than a new interpreter per command, which is what makes 10,000
@@ -100,7 +100,7 @@ SPECIAL_VALUES = [
 
 DOMAINS = [
     "os:system", "venv.__main__:x", "code:interact", "sys:exit", "this:x", "antigravity:x", "subprocess:run",
-    "builtins:exec", "__main__:x", "htnagent.__main__:main", "htnagent.cli:main", "pip:main",
+    "builtins:exec", "__main__:x", "htnagent.__main__:main", "htnagent.cli.commands:main", "pip:main",
     "htnagent.domains:BUILTIN", "htnagent.domains.museum:nodes_domain",
     "htnagent.domains.guide_talk:talk_domain", "sneaky:make", "local_mod:make", "local_mod:unmarked",
     "local_mod:boom", "x" * 300 + ":y", "a.b.c:d.e.f",
@@ -497,7 +497,7 @@ def run_process(argv: list[str], cwd: Path, env: dict[str, str]) -> Result:
 
 
 class _Worker:
-    """A long-lived process running :func:`htnagent.cli.main` on the commands it is sent."""
+    """A long-lived process running :func:`htnagent.cli.commands.main` on the commands it is sent."""
 
     def __init__(self) -> None:
         jobs_r, self._jobs_w = os.pipe()
@@ -564,7 +564,7 @@ class _Timeout(BaseException):
 
 
 def _worker(jobs_fd: int, results_fd: int) -> None:
-    from htnagent.cli import main
+    from htnagent.cli.commands import main
 
     jobs = os.fdopen(jobs_fd, "r")
     results = os.fdopen(results_fd, "w", buffering=1)
@@ -746,7 +746,7 @@ def run_cases(
         "how": (
             f"each input through check and run --json (and plan --task for nested tasks); "
             f"'subprocess': python -m htnagent in a new process per command (every {subprocess_every}th "
-            "input and every special file); 'in_process': htnagent.cli.main in long-lived worker "
+            "input and every special file); 'in_process': htnagent.cli.commands.main in long-lived worker "
             "processes; both with a 5 s timeout and RLIMIT_AS of 1 GB"
         ),
         "limits": {"timeout_s": TIMEOUT_S, "memory_bytes": MEMORY_BYTES, "seed": seed},

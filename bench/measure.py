@@ -25,11 +25,11 @@ import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from htnagent.events import GoalFinished, GoalResumed, MessageSent, TraceEvent
-from htnagent.runtime import Runtime
+from htnagent.runtime.events import GoalFinished, GoalResumed, MessageSent, TraceEvent
+from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.simulation import run_scenario
-from htnagent.trace import Observer
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 
 _ORDERS = ("execute", "resume")
 
@@ -63,7 +63,7 @@ async def measure_run(
 ) -> RunFigures:
     """Run the scenario once in ``mode`` and return its figures.
 
-    ``observers`` and ``on_start`` are handed to :func:`~htnagent.simulation.run_scenario`
+    ``observers`` and ``on_start`` are handed to :func:`~htnagent.system.simulation.run_scenario`
     (the IPC interruption benchmark counts actions and compares beliefs with the world).
     """
     figures = RunFigures()

@@ -15,12 +15,12 @@ import statistics
 import time
 from pathlib import Path
 
-from htnagent.domain import Domain, State
 from htnagent.domains import nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.planner import PlannerSettings
+from htnagent.domains.maps import WorldMap, generate_map
+from htnagent.model.domain import Domain, State
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings
 from htnagent.planset import PlanSet
-from htnagent.terms import Atom
 
 RESULTS = Path(__file__).resolve().parent / "results"
 

@@ -26,11 +26,11 @@ from typing import Any
 import anyio
 
 from bench.machine import machine_line
-from htnagent.events import RobotActing, RobotMoving, TraceEvent
-from htnagent.runtime import Runtime
+from htnagent.model.terms import parse
+from htnagent.runtime.events import RobotActing, RobotMoving, TraceEvent
 from htnagent.scenario import Scenario, parse_scenario
-from htnagent.simulation import run_scenario
-from htnagent.terms import parse
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = Path(__file__).resolve().parent / "results"

@@ -26,11 +26,11 @@ from typing import Any
 
 import anyio
 
-from htnagent.domain import Estimate, State
-from htnagent.events import ActionFinished, TraceEvent
+from htnagent.model.domain import Estimate, State
+from htnagent.model.terms import Atom
+from htnagent.runtime.events import ActionFinished, TraceEvent
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import build_runtime, run_scenario
-from htnagent.terms import Atom
+from htnagent.system.simulation import build_runtime, run_scenario
 from htnagent.testing.invariants import RunChecker
 from htnagent.testing.storms import nested_storm_data, storm_data
 

@@ -10,7 +10,7 @@
   against the same run in one process: the summary's goals, visited nodes
   and distance, and the wall time;
 - a fleet (``--robots 1,4,8``): this process runs one guide per robot
-  (:func:`htnagent.fleet.run_fleet`), N ``serve`` processes each run one
+  (:func:`htnagent.system.fleet.run_fleet`), N ``serve`` processes each run one
   navigator and its simulated robot, every robot the museum scenario (its goal,
   its emergency) in a scenario file of its own (its endpoint, its namespace):
   the wall time until every goal ended, per robot, orders and messages a second
@@ -37,10 +37,10 @@ from typing import Any
 import anyio
 
 from bench.machine import machine_line
-from htnagent.messages import Execute, Success
+from htnagent.model.terms import parse
 from htnagent.remote.codec import decode, encode
 from htnagent.remote.link import Keys, Link
-from htnagent.terms import parse
+from htnagent.runtime.messages import Execute, Success
 
 RESULTS = Path(__file__).resolve().parent / "results"
 REPO = Path(__file__).resolve().parents[1]
@@ -181,7 +181,7 @@ async def _notice(endpoint: str, how: signal.Signals) -> float:
 
 def _museum() -> dict[str, Any]:
     from htnagent.scenario import load_scenario
-    from htnagent.simulation import run_scenario
+    from htnagent.system.simulation import run_scenario
 
     scenarios = REPO / "scenarios"
     one = load_scenario(scenarios / "museum.yaml")
@@ -260,11 +260,11 @@ def _serve(path: Path, port: int) -> subprocess.Popen[str]:
 
 def _fleet(robots: int) -> dict[str, Any]:
     """One guide per robot here, ``robots`` serving processes: the fleet's figures."""
-    from htnagent.events import MessageSent, PeerJoined, TraceEvent
-    from htnagent.fleet import run_fleet
+    from htnagent.runtime.events import MessageSent, PeerJoined, TraceEvent
+    from htnagent.runtime.trace import Observer
     from htnagent.scenario import load_scenario
-    from htnagent.simulation import run_scenario
-    from htnagent.trace import Observer
+    from htnagent.system.fleet import run_fleet
+    from htnagent.system.simulation import run_scenario
 
     alone = anyio.run(run_scenario, load_scenario(REPO / "scenarios" / "museum.yaml")).summary
     counts = {"orders": 0, "messages": 0}

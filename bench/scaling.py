@@ -1,7 +1,7 @@
 """How the advantage scales: generated museums from 8 to 1,120 areas (``python -m bench scaling``).
 
 Each generated museum is a grid of areas, each a 3×3 grid of jittered nodes
-(see :func:`htnagent.maps.generate_map`).  The robot starts in the first
+(see :func:`htnagent.domains.maps.generate_map`).  The robot starts in the first
 corner with the goal in the opposite corner; one second in, while it is on its
 first arc, an emergency sends it elsewhere; then
 the first goal is resumed.  Two variants: the emergency node is in the start
@@ -25,7 +25,7 @@ from typing import Any
 import anyio
 
 from bench.measure import RunFigures, measure_run
-from htnagent.maps import generate_map, map_to_yaml_data
+from htnagent.domains.maps import generate_map, map_to_yaml_data
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 
 RESULTS = Path(__file__).resolve().parent / "results"

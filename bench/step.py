@@ -27,9 +27,9 @@ import networkx as nx
 from bench.astar_estimate import PAIRS, node_near
 from bench.machine import machine_line
 from htnagent.domains import nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.planner import PlannerSettings, plan
-from htnagent.terms import Atom
+from htnagent.domains.maps import WorldMap, generate_map
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, plan
 
 RESULTS = Path(__file__).resolve().parent / "results"
 MAPS = [(4, 4, 8, 1), (9, 9, 8, 1), (12, 12, 9, 1)]

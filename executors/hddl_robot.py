@@ -33,17 +33,27 @@ from dataclasses import dataclass
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.actions import resume_action, rollback_action, rolled_back
-from htnagent.clock import Clock, TimerHandle
-from htnagent.domain import Domain
-from htnagent.events import RobotActing
-from htnagent.executor import ExecutorActor
-from htnagent.messages import Clear, Elapsed, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
-from htnagent.preconditions import satisfiers
-from htnagent.progress import Phase, Progress
-from htnagent.state import State
-from htnagent.terms import Atom, substitute, unify
-from htnagent.trace import Trace
+from htnagent.model.actions import resume_action, rollback_action, rolled_back
+from htnagent.model.domain import Domain
+from htnagent.model.preconditions import satisfiers
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, substitute, unify
+from htnagent.runtime.clock import Clock, TimerHandle
+from htnagent.runtime.events import RobotActing
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import (
+    Clear,
+    Elapsed,
+    Execute,
+    Failure,
+    Refused,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.runtime.progress import Phase, Progress
+from htnagent.runtime.trace import Trace
 
 HIDDEN = "__"
 """The prefix of the translation's own predicates and actions (not facts of the HDDL world)."""

@@ -17,7 +17,7 @@ rollback as ``rollback(...)``), for a move the ``arc`` it travels, ``duration``
 before this part started) and ``resumed`` (this part finishes a suspended
 action). Any of them can be suspended half way — a fresh move or action, a
 resumed rest, a rollback — and the robot stops where it is. It reports the same
-motions to its :attr:`~htnagent.executor.ExecutorActor.progress` listeners
+motions to its :attr:`~htnagent.runtime.executor.ExecutorActor.progress` listeners
 (what triggers follow).
 """
 
@@ -31,15 +31,25 @@ from dataclasses import dataclass, field
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.actions import rolled_back
-from htnagent.clock import Clock, TimerHandle
-from htnagent.events import RobotActing, RobotMoving
-from htnagent.executor import ExecutorActor
-from htnagent.maps import WorldMap
-from htnagent.messages import Clear, Elapsed, Execute, Failure, Refused, Resume, Success, Suspend, Suspended
-from htnagent.progress import Phase, Progress
-from htnagent.terms import Atom
-from htnagent.trace import Trace
+from htnagent.domains.maps import WorldMap
+from htnagent.model.actions import rolled_back
+from htnagent.model.terms import Atom
+from htnagent.runtime.clock import Clock, TimerHandle
+from htnagent.runtime.events import RobotActing, RobotMoving
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import (
+    Clear,
+    Elapsed,
+    Execute,
+    Failure,
+    Refused,
+    Resume,
+    Success,
+    Suspend,
+    Suspended,
+)
+from htnagent.runtime.progress import Phase, Progress
+from htnagent.runtime.trace import Trace
 
 
 @dataclass

@@ -13,10 +13,11 @@ from collections.abc import Iterable
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.clock import Clock, TimerHandle
-from htnagent.events import RobotMoving
-from htnagent.executor import ExecutorActor
-from htnagent.messages import (
+from htnagent.model.terms import Atom, atom
+from htnagent.runtime.clock import Clock, TimerHandle
+from htnagent.runtime.events import RobotMoving
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import (
     Clear,
     Elapsed,
     Execute,
@@ -28,9 +29,8 @@ from htnagent.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.progress import Phase, Progress
-from htnagent.terms import Atom, atom
-from htnagent.trace import Trace
+from htnagent.runtime.progress import Phase, Progress
+from htnagent.runtime.trace import Trace
 
 
 class ScriptedExecutor(ExecutorActor):

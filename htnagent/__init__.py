@@ -1,61 +1,28 @@
 """htnagent: on-line HTN planning agents that handle emergency goals.
 
-The planner and plan maintenance are pure synchronous code (:mod:`htnagent.planner`,
-:mod:`htnagent.planset`); the runtime of agents on anyio sits on top
-(:mod:`htnagent.runtime`, :mod:`htnagent.agent`).
+The package in layers, lowest first (docs/layout.md): ``model`` (terms, beliefs, domains,
+plans), ``planning`` (the planner), ``upkeep`` (plans kept valid as the agent acts),
+``runtime`` (messages, clock, trace, executors' interface), ``agent`` (Algorithms 2–5),
+``system`` (agents in one task group; running a scenario), ``views`` and ``cli``.
 
-The names below are imported on first use: ``import htnagent`` itself costs
+The public names below are imported on first use: ``import htnagent`` itself costs
 nothing, so the command line can install its signal handlers before anything
-heavy is loaded (see :mod:`htnagent.launch`).
+heavy is loaded (see :mod:`htnagent.cli.launch`).
 """
 
 from __future__ import annotations
 
 import importlib
 import logging
-import sys
-import types
 from typing import TYPE_CHECKING, Any
 
 logging.getLogger("htnagent").addHandler(logging.NullHandler())
 
-
-class _Package(types.ModuleType):
-    """This package: ``htnagent.plan`` is the planning function, loaded on first use.
-
-    ``htnagent.plan`` is also a module (plans as values), and importing a submodule binds
-    its name in the package: that binding is ignored, the function stays.
-    """
-
-    @property
-    def plan(self) -> Any:
-        chosen = self.__dict__.get("_plan")
-        if chosen is not None:
-            return chosen
-        from htnagent.planner import plan
-
-        return plan
-
-    @plan.setter
-    def plan(self, value: Any) -> None:
-        if not isinstance(value, types.ModuleType):  # a submodule's binding is not taken
-            self.__dict__["_plan"] = value
-
-    @plan.deleter
-    def plan(self) -> None:
-        self.__dict__.pop("_plan", None)
-
-
-sys.modules[__name__].__class__ = _Package
-
-_WHERE = {
+# Every public name and the module it comes from: the one list (``__all__`` is made from it).
+_EXPORTS: dict[str, str] = {
     "Agent": "agent",
     "AgentConfig": "agent",
     "GoalStatus": "agent",
-    "Domain": "domain",
-    "Effect": "domain",
-    "State": "state",
-    "Suspension": "domain",
     "DomainError": "errors",
     "HddlError": "errors",
     "HtnAgentError": "errors",
@@ -68,115 +35,175 @@ _WHERE = {
     "TextFormError": "errors",
     "TraceFormatError": "errors",
     "UnknownNameError": "errors",
-    "EVENT_KINDS": "events",
-    "event_from_dict": "events",
-    "Summary": "events",
-    "TraceEvent": "events",
-    "Executor": "executor",
-    "ExecutorActor": "executor",
-    "ActionOutcome": "executor",
-    "Plan": "plan",
-    "Step": "plan",
-    "PlannerSettings": "planner",
-    "PlanResult": "planner",
-    "PlanStatus": "planner",
+    "Domain": "model.domain",
+    "Effect": "model.domain",
+    "Suspension": "model.domain",
+    "Plan": "model.plans",
+    "Step": "model.plans",
+    "State": "model.state",
+    "Atom": "model.terms",
+    "parse": "model.terms",
+    "plan": "planning.planner",
+    "PlannerSettings": "planning.planner",
+    "PlanResult": "planning.planner",
+    "PlanStatus": "planning.planner",
     "PlanSet": "planset",
     "Replanning": "planset",
-    "GoalOutcome": "runtime",
-    "Runtime": "runtime",
-    "Scenario": "scenario",
+    "event_from_dict": "runtime.events",
+    "EVENT_KINDS": "runtime.events",
+    "Summary": "runtime.events",
+    "TraceEvent": "runtime.events",
+    "ActionOutcome": "runtime.executor",
+    "Executor": "runtime.executor",
+    "ExecutorActor": "runtime.executor",
+    "EventStream": "runtime.trace",
     "load_scenario": "scenario",
-    "RunReport": "simulation",
-    "run_scenario": "simulation",
-    "Atom": "terms",
-    "parse": "terms",
-    "EventStream": "trace",
+    "Scenario": "scenario",
+    "GoalOutcome": "system.runtime",
+    "Runtime": "system.runtime",
+    "run_scenario": "system.simulation",
+    "RunReport": "system.simulation",
 }
 
-__all__ = [
-    "EVENT_KINDS",
-    "ActionOutcome",
-    "Agent",
-    "AgentConfig",
-    "Atom",
-    "Domain",
-    "DomainError",
-    "Effect",
-    "EventStream",
-    "Executor",
-    "ExecutorActor",
-    "GoalOutcome",
-    "GoalStatus",
-    "HddlError",
-    "HtnAgentError",
-    "Plan",
-    "PlanResult",
-    "PlanSet",
-    "PlanStatus",
-    "PlannerSettings",
-    "PlanningError",
-    "PlotError",
-    "RemoteError",
-    "Replanning",
-    "RunReport",
-    "Runtime",
-    "RuntimeClosedError",
-    "Scenario",
-    "ScenarioError",
-    "SettingsError",
-    "State",
-    "Step",
-    "Summary",
-    "Suspension",
-    "TextFormError",
-    "TraceEvent",
-    "TraceFormatError",
-    "UnknownNameError",
-    "event_from_dict",
-    "load_scenario",
-    "parse",
-    "plan",
-    "run_scenario",
-]
+if TYPE_CHECKING:
+    # The same names for the type checker, re-exported (tests/test_public_api.py keeps the two equal).
+    from htnagent.agent import (
+        Agent as Agent,
+    )
+    from htnagent.agent import (
+        AgentConfig as AgentConfig,
+    )
+    from htnagent.agent import (
+        GoalStatus as GoalStatus,
+    )
+    from htnagent.errors import (
+        DomainError as DomainError,
+    )
+    from htnagent.errors import (
+        HddlError as HddlError,
+    )
+    from htnagent.errors import (
+        HtnAgentError as HtnAgentError,
+    )
+    from htnagent.errors import (
+        PlanningError as PlanningError,
+    )
+    from htnagent.errors import (
+        PlotError as PlotError,
+    )
+    from htnagent.errors import (
+        RemoteError as RemoteError,
+    )
+    from htnagent.errors import (
+        RuntimeClosedError as RuntimeClosedError,
+    )
+    from htnagent.errors import (
+        ScenarioError as ScenarioError,
+    )
+    from htnagent.errors import (
+        SettingsError as SettingsError,
+    )
+    from htnagent.errors import (
+        TextFormError as TextFormError,
+    )
+    from htnagent.errors import (
+        TraceFormatError as TraceFormatError,
+    )
+    from htnagent.errors import (
+        UnknownNameError as UnknownNameError,
+    )
+    from htnagent.model.domain import (
+        Domain as Domain,
+    )
+    from htnagent.model.domain import (
+        Effect as Effect,
+    )
+    from htnagent.model.domain import (
+        Suspension as Suspension,
+    )
+    from htnagent.model.plans import (
+        Plan as Plan,
+    )
+    from htnagent.model.plans import (
+        Step as Step,
+    )
+    from htnagent.model.state import (
+        State as State,
+    )
+    from htnagent.model.terms import (
+        Atom as Atom,
+    )
+    from htnagent.model.terms import (
+        parse as parse,
+    )
+    from htnagent.planning.planner import (
+        PlannerSettings as PlannerSettings,
+    )
+    from htnagent.planning.planner import (
+        PlanResult as PlanResult,
+    )
+    from htnagent.planning.planner import (
+        PlanStatus as PlanStatus,
+    )
+    from htnagent.planning.planner import (
+        plan as plan,
+    )
+    from htnagent.planset import (
+        PlanSet as PlanSet,
+    )
+    from htnagent.planset import (
+        Replanning as Replanning,
+    )
+    from htnagent.runtime.events import (
+        EVENT_KINDS as EVENT_KINDS,
+    )
+    from htnagent.runtime.events import (
+        Summary as Summary,
+    )
+    from htnagent.runtime.events import (
+        TraceEvent as TraceEvent,
+    )
+    from htnagent.runtime.events import (
+        event_from_dict as event_from_dict,
+    )
+    from htnagent.runtime.executor import (
+        ActionOutcome as ActionOutcome,
+    )
+    from htnagent.runtime.executor import (
+        Executor as Executor,
+    )
+    from htnagent.runtime.executor import (
+        ExecutorActor as ExecutorActor,
+    )
+    from htnagent.runtime.trace import (
+        EventStream as EventStream,
+    )
+    from htnagent.scenario import (
+        Scenario as Scenario,
+    )
+    from htnagent.scenario import (
+        load_scenario as load_scenario,
+    )
+    from htnagent.system.runtime import (
+        GoalOutcome as GoalOutcome,
+    )
+    from htnagent.system.runtime import (
+        Runtime as Runtime,
+    )
+    from htnagent.system.simulation import (
+        RunReport as RunReport,
+    )
+    from htnagent.system.simulation import (
+        run_scenario as run_scenario,
+    )
+
+__all__ = sorted(_EXPORTS)
 
 
 def __getattr__(name: str) -> Any:
-    module = _WHERE.get(name)
+    module = _EXPORTS.get(name)
     if module is None:
         raise AttributeError(f"module 'htnagent' has no attribute {name!r}")
     value = getattr(importlib.import_module(f"htnagent.{module}"), name)
     globals()[name] = value
     return value
-
-
-def __dir__() -> list[str]:
-    return sorted([*globals(), *_WHERE])
-
-
-if TYPE_CHECKING:
-    from htnagent.agent import Agent, AgentConfig, GoalStatus
-    from htnagent.domain import Domain, Effect, Suspension
-    from htnagent.errors import (
-        DomainError,
-        HddlError,
-        HtnAgentError,
-        PlanningError,
-        PlotError,
-        RuntimeClosedError,
-        ScenarioError,
-        SettingsError,
-        TextFormError,
-        TraceFormatError,
-        UnknownNameError,
-    )
-    from htnagent.events import EVENT_KINDS, Summary, TraceEvent, event_from_dict
-    from htnagent.executor import ActionOutcome, Executor, ExecutorActor
-    from htnagent.plan import Plan, Step
-    from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
-    from htnagent.planset import PlanSet, Replanning
-    from htnagent.runtime import GoalOutcome, Runtime
-    from htnagent.scenario import Scenario, load_scenario
-    from htnagent.simulation import RunReport, run_scenario
-    from htnagent.state import State
-    from htnagent.terms import Atom, parse
-    from htnagent.trace import EventStream

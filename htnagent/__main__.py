@@ -1,5 +1,5 @@
-"""``python -m htnagent``: the command line (see :mod:`htnagent.launch` and :mod:`htnagent.cli`)."""
+"""``python -m htnagent``: the command line (:mod:`htnagent.cli`)."""
 
-from htnagent.launch import run
+from htnagent.cli.launch import run
 
 run()

@@ -43,11 +43,15 @@ import anyio
 import anyio.lowlevel
 from anyio.abc import TaskStatus
 
-from htnagent.actions import ROLLBACK, half_done, resumed
-from htnagent.clock import Clock, TimerHandle
-from htnagent.domain import Domain, State
 from htnagent.errors import SettingsError
-from htnagent.events import (
+from htnagent.model.actions import ROLLBACK, half_done, resumed
+from htnagent.model.domain import Domain, State
+from htnagent.model.plans import replay
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings
+from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
+from htnagent.runtime.clock import Clock, TimerHandle
+from htnagent.runtime.events import (
     ActionFinished,
     ActionStarted,
     GoalCleared,
@@ -58,8 +62,8 @@ from htnagent.events import (
     PlanSelected,
     SuspendRefused,
 )
-from htnagent.executor import ExecutorActor
-from htnagent.messages import (
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import (
     BeliefUpdate,
     Clear,
     Execute,
@@ -75,12 +79,8 @@ from htnagent.messages import (
     Suspended,
     Timeout,
 )
-from htnagent.plan import replay
-from htnagent.planner import PlannerSettings
-from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
-from htnagent.progress import Phase, Progress
-from htnagent.terms import Atom
-from htnagent.trace import Trace
+from htnagent.runtime.progress import Phase, Progress
+from htnagent.runtime.trace import Trace
 
 OutcomeCallback = Callable[[int, "GoalStatus", str], None]
 
@@ -674,7 +674,7 @@ class Agent(ExecutorActor):
         """Update the goal that resumes after the action for its predicted success, and
         make it ready (its plans re-checked, repaired, shortened) — so that resuming
         costs nothing when the prediction comes true.  A child agent is told the first
-        order of the resumed plan (:class:`~htnagent.messages.Prepare`); returns whether
+        order of the resumed plan (:class:`~htnagent.runtime.messages.Prepare`); returns whether
         it was."""
         if not self._will_resume_after(action):
             return False

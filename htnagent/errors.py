@@ -20,7 +20,7 @@ Messages quote what they refuse with :func:`shown`, never with a bare ``repr``:
 a hostile file can hold values whose ``repr`` is huge, slow or refused outright
 (an integer of 5,000 digits), and one line on stderr must stay one short line.
 
-Planning that finds no plan is a result (:class:`htnagent.planner.PlanStatus`),
+Planning that finds no plan is a result (:class:`htnagent.planning.planner.PlanStatus`),
 not an exception; exceptions are for misuse and invalid input.  Faults while
 agents run (an executor that raises, hangs or crashes) become failed actions and
 ``agent_crashed`` trace events, not exceptions.

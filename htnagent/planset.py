@@ -48,11 +48,13 @@ from dataclasses import dataclass, replace
 from enum import Enum
 from typing import ClassVar, NamedTuple
 
-from htnagent.actions import RESUME, half_done, resume_action
-from htnagent.domain import Domain
 from htnagent.errors import SettingsError
-from htnagent.plan import Done, Plan, Step, replay, span, tidy
-from htnagent.planner import (
+from htnagent.model.actions import RESUME, half_done, resume_action
+from htnagent.model.domain import Domain
+from htnagent.model.plans import Done, Plan, Step, replay, span, tidy
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import (
     PlannerSettings,
     PlanResult,
     PlanStatus,
@@ -63,8 +65,6 @@ from htnagent.planner import (
 )
 from htnagent.repair import LOCAL_BUDGET, Repairer, SearchMemo, one_plan
 from htnagent.revival import Revival
-from htnagent.state import State
-from htnagent.terms import Atom
 
 
 class Replanning(Enum):

@@ -19,12 +19,12 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 from typing import TYPE_CHECKING
 
-from htnagent.actions import resumed
-from htnagent.domain import Domain
-from htnagent.plan import Decomposition, Done, Plan, span, tidy
-from htnagent.planner import PlannerSettings, PlanStatus, TaskEntry, plan
-from htnagent.state import State
-from htnagent.terms import Atom
+from htnagent.model.actions import resumed
+from htnagent.model.domain import Domain
+from htnagent.model.plans import Decomposition, Done, Plan, span, tidy
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, PlanStatus, TaskEntry, plan
 
 if TYPE_CHECKING:
     from htnagent.planset import PlanningStats

@@ -12,11 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from htnagent.domain import Domain
-from htnagent.plan import Plan
-from htnagent.preconditions import satisfiers
-from htnagent.state import State
-from htnagent.terms import Atom, substitute
+from htnagent.model.domain import Domain
+from htnagent.model.plans import Plan
+from htnagent.model.preconditions import satisfiers
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, substitute
 
 
 @dataclass(slots=True)

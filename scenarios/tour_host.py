@@ -8,10 +8,10 @@ the host nest down the whole chain: host → guide → navigator → robot.
 
 from __future__ import annotations
 
-from htnagent.domain import Domain, Effect, Suspension
 from htnagent.domains import domain_factory
-from htnagent.maps import WorldMap
-from htnagent.terms import Atom
+from htnagent.domains.maps import WorldMap
+from htnagent.model.domain import Domain, Effect, Suspension
+from htnagent.model.terms import Atom
 
 
 @domain_factory(argument_kinds={"visit": ("node",), "goto": ("node",)})

@@ -14,9 +14,9 @@ import pytest
 import yaml
 from hypothesis import settings
 
-from htnagent.domain import Domain, State
+from htnagent.domains.maps import WorldMap
 from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.maps import WorldMap
+from htnagent.model.domain import Domain, State
 from htnagent.scenario import parse_map
 
 settings.register_profile("ci", derandomize=True, database=None)

@@ -2,7 +2,7 @@
 and the shipped scenarios' runs.
 
 Tests compare events as the dicts users script against; the library hands out typed
-events (:mod:`htnagent.events`).
+events (:mod:`htnagent.runtime.events`).
 """
 
 from __future__ import annotations
@@ -15,9 +15,9 @@ from typing import Any
 
 import anyio
 
-from htnagent.events import TraceEvent
+from htnagent.runtime.events import TraceEvent
 from htnagent.scenario import Scenario, load_scenario
-from htnagent.simulation import RunReport, run_scenario
+from htnagent.system.simulation import RunReport, run_scenario
 
 Event = dict[str, Any]
 """A trace event's JSON object."""

@@ -1,6 +1,6 @@
 """The agent runtime as short stories (docs/design.md §4, published Algorithms 2–4).
 
-Each story builds a :class:`~htnagent.runtime.Runtime` with one agent, the
+Each story builds a :class:`~htnagent.system.runtime.Runtime` with one agent, the
 courier, over a :class:`~executors.scripted.ScriptedExecutor` (the robot), gives
 it goals at set simulated times and reads the trace back.  The courier's world::
 
@@ -26,16 +26,16 @@ import anyio
 import pytest
 
 from htnagent.agent import AgentConfig, GoalStatus
-from htnagent.clock import Clock
-from htnagent.domain import Domain, Effect, Suspension
-from htnagent.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
-from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
-from htnagent.messages import Clear, Execute, Resume, Suspend
+from htnagent.model.domain import Domain, Effect, Suspension
+from htnagent.model.terms import Atom, atom
 from htnagent.planset import Replanning
-from htnagent.runtime import GoalOutcome, Runtime
-from htnagent.terms import Atom, atom
-from htnagent.trace import Trace
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
+from htnagent.runtime.executor import ActionOutcome, Executor
+from htnagent.runtime.messages import Clear, Execute, Resume, Suspend
+from htnagent.runtime.trace import Trace
+from htnagent.system.runtime import GoalOutcome, Runtime
 from tests.support import Event, record
 
 ROADS = {("a", "b"): 4.0, ("b", "d"): 4.0, ("a", "c"): 5.0, ("c", "d"): 5.0}

@@ -13,11 +13,11 @@ import math
 
 import pytest
 
-from htnagent.domain import Domain
+from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.domains.museum import nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.planner import PlannerSettings, PlanResult, plan
-from htnagent.terms import Atom
+from htnagent.model.domain import Domain
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, PlanResult, plan
 
 
 @pytest.fixture(scope="module")

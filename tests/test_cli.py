@@ -1,6 +1,6 @@
 """The command line: ``check`` and ``plan`` (docs/contracts.md "Command line").
 
-Everything runs in-process through :func:`htnagent.cli.main`, reading what it
+Everything runs in-process through :func:`htnagent.cli.commands.main`, reading what it
 printed with capsys.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -152,8 +152,9 @@ def test_help_exits_0(capsys: pytest.CaptureFixture[str]) -> None:
 # -- a user's domain as package.module:attribute --------------------------------------------
 
 USER_DOMAIN = '''
-from htnagent.domain import Domain
+from htnagent import Domain
 from htnagent.domains import domain_factory
+from htnagent.model.terms import atoms
 
 
 @domain_factory
@@ -162,7 +163,7 @@ def make(world):
     d = Domain("greeter")
     d.operator("say(?x)", pre=["visitor(?x)"], cost=2.0)
     d.method("greet(?x)", "aloud", when=["visitor(?x)"], do=["say(?x)"])
-    d.facts = tuple(d.facts) + tuple(__import__("htnagent.terms").terms.atoms(["visitor(bob)"]))
+    d.facts = tuple(d.facts) + tuple(atoms(["visitor(bob)"]))
     return d
 
 

@@ -12,11 +12,11 @@ import random
 
 import pytest
 
-from htnagent.domain import Domain
+from htnagent.domains.maps import generate_map
 from htnagent.domains.museum import areas_domain, areas_facts
-from htnagent.maps import generate_map
-from htnagent.state import State
-from htnagent.terms import Atom, parse
+from htnagent.model.domain import Domain
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, parse
 
 
 def _by_matching(d: Domain, state: State, action: Atom) -> frozenset[Atom] | None:

@@ -1,8 +1,8 @@
 """Compiled methods give exactly what matching the precondition against the state gives.
 
-A method is compiled once into one function (``htnagent.preconditions.compile_method``);
+A method is compiled once into one function (``htnagent.model.preconditions.compile_method``);
 the oracle is the generic form: the head unified with the task, every satisfier of
-:func:`~htnagent.preconditions.all_satisfiers` in its order, the subtasks substituted.
+:func:`~htnagent.model.preconditions.all_satisfiers` in its order, the subtasks substituted.
 Random methods over random beliefs: positive and negated literals, constants,
 variables met twice, nested atoms, static and dynamic predicates, heads that do not
 match.  Runs derandomized, so failures reproduce.
@@ -13,9 +13,9 @@ from __future__ import annotations
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from htnagent.preconditions import Literal, all_satisfiers, bound_by, compile_method
-from htnagent.state import FactBase, State
-from htnagent.terms import Atom, Term, substitute, unify
+from htnagent.model.preconditions import Literal, all_satisfiers, bound_by, compile_method
+from htnagent.model.state import FactBase, State
+from htnagent.model.terms import Atom, Term, substitute, unify
 
 MANY = settings(
     max_examples=400,

@@ -15,14 +15,14 @@ from pathlib import Path
 import pytest
 
 from htnagent.agent import Agent, GoalEntry, _Prepared
-from htnagent.domain import State
-from htnagent.events import GoalFinished, GoalReceived, MessageSent, RobotMoving, TraceEvent
+from htnagent.model.domain import State
+from htnagent.model.terms import Atom
 from htnagent.planset import OnlinePlanSet, PlanSet
-from htnagent.runtime import Runtime
+from htnagent.reading import read_yaml
+from htnagent.runtime.events import GoalFinished, GoalReceived, MessageSent, RobotMoving, TraceEvent
 from htnagent.scenario import load_scenario, parse_scenario
-from htnagent.scenario.reading import read_yaml
-from htnagent.simulation import run_scenario
-from htnagent.terms import Atom
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 
 # -- the agent takes a prepared resumption over without walking its plans again ---------------------
 
@@ -203,8 +203,8 @@ async def test_only_the_goal_that_resumes_is_copied_and_updated_ahead(
 def test_a_message_carries_the_atom_itself_and_refuses_what_is_not_one() -> None:
     from pydantic import ValidationError
 
-    from htnagent.messages import BeliefUpdate, Execute, Resume, Submit
-    from htnagent.terms import atom
+    from htnagent.model.terms import atom
+    from htnagent.runtime.messages import BeliefUpdate, Execute, Resume, Submit
 
     # Validated as the named tuple it is, an atom was rebuilt argument by argument: a copy,
     # and the better part of a message's cost on the way to the robot (issue #12).

@@ -198,7 +198,7 @@ def code_events() -> dict[str, frozenset[str] | None]:
 
 
 def event_registry() -> dict[str, frozenset[str] | None] | None:
-    """Kinds and fields from ``htnagent.events.EVENT_KINDS``; None if there is no registry.
+    """Kinds and fields from ``htnagent.runtime.events.EVENT_KINDS``; None if there is no registry.
 
     The one place to adapt if the registry changes shape: ``EVENT_KINDS`` may map
     names to classes or list the classes (each with an ``event`` name); fields come
@@ -206,9 +206,9 @@ def event_registry() -> dict[str, frozenset[str] | None] | None:
     pydantic model), less ``t``, ``agent`` and ``event``.
     """
     try:
-        module = importlib.import_module("htnagent.events")
+        module = importlib.import_module("htnagent.runtime.events")
     except ModuleNotFoundError as e:
-        if e.name == "htnagent.events":
+        if e.name == "htnagent.runtime.events":
             return None
         raise
     kinds = getattr(module, "EVENT_KINDS", None)

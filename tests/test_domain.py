@@ -7,7 +7,8 @@ from collections.abc import Callable
 
 import pytest
 
-from htnagent.domain import (
+from htnagent.errors import DomainError, PlanningError
+from htnagent.model.domain import (
     Domain,
     Effect,
     FactBase,
@@ -18,9 +19,8 @@ from htnagent.domain import (
     Suspension,
     satisfiers,
 )
-from htnagent.errors import DomainError, PlanningError
-from htnagent.planner import heuristic
-from htnagent.terms import Atom, parse
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import heuristic
 
 StateAt = Callable[[Domain, str], State]
 

@@ -12,7 +12,6 @@ from typing import Any
 
 import pytest
 
-from htnagent.domain import Domain
 from htnagent.domains import (
     BUILTIN,
     ROBOT_TRAVEL,
@@ -22,10 +21,11 @@ from htnagent.domains import (
     is_domain_factory,
 )
 from htnagent.domains.guide_talk import talk_domain
+from htnagent.domains.maps import WorldMap
 from htnagent.errors import DomainError, HtnAgentError, ScenarioError
-from htnagent.maps import WorldMap
+from htnagent.model.domain import Domain
+from htnagent.model.terms import parse
 from htnagent.scenario import Scenario, load_scenario, parse_scenario, read_yaml
-from htnagent.terms import parse
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 

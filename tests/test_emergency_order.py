@@ -13,9 +13,9 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.events import GoalFinished, TraceEvent
+from htnagent.runtime.events import GoalFinished, TraceEvent
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.simulation import run_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

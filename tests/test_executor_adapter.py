@@ -1,4 +1,4 @@
-"""The adapter between the message protocol and a user's :class:`Executor` (htnagent.executor).
+"""The adapter between the message protocol and a user's :class:`Executor` (htnagent.runtime.executor).
 
 A ``Suspend`` names an order by its ``seq`` and action.  The adapter passes it on to the
 user's ``suspend`` only when that very order is running; anything else is answered
@@ -23,11 +23,11 @@ from contextlib import asynccontextmanager
 
 import anyio
 
-from htnagent.clock import Clock, Mailbox
-from htnagent.executor import ActionOutcome, AdapterActor, Executor
-from htnagent.messages import Execute, Message, Refused, Success, Suspend, Suspended
-from htnagent.terms import Atom, atom
-from htnagent.trace import Trace
+from htnagent.model.terms import Atom, atom
+from htnagent.runtime.clock import Clock, Mailbox
+from htnagent.runtime.executor import ActionOutcome, AdapterActor, Executor
+from htnagent.runtime.messages import Execute, Message, Refused, Success, Suspend, Suspended
+from htnagent.runtime.trace import Trace
 
 GUARD = 5.0  # real seconds: a test that takes longer has hung
 

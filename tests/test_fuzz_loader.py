@@ -11,7 +11,7 @@ import yaml
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 
 ROOT = Path(__file__).resolve().parent.parent
 MUSEUM = yaml.safe_load((ROOT / "scenarios" / "museum.yaml").read_text())

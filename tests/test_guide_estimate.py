@@ -14,11 +14,11 @@ import random
 import networkx as nx
 import pytest
 
+from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.domains.museum import areas_domain, areas_facts
-from htnagent.maps import WorldMap, generate_map
-from htnagent.planner import PlannerSettings, heuristic, plan
-from htnagent.state import State
-from htnagent.terms import Atom
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, heuristic, plan
 
 
 def _door_graph(world: WorldMap, shut: set[str]) -> nx.Graph:

@@ -25,14 +25,14 @@ import anyio
 import pytest
 import yaml
 
-from htnagent.cli import main
-from htnagent.events import ActionFinished, GoalFinished, RobotActing, TraceEvent
+from htnagent.cli.commands import main
 from htnagent.executors.hddl_robot import FactWorld, HddlRobot
-from htnagent.runtime import Runtime
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, parse
+from htnagent.runtime.events import ActionFinished, GoalFinished, RobotActing, TraceEvent
 from htnagent.scenario import Scenario, load_scenario, read_yaml
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.state import State
-from htnagent.terms import Atom, parse
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import RunReport, run_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"

@@ -19,13 +19,13 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from bench.hddl_read import suite_pairs
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import Violation, check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import Decomposition, Step, parse_plan, read_plan
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
 
 HERE = Path(__file__).resolve().parent / "hddl"
 REPO = Path(__file__).resolve().parents[1]

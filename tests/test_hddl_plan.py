@@ -20,15 +20,15 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, parse_plan, spellings
-from htnagent.hddl_domain import actions_of, ipc_plan, solve
-from htnagent.planner import PlanStatus, Search
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
+from htnagent.planning.hddl_problems import actions_of, ipc_plan, solve
+from htnagent.planning.planner import PlanStatus, Search
 
 HERE = Path(__file__).resolve().parent / "hddl"
 MUSEUM = str(Path(__file__).resolve().parents[1] / "scenarios" / "museum.yaml")

@@ -36,7 +36,7 @@ from htnagent.hddl.model import (
     When,
 )
 from htnagent.limits import MAX_HDDL_DEPTH
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
 
 REPO = Path(__file__).resolve().parents[1]
 IPC = REPO.parent / "shared" / "data" / "ipc"

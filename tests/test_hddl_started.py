@@ -17,11 +17,11 @@ import anyio
 import pytest
 import yaml
 
-from htnagent.cli import main
-from htnagent.events import ActionFinished, GoalFinished, RobotActing
+from htnagent.cli.commands import main
+from htnagent.model.terms import parse
+from htnagent.runtime.events import ActionFinished, GoalFinished, RobotActing
 from htnagent.scenario import load_scenario
-from htnagent.simulation import run_scenario
-from htnagent.terms import parse
+from htnagent.system.simulation import run_scenario
 from tests.test_hddl_agents import run_checked, scenario_file
 
 LEAVES = {"move": {"delete": ["at(?r,?from)"]}}
@@ -129,7 +129,7 @@ def test_resume_and_rollback_give_back_what_the_start_took(tmp_path: Path) -> No
     # A start that takes away a fact the move does not change (the door behind it): resumed
     # or rolled back, the move ends where the move done at once ends, or where it began.
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.hddl_domain import Started, translate
+    from htnagent.planning.hddl_problems import Started, translate
 
     repo = Path(__file__).resolve().parents[1] / "scenarios"
     d = read_domain(repo / "courier_hddl_domain.hddl")
@@ -158,7 +158,7 @@ def test_without_started_effects_a_stopped_move_has_changed_nothing(tmp_path: Pa
 
 def test_the_translation_resumes_without_what_the_start_undid() -> None:
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.hddl_domain import Started, translate
+    from htnagent.planning.hddl_problems import Started, translate
 
     repo = Path(__file__).resolve().parents[1] / "scenarios"
     d = read_domain(repo / "courier_hddl_domain.hddl")

@@ -1,4 +1,4 @@
-"""The history of a run read from its trace (htnagent.history): hand-checked facts.
+"""The history of a run read from its trace (htnagent.views.history): hand-checked facts.
 
 ``scenarios/nested_emergencies.yaml``: on the way from n40 to n1 the guide is
 sent to n28 half way along arc59 (2.061553 s), and to n38 at 10 s.  Read off
@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import pytest
 
-from htnagent.events import GoalSuspended
-from htnagent.history import History
+from htnagent.runtime.events import GoalSuspended
+from htnagent.views.history import History
 from tests.support import SHIPPED, shipped_run
 
 NESTED = "nested_emergencies.yaml"

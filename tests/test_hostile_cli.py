@@ -21,11 +21,11 @@ from typing import Any
 import pytest
 import yaml
 
-import htnagent.cli
-from htnagent.cli import main
-from htnagent.runtime import Runtime
+import htnagent.cli.commands
+from htnagent.cli.commands import main
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -181,7 +181,7 @@ def test_running_out_of_memory_is_one_line(
     def exhausted(*args: object, **kwargs: object) -> None:
         raise MemoryError
 
-    monkeypatch.setattr(htnagent.cli, "load_scenario", exhausted)
+    monkeypatch.setattr(htnagent.cli.commands, "load_scenario", exhausted)
     err = refused(["check", str(SCENARIOS / "museum.yaml")], capsys)
     assert "out of memory" in err
 
@@ -190,20 +190,11 @@ def test_importing_the_package_loads_nothing_heavy() -> None:
     # python -m htnagent imports the package before its signal handlers can be set: the
     # longer that takes, the longer Ctrl-C meets Python's own handling (a traceback).
     probe = (
-        "import sys, htnagent; heavy = [m for m in ('htnagent.planner', 'pydantic', 'anyio', 'rich')"
+        "import sys, htnagent; heavy = [m for m in ('htnagent.planning.planner', 'pydantic', 'anyio', 'rich')"
         " if m in sys.modules]; print(heavy)"
     )
     done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
     assert done.stdout.strip() == "[]", done.stderr
-
-
-def test_htnagent_plan_is_the_planning_function_whatever_is_imported() -> None:
-    probe = (
-        "import htnagent; first = htnagent.plan; import htnagent.plan; from htnagent.plan import Plan;"
-        " from htnagent import plan; print(first is plan, callable(plan), Plan.__name__)"
-    )
-    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, timeout=60)
-    assert done.stdout.split() == ["True", "True", "Plan"], done.stderr
 
 
 @pytest.mark.parametrize("option", ["--plot", "--timeline"])
@@ -241,17 +232,6 @@ def test_report_may_write_to_its_own_stdout(trace: Path) -> None:
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.startswith(b"<!DOCTYPE html>")
-
-
-def test_htnagent_plan_can_be_replaced_and_put_back(monkeypatch: pytest.MonkeyPatch) -> None:
-    import htnagent
-
-    planning = htnagent.plan
-    replaced = object()
-    monkeypatch.setattr(htnagent, "plan", replaced)
-    assert getattr(htnagent, "plan") is replaced  # noqa: B009 (the module's attribute, read anew)
-    monkeypatch.undo()
-    assert htnagent.plan is planning
 
 
 def test_report_refuses_a_scenario_the_trace_did_not_run(

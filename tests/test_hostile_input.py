@@ -23,12 +23,12 @@ from hypothesis import strategies as st
 from yaml.nodes import ScalarNode
 from yaml.resolver import Resolver
 
-from htnagent import limits
-from htnagent.cli import main
+from htnagent import limits, reading
+from htnagent.cli.commands import main
 from htnagent.errors import ScenarioError, shown
-from htnagent.scenario import load_scenario, reading
-from htnagent.scenario.reading import _plain_tag, load_yaml_text, read_text, read_yaml
-from htnagent.terms import parse
+from htnagent.model.terms import parse
+from htnagent.reading import _plain_tag, load_yaml_text, read_text, read_yaml
+from htnagent.scenario import load_scenario
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"

@@ -17,10 +17,10 @@ import pytest
 
 from bench.ipc import find_problems
 from bench.ipc_interrupt import prepare, scenario_data
-from htnagent.events import ActionFinished
-from htnagent.runtime import Runtime
+from htnagent.runtime.events import ActionFinished
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 
 SUITE = Path(__file__).resolve().parents[2] / "shared" / "data" / "ipc"
 

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.maps import WorldMap, generate_map
+from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.scenario import load_scenario
 
 

@@ -20,8 +20,8 @@ import anyio
 import pytest
 
 from htnagent import AgentConfig, Domain, Effect, GoalStatus, Runtime, Suspension, parse
-from htnagent.executor import ActionOutcome, Executor
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
+from htnagent.runtime.executor import ActionOutcome, Executor
 
 GUARD = 10.0  # real seconds: a test that takes longer has hung
 

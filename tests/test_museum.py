@@ -20,15 +20,15 @@ import anyio
 import pytest
 import yaml
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.domains.guide_talk import talk_domain
-from htnagent.events import GoalResumed, PlanSelected, TraceEvent
-from htnagent.maps import WorldMap
-from htnagent.planner import plan
-from htnagent.runtime import Runtime
+from htnagent.domains.maps import WorldMap
+from htnagent.model.terms import atom, parse
+from htnagent.planning.planner import plan
+from htnagent.runtime.events import GoalResumed, PlanSelected, TraceEvent
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import atom, parse
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import RunReport, run_scenario
 from tests.support import Event, events_of, summary_of
 
 REPO = Path(__file__).resolve().parents[1]

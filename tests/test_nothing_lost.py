@@ -15,13 +15,13 @@ import anyio.lowlevel
 import pytest
 
 from htnagent import ActionOutcome, AgentConfig, Domain, Executor, GoalStatus, Runtime, State, parse
-from htnagent.domain import Effect, Suspension
 from htnagent.errors import RuntimeClosedError
-from htnagent.events import EventsDropped, GoalFinished, GoalSuspended, TraceEvent
 from htnagent.executors.scripted import ScriptedExecutor
+from htnagent.model.domain import Effect, Suspension
+from htnagent.model.terms import Atom
+from htnagent.runtime.events import EventsDropped, GoalFinished, GoalSuspended, TraceEvent
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
-from htnagent.terms import Atom
+from htnagent.system.simulation import run_scenario
 from htnagent.testing.storms import nested_storm_data
 from tests.support import Event, record, summary_of
 
@@ -237,7 +237,7 @@ def test_an_emergency_beyond_the_maximum_depth_fails_at_once() -> None:
     configs: list[AgentConfig] = []
 
     async def go() -> Any:
-        from htnagent.simulation import build_runtime
+        from htnagent.system.simulation import build_runtime
 
         runtime, _ = build_runtime(scenario)
         for agent in runtime.agents.values():

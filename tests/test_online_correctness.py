@@ -18,19 +18,19 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from htnagent.agent import AgentConfig
-from htnagent.clock import Clock
-from htnagent.domain import Domain, Effect, Suspension
+from htnagent.domains.maps import WorldMap
 from htnagent.domains.museum import areas_domain
 from htnagent.executors.scripted import ScriptedExecutor
-from htnagent.maps import WorldMap
-from htnagent.planner import PlannerSettings, achieved_by_nothing
+from htnagent.model.domain import Domain, Effect, Suspension
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings, achieved_by_nothing
 from htnagent.planset import PlanSet
-from htnagent.runtime import Runtime
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.trace import Trace
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import Atom, parse
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.testing.differential import DOORS_SLACK, NO_DOORS_SLACK, compare
-from htnagent.trace import Trace
 from tests.support import Event, events_of, record, summary_of
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"

@@ -12,12 +12,12 @@ from collections.abc import Callable
 
 import pytest
 
-from htnagent.domain import Domain, Effect, State, Suspension
+from htnagent.domains.maps import WorldMap
 from htnagent.errors import PlanningError
-from htnagent.maps import WorldMap
-from htnagent.plan import Decomposition, Plan, Step, replay, tidy
-from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
-from htnagent.terms import Atom, parse
+from htnagent.model.domain import Domain, Effect, State, Suspension
+from htnagent.model.plans import Decomposition, Plan, Step, replay, tidy
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, plan
 
 StateAt = Callable[[Domain, str], State]
 
@@ -220,9 +220,9 @@ def test_equal_cost_plans_come_in_the_same_order_whatever_the_hash_seed() -> Non
     # Three routes of cost 2 from a to d; which comes first must not change from run to run.
     script = textwrap.dedent(
         """
-        from htnagent.domain import Domain, State
-        from htnagent.planner import PlannerSettings, plan
-        from htnagent.terms import parse
+        from htnagent.model.domain import Domain, State
+        from htnagent.planning.planner import PlannerSettings, plan
+        from htnagent.model.terms import parse
 
         d = Domain("g")
         d.operator("move(?f,?t)", pre=["at(?f)", "edge(?f,?t)"], add=["at(?t)"], delete=["at(?f)"])

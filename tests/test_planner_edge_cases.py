@@ -7,10 +7,10 @@ import math
 
 import pytest
 
-from htnagent import planner
-from htnagent.domain import Domain, State
-from htnagent.planner import PlannerSettings, PlanStatus, plan
-from htnagent.terms import Atom, parse
+from htnagent.model.domain import Domain, State
+from htnagent.model.terms import Atom, parse
+from htnagent.planning import planner
+from htnagent.planning.planner import PlannerSettings, PlanStatus, plan
 
 POINTS = {"p": (0.0, 0.0), "a": (10.0, 0.0), "b": (11.0, 0.0)}
 

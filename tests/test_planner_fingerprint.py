@@ -20,15 +20,15 @@ import random
 from pathlib import Path
 from typing import Any
 
-from htnagent.domain import Domain
 from htnagent.domains.guide_talk import talk_domain
+from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.plan import Decomposition
-from htnagent.planner import PlannerSettings, PlanResult, plan
+from htnagent.model.domain import Domain
+from htnagent.model.plans import Decomposition
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, PlanResult, plan
 from htnagent.scenario.map_file import load_map
-from htnagent.state import State
-from htnagent.terms import Atom
 
 ROOT = Path(__file__).resolve().parent.parent
 FINGERPRINT = Path(__file__).resolve().parent / "planner_fingerprint.json"

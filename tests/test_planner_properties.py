@@ -16,12 +16,12 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.maps import WorldMap, generate_map
-from htnagent.plan import replay
-from htnagent.planner import PlannerSettings, PlanStatus, plan
+from htnagent.model.plans import replay
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, PlanStatus, plan
 from htnagent.scenario import parse_map
-from htnagent.terms import Atom
 
 FAST = settings(
     max_examples=300,

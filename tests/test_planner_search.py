@@ -1,6 +1,6 @@
 """The search orders, the time limit, whole-list estimates and lazy decomposition (docs/design.md §1.1).
 
-Written with the Python :class:`~htnagent.domain.Domain` builder, so that each
+Written with the Python :class:`~htnagent.model.domain.Domain` builder, so that each
 behaviour is seen apart from HDDL.
 """
 
@@ -13,14 +13,14 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.domain import Domain, Method
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import check_plan
-from htnagent.hddl_domain import ipc_plan, solve, translate
-from htnagent.planner import PlannerSettings, PlanStatus, Search, plan
-from htnagent.preconditions import compile_method, compile_method_lazy, literals
-from htnagent.state import State
-from htnagent.terms import Atom, atom
+from htnagent.model.domain import Domain, Method
+from htnagent.model.preconditions import compile_method, compile_method_lazy, literals
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, atom
+from htnagent.planning.hddl_problems import ipc_plan, solve, translate
+from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
 
 
 def _choice_domain(task_costs: bool = False) -> Domain:

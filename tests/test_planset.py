@@ -8,14 +8,14 @@ import pytest
 import yaml
 
 from htnagent import repair as repair_module
-from htnagent.domain import Domain, State
 from htnagent.domains import areas_domain, nodes_domain
-from htnagent.maps import WorldMap
-from htnagent.plan import Plan, Step, replay, tidy
-from htnagent.planner import PlannerSettings, Search, plan
+from htnagent.domains.maps import WorldMap
+from htnagent.model.domain import Domain, State
+from htnagent.model.plans import Plan, Step, replay, tidy
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings, Search, plan
 from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
 from htnagent.scenario import parse_map
-from htnagent.terms import Atom, parse
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -514,7 +514,7 @@ def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: Wor
 
 def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
     """A long recursive plan, then its target is walled off: repair must not search per level."""
-    from htnagent.maps import generate_map
+    from htnagent.domains.maps import generate_map
 
     world = generate_map(10, 10, 3, 1)
     nodes = nodes_domain(world)

@@ -7,13 +7,13 @@ import random
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from htnagent.domain import Domain, State
 from htnagent.domains import nodes_domain
-from htnagent.maps import generate_map
-from htnagent.plan import replay
-from htnagent.planner import PlannerSettings, plan
+from htnagent.domains.maps import generate_map
+from htnagent.model.domain import Domain, State
+from htnagent.model.plans import replay
+from htnagent.model.terms import Atom
+from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.planset import PlanSet, Replanning
-from htnagent.terms import Atom
 
 OPS = st.sampled_from(["follow", "wander", "suspend", "close", "open", "fail"])
 

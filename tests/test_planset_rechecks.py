@@ -10,11 +10,11 @@ plan is walked — and found broken — when it may not.
 
 from __future__ import annotations
 
-from htnagent.domain import Domain, Effect, State, Suspension
-from htnagent.plan import Plan, Step
-from htnagent.planner import PlannerSettings
+from htnagent.model.domain import Domain, Effect, State, Suspension
+from htnagent.model.plans import Plan, Step
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings
 from htnagent.planset import OnlinePlanSet
-from htnagent.terms import Atom, parse
 
 # -- a belief change that no step reads ---------------------------------------------------------
 

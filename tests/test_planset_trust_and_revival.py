@@ -13,13 +13,13 @@ from collections.abc import Callable
 
 import pytest
 
-from htnagent.domain import Domain, State
 from htnagent.errors import SettingsError
-from htnagent.plan import Plan, Step, replay
-from htnagent.planner import PlannerSettings
+from htnagent.model.domain import Domain, State
+from htnagent.model.plans import Plan, Step, replay
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings
 from htnagent.planset import NaivePlanSet, OnlinePlanSet, PlanSet, Replanning
 from htnagent.revival import Revival
-from htnagent.terms import Atom, parse
 
 # -- §2.1 trusting a plan behind an undo -------------------------------------------------------
 

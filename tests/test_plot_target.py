@@ -12,8 +12,9 @@ from typing import Any
 
 import pytest
 
-from htnagent import cli, plot
-from htnagent.plot import check_plot_target
+from htnagent.cli import commands as cli
+from htnagent.views import plot
+from htnagent.views.plot import check_plot_target
 
 REPO = Path(__file__).resolve().parents[1]
 MUSEUM = str(REPO / "scenarios" / "museum.yaml")

@@ -22,9 +22,9 @@ import pytest
 
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed")
 
-from htnagent.events import PeerJoined, Summary
+from htnagent.runtime.events import PeerJoined, Summary
 from htnagent.scenario import load_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.simulation import run_scenario
 from tests.remote_support import (
     Lines,
     free_port,
@@ -214,8 +214,10 @@ def test_a_serving_process_serves_a_second_parent_after_the_first_is_gone(tmp_pa
 
 
 def test_every_item_crosses_the_wire_unchanged() -> None:
-    from htnagent.events import GoalReceived
-    from htnagent.messages import (
+    from htnagent.model.terms import parse
+    from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
+    from htnagent.runtime.events import GoalReceived
+    from htnagent.runtime.messages import (
         BeliefUpdate,
         Clear,
         Execute,
@@ -228,9 +230,7 @@ def test_every_item_crosses_the_wire_unchanged() -> None:
         Suspend,
         Suspended,
     )
-    from htnagent.progress import Phase, Progress
-    from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
-    from htnagent.terms import parse
+    from htnagent.runtime.progress import Phase, Progress
 
     a = parse("move(n40,n35,arc59)")
     items: list[Item] = [
@@ -268,13 +268,13 @@ def test_an_order_before_the_parents_token_counts_as_the_parent_having_joined(tm
     # threads: the order may come first (seen under load).  The serving side must then
     # send up at once what the order causes -- the robot's progress drives the parent's
     # triggers -- and trace the join once, not again when the token comes.
-    from htnagent.events import PeerJoined, TraceEvent
-    from htnagent.messages import Prepare
+    from htnagent.model.terms import parse
     from htnagent.remote.codec import encode
-    from htnagent.remote.host import Host
     from htnagent.remote.link import Keys
-    from htnagent.simulation import build_runtime
-    from htnagent.terms import parse
+    from htnagent.runtime.events import PeerJoined, TraceEvent
+    from htnagent.runtime.messages import Prepare
+    from htnagent.system.serving import Host
+    from htnagent.system.simulation import build_runtime
 
     scenario = load_scenario(remote_scenario(tmp_path, free_port()))
 

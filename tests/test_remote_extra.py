@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.errors import ScenarioError
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from tests.remote_support import SCENARIOS, remote_scenario
@@ -100,7 +100,7 @@ def test_remote_settings_are_checked(change: dict[str, object], where: str) -> N
 
 
 def test_a_fleet_whose_robots_would_share_a_served_agents_keys_is_refused() -> None:
-    from htnagent.fleet import check_fleet
+    from htnagent.system.fleet import check_fleet
 
     def robot(file: str, port: int, namespace: str) -> Scenario:
         data = {**scenario_data(remote=f"tcp/127.0.0.1:{port}"), "namespace": namespace}
@@ -137,7 +137,7 @@ def test_a_listen_endpoint_that_is_not_tcp_host_port_is_a_usage_error(
 def test_a_peers_message_moves_a_paced_clock_on_to_its_time_at_once() -> None:
     import anyio
 
-    from htnagent.clock import Clock
+    from htnagent.runtime.clock import Clock
 
     async def main() -> tuple[list[float], float]:
         clock = Clock(speed=1.0)
@@ -168,7 +168,7 @@ def test_a_peers_message_moves_a_paced_clock_on_to_its_time_at_once() -> None:
 def test_an_answer_awaited_from_outside_keeps_the_runtime_from_being_idle_for_good() -> None:
     import anyio
 
-    from htnagent.clock import Clock
+    from htnagent.runtime.clock import Clock
 
     async def main() -> list[str]:
         clock = Clock(speed=1000.0)

@@ -1,7 +1,7 @@
 """A fleet: one parent process with a guide per robot, a serving process per navigator and robot.
 
 Each robot is the museum scenario in a file of its own (its endpoint, its
-namespace); :func:`htnagent.fleet.run_fleet` runs the guides side by side in the
+namespace); :func:`htnagent.system.fleet.run_fleet` runs the guides side by side in the
 test's event loop while real ``python -m htnagent serve`` processes on the
 loopback run the navigators and robots.  Every robot ends as the museum does in
 one process; killing one serving process fails only that robot's goal, with
@@ -21,10 +21,10 @@ import pytest
 
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed")
 
-from htnagent.events import GoalResumed, PeerLost, Summary, TraceEvent
-from htnagent.fleet import FleetReport, run_fleet
+from htnagent.runtime.events import GoalResumed, PeerLost, Summary, TraceEvent
+from htnagent.runtime.trace import Observer
 from htnagent.scenario import load_scenario
-from htnagent.trace import Observer
+from htnagent.system.fleet import FleetReport, run_fleet
 from tests.remote_support import free_port, remote_scenario, serving_all
 from tests.support import shipped_run
 

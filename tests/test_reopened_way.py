@@ -17,15 +17,15 @@ from typing import Any
 import pytest
 
 from htnagent.agent import _make_ready
-from htnagent.domain import Domain, State
 from htnagent.domains.museum import nodes_domain
-from htnagent.events import ActionStarted
-from htnagent.planner import PlannerSettings
+from htnagent.model.domain import Domain, State
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings
 from htnagent.planset import PlanSet, Replanning
-from htnagent.runtime import Runtime
+from htnagent.runtime.events import ActionStarted
 from htnagent.scenario import load_scenario, parse_scenario
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import Atom, parse
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import RunReport, run_scenario
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 

@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import itertools
 
-from htnagent.domain import Domain, State
-from htnagent.plan import Decomposition, Done, Step
-from htnagent.planner import PlannerSettings
+from htnagent.model.domain import Domain, State
+from htnagent.model.plans import Decomposition, Done, Step
+from htnagent.model.terms import parse
+from htnagent.planning.planner import PlannerSettings
 from htnagent.planset import OnlinePlanSet
 from htnagent.repair import done_subtasks
-from htnagent.terms import parse
 
 
 def carrier() -> Domain:

@@ -27,8 +27,8 @@ from typing import Any
 
 import pytest
 
-from htnagent.cli import main
-from htnagent.history import History
+from htnagent.cli.commands import main
+from htnagent.views.history import History
 from tests.support import SCENARIO_DIR, SHIPPED, shipped_run, write_trace
 
 NESTED = "nested_emergencies.yaml"

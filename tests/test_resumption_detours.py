@@ -37,12 +37,12 @@ import anyio
 import pytest
 
 from htnagent.agent import AgentConfig, GoalStatus
-from htnagent.domain import Domain, Effect, Suspension
 from htnagent.executors.scripted import ScriptedExecutor
-from htnagent.messages import BeliefUpdate, Clear, Execute, Suspend
+from htnagent.model.domain import Domain, Effect, Suspension
+from htnagent.model.terms import Atom, atom
 from htnagent.planset import Replanning
-from htnagent.runtime import Runtime
-from htnagent.terms import Atom, atom
+from htnagent.runtime.messages import BeliefUpdate, Clear, Execute, Suspend
+from htnagent.system.runtime import Runtime
 from tests.support import Event, record
 
 ROADS = {("s", "m"): 2.0, ("m", "t"): 2.0, ("s", "c"): 3.0, ("c", "t"): 3.0, ("s", "e"): 3.0}

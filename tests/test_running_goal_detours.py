@@ -15,7 +15,7 @@ from typing import Any
 import pytest
 
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.simulation import run_scenario
 
 
 def _door_shuts_during_a_move() -> dict[str, Any]:

@@ -1,7 +1,7 @@
 """The embedding API and the ``run`` command, seen from outside.
 
-- :class:`~htnagent.runtime.Runtime` works under asyncio and trio alike, and
-  :meth:`~htnagent.runtime.Runtime.events` streams the trace;
+- :class:`~htnagent.system.runtime.Runtime` works under asyncio and trio alike, and
+  :meth:`~htnagent.system.runtime.Runtime.events` streams the trace;
 - a scenario run is deterministic: the same events every run, whether simulated
   time runs as fast as it can or is paced against the wall clock;
 - ``python -m htnagent run`` keeps the output promises of docs/contracts.md.
@@ -20,11 +20,11 @@ import pytest
 
 from htnagent.agent import GoalStatus
 from htnagent.errors import HtnAgentError, SettingsError, UnknownNameError
-from htnagent.runtime import GoalOutcome, Runtime
+from htnagent.model.terms import atom
+from htnagent.runtime.trace import WALL_CLOCK_FIELDS, EventStream
 from htnagent.scenario import load_scenario
-from htnagent.simulation import run_scenario
-from htnagent.terms import atom
-from htnagent.trace import WALL_CLOCK_FIELDS, EventStream
+from htnagent.system.runtime import GoalOutcome, Runtime
+from htnagent.system.simulation import run_scenario
 from tests.support import Event, events_of
 from tests.test_agent_runtime import COURIER, GUARD, courier, robot
 

@@ -12,11 +12,11 @@ import pytest
 import yaml
 
 from htnagent import AgentConfig, Domain, GoalStatus, Runtime, parse
-from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
+from htnagent.model.terms import Atom
+from htnagent.runtime.executor import ActionOutcome, Executor
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
-from htnagent.terms import Atom
+from htnagent.system.simulation import run_scenario
 from tests.support import summary_of
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -19,11 +19,11 @@ from typing import Any
 import pytest
 import yaml
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.errors import ScenarioError
-from htnagent.planner import PlannerSettings, Search
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario import Scenario, load_scenario
-from htnagent.terms import Atom, parse
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"

@@ -238,9 +238,9 @@ def test_a_signal_during_a_long_search_ends_the_run_at_once(tmp_path: Path) -> N
 
 
 def test_a_search_asked_to_stop_ends_as_interrupted_and_the_next_runs_again() -> None:
-    from htnagent.domain import Domain
-    from htnagent.planner import PlannerSettings, PlanStatus, plan, stop_searches
-    from htnagent.terms import parse
+    from htnagent.model.domain import Domain
+    from htnagent.model.terms import parse
+    from htnagent.planning.planner import PlannerSettings, PlanStatus, plan, stop_searches
 
     d = Domain("grow")
     d.operator("flip(?x)", add=["on(?x)"], cost=0.0)

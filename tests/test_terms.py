@@ -7,7 +7,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from htnagent.errors import HtnAgentError, TextFormError
-from htnagent.terms import Atom, Term, atoms, is_variable, parse, substitute, unify
+from htnagent.model.terms import Atom, Term, atoms, is_variable, parse, substitute, unify
 
 # -- parsing and printing ------------------------------------------------------
 

@@ -6,9 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.cli import main
-from htnagent.history import History
-from htnagent.timeline import draw_timeline
+from htnagent.cli.commands import main
+from htnagent.views.history import History
+from htnagent.views.timeline import draw_timeline
 from tests.support import SCENARIO_DIR, SHIPPED, shipped_run
 
 PNG = b"\x89PNG\r\n\x1a\n"

@@ -10,9 +10,9 @@ import anyio
 import pytest
 
 from htnagent.errors import TraceFormatError
-from htnagent.events import EVENT_KINDS, GoalRow, Summary, event_from_dict, fields_of
+from htnagent.runtime.events import EVENT_KINDS, GoalRow, Summary, event_from_dict, fields_of
 from htnagent.scenario import load_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.simulation import run_scenario
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 

@@ -19,14 +19,14 @@ from typing import Any
 import anyio
 import pytest
 
-from htnagent.clock import Clock, Mailbox
 from htnagent.errors import ScenarioError
 from htnagent.executors.robot import Robot, RobotWorld
-from htnagent.messages import Execute, Resume, Suspend, Suspended
+from htnagent.model.terms import Atom, parse
+from htnagent.runtime.clock import Clock, Mailbox
+from htnagent.runtime.messages import Execute, Resume, Suspend, Suspended
+from htnagent.runtime.trace import Trace
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
-from htnagent.simulation import NEVER_TRIGGERED, RunReport, run_scenario
-from htnagent.terms import Atom, parse
-from htnagent.trace import Trace
+from htnagent.system.simulation import NEVER_TRIGGERED, RunReport, run_scenario
 from tests.support import Event, events_of, summary_of
 
 REPO = Path(__file__).resolve().parents[1]

@@ -20,7 +20,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from htnagent.cli import main
+from htnagent.cli.commands import main
 from htnagent.domains import domain_factory, is_domain_factory
 from htnagent.domains.guide_talk import talk_domain
 

@@ -30,11 +30,11 @@ is not on the scenario's map are left out.
 
 from __future__ import annotations
 
-from htnagent.domain import Domain, Effect, Suspension
 from htnagent.domains import domain_factory
+from htnagent.domains.maps import WorldMap
 from htnagent.domains.museum import NODES, nodes_domain
-from htnagent.maps import WorldMap
-from htnagent.terms import Atom
+from htnagent.model.domain import Domain, Effect, Suspension
+from htnagent.model.terms import Atom
 
 EXHIBITS: dict[str, str] = {
     "statue": "n4",

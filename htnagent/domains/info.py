@@ -1,6 +1,6 @@
 """What a scenario loader knows of a domain besides the domain itself.
 
-A :class:`~htnagent.domain.Domain` says what an agent can plan; a scenario file
+A :class:`~htnagent.model.domain.Domain` says what an agent can plan; a scenario file
 also names places of the map in its goals and triggers (``goto(n1)``,
 ``move(n40,n35,arc59)``), and some actions are the robot's own.  A domain
 declares both here, next to its factory, so that the generic scenario checks
@@ -27,9 +27,9 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Literal, TypeVar, get_args, overload
 
-from htnagent.domain import Domain
+from htnagent.domains.maps import WorldMap
 from htnagent.errors import DomainError
-from htnagent.maps import WorldMap
+from htnagent.model.domain import Domain
 
 MapKind = Literal["node", "arc", "area"]
 """What an argument names on the map."""
@@ -116,7 +116,7 @@ def domain_factory(
     argument_kinds: Mapping[str, Iterable[MapKind]] | None = None,
     robot_moves: Iterable[str] = ROBOT_TRAVEL,
 ) -> F | Callable[[F], F]:
-    """Mark ``function`` (map → :class:`~htnagent.domain.Domain`) as one a scenario may name.
+    """Mark ``function`` (map → :class:`~htnagent.model.domain.Domain`) as one a scenario may name.
 
     A scenario names a user's domain as ``package.module:attribute``; the
     attribute must be a ``Domain`` or a function marked with this decorator.

@@ -26,11 +26,11 @@ from __future__ import annotations
 
 import math
 
-from htnagent.domain import Domain, Effect, State, Suspension
 from htnagent.domains.info import DomainInfo
 from htnagent.domains.landmarks import Landmarks
-from htnagent.maps import WorldMap
-from htnagent.terms import Atom
+from htnagent.domains.maps import WorldMap
+from htnagent.model.domain import Domain, Effect, State, Suspension
+from htnagent.model.terms import Atom
 
 
 def _position(state: State, name: str = "at") -> str | None:

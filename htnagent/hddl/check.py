@@ -57,7 +57,7 @@ from htnagent.hddl.model import (
     Typed,
 )
 from htnagent.hddl.plan_file import Decomposition, IpcPlan, Step
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
 
 __all__ = ["Violation", "check_plan"]
 

@@ -3,7 +3,7 @@
 What :mod:`htnagent.hddl.reader` makes of an HDDL file, and all that the
 semantic checks (:mod:`htnagent.hddl.semantics`), the plan checker
 (:mod:`htnagent.hddl.check`) and, later, grounding or translation into a
-:class:`htnagent.domain.Domain` work from.  Everything is a frozen dataclass
+:class:`htnagent.model.domain.Domain` work from.  Everything is a frozen dataclass
 or a tuple; names are lower case (HDDL names are case-insensitive).
 
 The model keeps what the file says, not what a planner would make of it:
@@ -12,7 +12,7 @@ formula trees (:data:`Formula`, :data:`Effect`) with their quantifiers and
 conditional effects, and each method's subtasks in their (total) order.
 
 Terms are plain strings: a variable starts with ``?``, anything else is an
-object or constant.  A literal or a task call is an :class:`~htnagent.terms.Atom`
+object or constant.  A literal or a task call is an :class:`~htnagent.model.terms.Atom`
 of such strings.  A parameter's type is a tuple of type names, one for a plain
 type and several for ``(either a b)`` (a value of any of them).
 
@@ -28,7 +28,7 @@ from dataclasses import dataclass, field
 from types import MappingProxyType
 
 from htnagent.errors import HddlError
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
 
 OBJECT = "object"
 """The root type every type descends from (implicitly declared)."""

@@ -36,7 +36,7 @@ from pathlib import Path
 from htnagent.errors import HddlError, shown
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.reader import read_file
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
 
 __all__ = [
     "Decomposition",

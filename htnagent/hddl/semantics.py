@@ -45,7 +45,7 @@ from htnagent.hddl.model import (
     Typed,
     When,
 )
-from htnagent.terms import Atom, Term
+from htnagent.model.terms import Atom, Term
 
 __all__ = ["check_domain", "check_problem"]
 

@@ -3,8 +3,8 @@
 A parent agent reaches a child agent served by another process through a
 :class:`~htnagent.remote.proxy.RemoteChild`, an executor actor standing in for
 the child; ``python -m htnagent serve`` runs the child and everything below it
-behind a :class:`~htnagent.remote.host.Host`.  The protocol is the in-process
-one (:mod:`htnagent.messages`), as JSON (:mod:`htnagent.remote.codec`), on keys
+behind a :class:`~htnagent.system.serving.Host`.  The protocol is the in-process
+one (:mod:`htnagent.runtime.messages`), as JSON (:mod:`htnagent.remote.codec`), on keys
 under the scenario's namespace (:mod:`htnagent.remote.link`).  A peer that dies
 or freezes is a reported failure (``peer lost``), never a hang.
 

@@ -2,11 +2,11 @@
 
 Every payload is one JSON object ``{"t": T, "type": TYPE, "body": {...}}``: ``t``
 is the sender's simulated time (the receiver's clock keeps in step with it,
-:meth:`htnagent.clock.Clock.call_from_peer`), ``type`` one of
+:meth:`htnagent.runtime.clock.Clock.call_from_peer`), ``type`` one of
 
-- ``message``: a protocol message (:mod:`htnagent.messages`) — down, an order
+- ``message``: a protocol message (:mod:`htnagent.runtime.messages`) — down, an order
   or a belief update; up, a result — its fields, ``kind`` first;
-- ``progress``: how far an action has got (:class:`~htnagent.progress.Progress`),
+- ``progress``: how far an action has got (:class:`~htnagent.runtime.progress.Progress`),
   so that the parent's triggers follow a remote robot;
 - ``event``: a trace event of the serving process, as ``run --json`` prints it;
 - ``status``: where the robot is, the nodes it reached and how far it went;
@@ -24,8 +24,9 @@ from typing import Any
 from pydantic import ValidationError
 
 from htnagent.errors import HtnAgentError, TraceFormatError
-from htnagent.events import TraceEvent, event_from_dict
-from htnagent.messages import (
+from htnagent.model.terms import Atom, parse
+from htnagent.runtime.events import TraceEvent, event_from_dict
+from htnagent.runtime.messages import (
     BeliefUpdate,
     Clear,
     Execute,
@@ -38,8 +39,7 @@ from htnagent.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.progress import Phase, Progress
-from htnagent.terms import Atom, parse
+from htnagent.runtime.progress import Phase, Progress
 
 Wire = (
     Execute

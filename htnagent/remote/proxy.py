@@ -25,12 +25,14 @@ from collections.abc import Callable
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.clock import Clock
-from htnagent.domain import Domain
 from htnagent.errors import RemoteError
-from htnagent.events import PeerJoined, PeerLost, TraceEvent
-from htnagent.executor import ExecutorActor
-from htnagent.messages import (
+from htnagent.model.domain import Domain
+from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
+from htnagent.remote.link import Keys, Link
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.events import PeerJoined, PeerLost, TraceEvent
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import (
     BeliefUpdate,
     Clear,
     Execute,
@@ -44,10 +46,8 @@ from htnagent.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.progress import Progress
-from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
-from htnagent.remote.link import Keys, Link
-from htnagent.trace import Trace
+from htnagent.runtime.progress import Progress
+from htnagent.runtime.trace import Trace
 
 log = logging.getLogger("htnagent")
 

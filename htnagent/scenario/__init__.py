@@ -10,7 +10,7 @@ the line.
 
 One module per job:
 
-- :mod:`~htnagent.scenario.reading` -- files and YAML, trusting nothing in them;
+- :mod:`~htnagent.reading` -- files and YAML, trusting nothing in them;
 - :mod:`~htnagent.scenario.schema` -- the scenario file's pydantic models, :class:`Scenario`;
 - :mod:`~htnagent.scenario.map_file` -- the map file's models and :func:`parse_map`;
 - :mod:`~htnagent.scenario.checks` -- cross-references against the map and the domains;
@@ -20,9 +20,9 @@ One module per job:
 
 from __future__ import annotations
 
+from htnagent.reading import load_yaml_text, read_text, read_yaml
 from htnagent.scenario.loader import load_scenario, parse_scenario
 from htnagent.scenario.map_file import MapFile, load_map, parse_map
-from htnagent.scenario.reading import load_yaml_text, read_text, read_yaml
 from htnagent.scenario.schema import (
     ROBOT,
     AgentSpec,

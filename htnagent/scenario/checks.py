@@ -19,11 +19,13 @@ from __future__ import annotations
 from collections.abc import Collection
 from pathlib import Path
 
-from htnagent.actions import RECOVERY
-from htnagent.domain import Domain
 from htnagent.domains import ROBOT_TRAVEL, DomainInfo
+from htnagent.domains.maps import WorldMap
+from htnagent.domains.user import resolve_domain
 from htnagent.errors import ScenarioError
-from htnagent.maps import WorldMap
+from htnagent.model.actions import RECOVERY
+from htnagent.model.domain import Domain
+from htnagent.model.terms import Atom
 from htnagent.scenario.hddl_agent import (
     DEFAULT_DURATION,
     RESERVED,
@@ -32,8 +34,6 @@ from htnagent.scenario.hddl_agent import (
     load_hddl_agent,
 )
 from htnagent.scenario.schema import ROBOT, HddlDomainSpec, Scenario, Trigger, no_agent
-from htnagent.terms import Atom
-from htnagent.user_domains import resolve_domain
 
 __all__ = ["check_task", "cross_check"]
 

@@ -3,7 +3,7 @@
 The domain and problem files are read and checked by :mod:`htnagent.hddl` (any
 fault is its one line ``FILE:LINE:COL: reason``, an
 :class:`~htnagent.errors.HddlError`) and translated by
-:mod:`htnagent.hddl_domain`: the agent plans with the translation's domain, its
+:mod:`htnagent.planning.hddl_problems`: the agent plans with the translation's domain, its
 start belief is the problem's ``:init`` with the translation's static type and
 equality facts (docs/design.md §7.1).  Its goals name the HDDL domain's tasks
 (or actions) and the problem's objects; the actions in ``agents[].suspendable``
@@ -20,26 +20,26 @@ from typing import TYPE_CHECKING, Annotated
 from pydantic import Field, ValidationError
 
 from htnagent.domains import DomainInfo
+from htnagent.domains.maps import WorldMap
+from htnagent.domains.user import ResolvedDomain
 from htnagent.errors import ScenarioError
-from htnagent.maps import WorldMap
-from htnagent.scenario.reading import read_yaml
+from htnagent.model.terms import Atom
+from htnagent.reading import read_yaml
 from htnagent.scenario.schema import HddlDomainSpec, TextForm, _Spec
 from htnagent.scenario.wording import kind_of
 from htnagent.scenario.wording import translate as translate_error
-from htnagent.terms import Atom
-from htnagent.user_domains import ResolvedDomain
 
 if TYPE_CHECKING:
     from htnagent.hddl import model as m
-    from htnagent.hddl_domain import HddlPlanning, Started
+    from htnagent.planning.hddl_problems import HddlPlanning, Started
 
-# htnagent.hddl reads its files with htnagent.scenario.reading: this module imports the
+# htnagent.hddl reads its files with htnagent.reading: this module imports the
 # HDDL modules when it uses them, so that importing either package first works.
 
 DEFAULT_DURATION = 1.0
 """Simulated seconds an HDDL action takes when ``robot.durations`` does not name it."""
 RESERVED = "__"
-"""The prefix of the names the HDDL translation adds (htnagent.hddl_domain.RESERVED)."""
+"""The prefix of the names the HDDL translation adds (htnagent.planning.hddl_problems.RESERVED)."""
 
 __all__ = [
     "DEFAULT_DURATION",
@@ -66,7 +66,7 @@ def load_hddl_agent(
     files, ScenarioError for an action of ``suspendable`` the domain cannot suspend.
     """
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.hddl_domain import StartedError, translate, unsuspendable
+    from htnagent.planning.hddl_problems import StartedError, translate, unsuspendable
 
     domain = read_domain(base_dir / spec.hddl, max_file_bytes)
     problem = read_problem(base_dir / spec.problem, domain, max_file_bytes)
@@ -109,7 +109,7 @@ def read_started(
     over the action's parameters and the problem's objects.  Anything else is a
     ScenarioError naming the file and the key.
     """
-    from htnagent.hddl_domain import Started
+    from htnagent.planning.hddl_problems import Started
 
     file = str(path)
     data = read_yaml(path, "list of started effects", max_file_bytes)

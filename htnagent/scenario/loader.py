@@ -1,13 +1,13 @@
 """Loading a scenario: the file read, its schema checked, its map and domains built, all cross-checked.
 
 :func:`load_scenario` is what the command line and the benchmarks call; it
-reads the file safely (:mod:`htnagent.scenario.reading`) and hands the data
+reads the file safely (:mod:`htnagent.reading`) and hands the data
 to :func:`parse_scenario`, which validates it (:mod:`htnagent.scenario.schema`,
 errors worded by :mod:`htnagent.scenario.wording`), reads the map
 (:mod:`htnagent.scenario.map_file`) and checks every reference
 (:mod:`htnagent.scenario.checks`).  A domain named as
 ``package.module:attribute`` is the user's own code, and runs
-(:mod:`htnagent.user_domains`).
+(:mod:`htnagent.domains.user`).
 """
 
 from __future__ import annotations
@@ -19,10 +19,10 @@ from pydantic import ValidationError
 
 from htnagent.errors import ScenarioError
 from htnagent.limits import MAX_EVENTS, MAX_GOALS
+from htnagent.reading import gc_paused, read_yaml
 from htnagent.scenario.checks import cross_check
 from htnagent.scenario.hddl_agent import no_map
 from htnagent.scenario.map_file import load_map
-from htnagent.scenario.reading import gc_paused, read_yaml
 from htnagent.scenario.schema import Scenario
 from htnagent.scenario.wording import kind_of, translate
 

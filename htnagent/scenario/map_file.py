@@ -1,4 +1,4 @@
-"""The map file: its schema, and the checked :class:`~htnagent.maps.WorldMap` it becomes.
+"""The map file: its schema, and the checked :class:`~htnagent.domains.maps.WorldMap` it becomes.
 
 The format is that of ``scenarios/museum_map.yaml`` (docs/contracts.md): ``areas``
 (name → nothing or ``{col, row}``), ``nodes`` (name → ``{area, x, y}``) and
@@ -40,10 +40,10 @@ from pydantic import (
 )
 from typing_extensions import TypedDict
 
+from htnagent.domains.maps import Arc, Node, WorldMap
 from htnagent.errors import ScenarioError, shown
 from htnagent.limits import MAX_ARC_LENGTH, MAX_COORDINATE
-from htnagent.maps import Arc, Node, WorldMap
-from htnagent.scenario.reading import read_yaml
+from htnagent.reading import read_yaml
 from htnagent.scenario.wording import NAME_PATTERN, kind_of, translate
 
 __all__ = ["ArcEntry", "ArcForm", "AreaEntry", "MapFile", "NodeEntry", "load_map", "parse_map"]

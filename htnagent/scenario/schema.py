@@ -26,19 +26,19 @@ from pydantic import (
     model_validator,
 )
 
-from htnagent.actions import RECOVERY
-from htnagent.domain import Domain, State
 from htnagent.domains import DomainInfo
+from htnagent.domains.maps import WorldMap
+from htnagent.domains.user import ResolvedDomain
 from htnagent.errors import ScenarioError, TextFormError
 from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
-from htnagent.maps import WorldMap
-from htnagent.planner import PlannerSettings, Search
+from htnagent.model.actions import RECOVERY
+from htnagent.model.domain import Domain, State
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario.wording import kind_of
-from htnagent.terms import Atom, parse
-from htnagent.user_domains import ResolvedDomain
 
 if TYPE_CHECKING:  # htnagent.hddl reads files with htnagent.scenario: no import cycle at run time
-    from htnagent.hddl_domain import HddlPlanning
+    from htnagent.planning.hddl_problems import HddlPlanning
 
 __all__ = [
     "ROBOT",
@@ -179,7 +179,7 @@ class AgentSpec(_Spec):
 
 
 class PlannerSpec(_Spec):
-    """How hard every agent's planner tries (see :class:`~htnagent.planner.PlannerSettings`)."""
+    """How hard every agent's planner tries (see :class:`~htnagent.planning.planner.PlannerSettings`)."""
 
     alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
     budget: Annotated[int, Strict(), Field(ge=1)] = 200_000

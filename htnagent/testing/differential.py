@@ -23,11 +23,11 @@ import random
 from dataclasses import dataclass, field
 from typing import Any
 
-from htnagent.events import RobotMoving, TraceEvent
-from htnagent.maps import generate_map, map_to_yaml_data
-from htnagent.runtime import Runtime
+from htnagent.domains.maps import generate_map, map_to_yaml_data
+from htnagent.runtime.events import RobotMoving, TraceEvent
 from htnagent.scenario import parse_scenario
-from htnagent.simulation import run_scenario
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 from htnagent.testing.invariants import RunChecker
 from htnagent.testing.storms import agent_chain
 

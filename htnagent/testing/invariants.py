@@ -22,8 +22,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from htnagent.actions import half_done, resumed
-from htnagent.events import (
+from htnagent.executors.robot import Robot
+from htnagent.model.actions import half_done, resumed
+from htnagent.model.terms import Atom, parse
+from htnagent.runtime.events import (
     ActionFinished,
     ActionStarted,
     AgentCrashed,
@@ -37,9 +39,7 @@ from htnagent.events import (
     RobotMoving,
     TraceEvent,
 )
-from htnagent.executors.robot import Robot
-from htnagent.runtime import Runtime
-from htnagent.terms import Atom, parse
+from htnagent.system.runtime import Runtime
 
 _INSTANT = 1e-9
 

@@ -14,7 +14,7 @@ from __future__ import annotations
 import random
 from typing import Any
 
-from htnagent.maps import generate_map, map_to_yaml_data
+from htnagent.domains.maps import generate_map, map_to_yaml_data
 
 
 def agent_chain(two_levels: bool) -> tuple[list[dict[str, str]], str, str]:

@@ -7,7 +7,7 @@ from the parent's process go to NAME's mailbox at their sender's time; NAME's
 results go back, each after the robot's state (what the parent's summary
 shows), and so do the runtime's progress reports and trace events.  When the
 parent's process goes (its liveliness token does), NAME is told
-:class:`~htnagent.messages.ParentLost`, as when a parent in the same process
+:class:`~htnagent.runtime.messages.ParentLost`, as when a parent in the same process
 crashes: what it ordered is dropped.  A parent may connect again later.
 """
 
@@ -19,11 +19,15 @@ from collections.abc import Callable, Iterable
 
 import anyio
 
-from htnagent.clock import Mailbox
 from htnagent.errors import ScenarioError
-from htnagent.events import PeerJoined, PeerLost, Summary, TraceEvent
 from htnagent.executors.robot import RobotWorld
-from htnagent.messages import (
+from htnagent.model.terms import Atom
+from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
+from htnagent.remote.link import Keys, Link
+from htnagent.remote.proxy import RemoteChild
+from htnagent.runtime.clock import Mailbox
+from htnagent.runtime.events import PeerJoined, PeerLost, Summary, TraceEvent
+from htnagent.runtime.messages import (
     BeliefUpdate,
     Clear,
     Execute,
@@ -37,15 +41,11 @@ from htnagent.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.progress import Progress
-from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
-from htnagent.remote.link import Keys, Link
-from htnagent.remote.proxy import RemoteChild
-from htnagent.runtime import Runtime
+from htnagent.runtime.progress import Progress
+from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.simulation import build_runtime, robot_status, world_changed
-from htnagent.terms import Atom
-from htnagent.trace import Observer
+from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
 log = logging.getLogger("htnagent")
 

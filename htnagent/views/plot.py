@@ -14,7 +14,7 @@ import stat
 from pathlib import Path
 
 from htnagent.errors import PlotError, drawing
-from htnagent.events import GoalFinished, GoalReceived, RobotMoving, TraceEvent
+from htnagent.runtime.events import GoalFinished, GoalReceived, RobotMoving, TraceEvent
 from htnagent.scenario import Scenario
 
 

@@ -16,7 +16,7 @@ from rich.console import Console
 from rich.table import Table
 from rich.text import Text
 
-from htnagent.events import (
+from htnagent.runtime.events import (
     ActionFinished,
     ActionStarted,
     AgentCrashed,

@@ -25,9 +25,9 @@ import stat
 from pathlib import Path
 
 from htnagent.errors import PlotError
-from htnagent.events import JSONValue
-from htnagent.history import GoalBar, History
+from htnagent.runtime.events import JSONValue
 from htnagent.scenario import Scenario
+from htnagent.views.history import GoalBar, History
 
 GOAL_COLOUR = "#4c78a8"
 EMERGENCY_COLOUR = "#e45756"
@@ -453,7 +453,7 @@ ol{margin:2px 0 2px 0;padding-left:26px}
 _LOGIC = r"""
 "use strict";
 // Pure functions of the embedded history: the page's state at time t.
-// They mirror htnagent.history.History.at (a test runs them under Node against it).
+// They mirror htnagent.views.history.History.at (a test runs them under Node against it).
 function holds(span, t) {
   return span[0] <= t && (span[1] === null || t < span[1]);
 }

@@ -6,7 +6,7 @@ map) live in an indexed :class:`FactBase` shared by every state that grew from
 the same start, and *dynamic* facts (predicates some effect changes) in a small
 frozenset of the state's own, so that applying an action copies only what
 actions can change.  Which predicates are dynamic is the domain's to say
-(:attr:`htnagent.domain.Domain.dynamic_predicates`).
+(:attr:`htnagent.model.domain.Domain.dynamic_predicates`).
 
 Both are values: an update gives a new state, never changes one.  (A fact base
 builds its indexes lazily on first look-up; that cache is invisible from outside.)
@@ -19,10 +19,10 @@ from collections import defaultdict
 from collections.abc import Iterable, Iterator
 from typing import TYPE_CHECKING
 
-from htnagent.terms import Atom, Bindings, Term, atom, unify
+from htnagent.model.terms import Atom, Bindings, Term, atom, unify
 
 if TYPE_CHECKING:
-    from htnagent.domain import Domain
+    from htnagent.model.domain import Domain
 
 
 class FactBase:

@@ -2,12 +2,12 @@
 
 The trace tells people and tools what the agents did; nothing in the runtime
 decides anything by reading it (triggers follow the robot's typed
-:class:`~htnagent.progress.Progress` signal instead).  Each event kind is one
+:class:`~htnagent.runtime.progress.Progress` signal instead).  Each event kind is one
 class below with a literal ``event`` name; :data:`EVENT_KINDS` lists them all,
 and ``docs/contracts.md`` documents the same table (a test keeps the two equal).
 
 An event is stamped with the simulated time ``t`` by
-:meth:`htnagent.trace.Trace.emit`; :meth:`TraceEvent.as_dict` gives the JSON
+:meth:`htnagent.runtime.trace.Trace.emit`; :meth:`TraceEvent.as_dict` gives the JSON
 object of ``run --json`` — ``t``, ``agent``, ``event``, then the kind's fields,
 optional ones only when set.
 """

@@ -1,7 +1,7 @@
-"""An HDDL domain and problem as an htnagent :class:`~htnagent.domain.Domain` to plan with.
+"""An HDDL domain and problem as an htnagent :class:`~htnagent.model.domain.Domain` to plan with.
 
 The HDDL model (:mod:`htnagent.hddl`) keeps what the files say; this module makes
-of it what the planner (:mod:`htnagent.planner`) reads (docs/design.md §7):
+of it what the planner (:mod:`htnagent.planning.planner`) reads (docs/design.md §7):
 
 - **Types** become static facts, one predicate per type (``__type_truck(t1)``),
   true of every object of that type or a subtype.  A parameter's type is a literal
@@ -19,7 +19,7 @@ of it what the planner (:mod:`htnagent.planner`) reads (docs/design.md §7):
 - **Methods with no subtasks** do the zero-cost action ``__done()``, so that their
   decomposition appears in the plan's records (the IPC plan format lists it).
 - **Suspension** (docs/design.md §7.1): an action named in ``suspendable`` is declared
-  with a :class:`~htnagent.domain.Suspension`.  Stopped half way it has had no effect;
+  with a :class:`~htnagent.model.domain.Suspension`.  Stopped half way it has had no effect;
   the fact ``__suspended_A(args)`` records it.  ``resume(A)`` requires that record and
   A's own precondition (the rest of A is done now, so what A needs must hold now) and
   gives A's effects; ``rollback(A)`` just drops the record.
@@ -42,17 +42,17 @@ from collections.abc import Collection, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import TypeVar
 
-from htnagent.domain import Domain as PlanningDomain
-from htnagent.domain import Effect, Suspension
 from htnagent.hddl import model as m
 from htnagent.hddl.plan_file import Decomposition as IpcDecomposition
 from htnagent.hddl.plan_file import IpcPlan
 from htnagent.hddl.plan_file import Step as IpcStep
-from htnagent.plan import Decomposition, Plan
-from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
-from htnagent.preconditions import Literal
-from htnagent.state import State
-from htnagent.terms import Atom, Bindings, substitute
+from htnagent.model.domain import Domain as PlanningDomain
+from htnagent.model.domain import Effect, Suspension
+from htnagent.model.plans import Decomposition, Plan
+from htnagent.model.preconditions import Literal
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, Bindings, substitute
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
 
 TOP = "__top"
 """The task whose one method is the problem's initial task network."""
@@ -187,7 +187,7 @@ class Solved:
     settings, and the result (expansions and seconds of every search it ran).
 
     ``planning`` is None when the time ran out during the translation: the result is then
-    :attr:`~htnagent.planner.PlanStatus.TIMED_OUT`, after no expansion.
+    :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`, after no expansion.
     """
 
     planning: HddlPlanning | None
@@ -211,7 +211,7 @@ def solve(
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`CLOCK_EVERY` objects, facts or literals), and when
-    the time runs out there, the result is :attr:`~htnagent.planner.PlanStatus.TIMED_OUT`
+    the time runs out there, the result is :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`
     as when a search runs out of it.
 
     Some domains are written for SHOP's order (Barman: depth-first solves at once what

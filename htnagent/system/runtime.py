@@ -6,8 +6,8 @@ Embedding API::
         outcome = await rt.achieve("guide", parse("goto(n1)"))
 
 Agents are listed parent first; each agent's executor is the next agent, and
-the last agent's is the given executor: an :class:`~htnagent.executor.ExecutorActor`
-factory ``(clock, trace) -> actor`` or a plain :class:`~htnagent.executor.Executor`
+the last agent's is the given executor: an :class:`~htnagent.runtime.executor.ExecutorActor`
+factory ``(clock, trace) -> actor`` or a plain :class:`~htnagent.runtime.executor.Executor`
 (which acts in the real world, so its runtime keeps wall-clock time: ``speed``
 defaults to 1 for it, virtual time otherwise).  Nothing outlives the
 ``async with``: leaving it cancels every task.  An actor that crashes is
@@ -31,15 +31,15 @@ import anyio
 from anyio.abc import TaskGroup, TaskStatus
 
 from htnagent.agent import Agent, AgentConfig, GoalStatus
-from htnagent.clock import Clock
 from htnagent.errors import RuntimeClosedError, SettingsError, UnknownNameError
-from htnagent.events import AgentCrashed
-from htnagent.executor import AdapterActor, Executor, ExecutorActor, must_propagate
-from htnagent.listeners import Listeners
-from htnagent.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
-from htnagent.progress import ProgressListener
-from htnagent.terms import Atom
-from htnagent.trace import EventStream, Observer, Trace
+from htnagent.model.terms import Atom
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.events import AgentCrashed
+from htnagent.runtime.executor import AdapterActor, Executor, ExecutorActor, must_propagate
+from htnagent.runtime.listeners import Listeners
+from htnagent.runtime.messages import Clear, Execute, Failure, ParentLost, Resume, Submit, Suspend
+from htnagent.runtime.progress import ProgressListener
+from htnagent.runtime.trace import EventStream, Observer, Trace
 
 ExecutorFactory = Callable[[Clock, Trace], ExecutorActor]
 
@@ -287,7 +287,7 @@ class Runtime:
     # -- observing --------------------------------------------------------------------------
 
     def on_progress(self, listener: ProgressListener) -> Callable[[], None]:
-        """Call ``listener`` with every actor's progress reports (see :mod:`htnagent.progress`);
+        """Call ``listener`` with every actor's progress reports (see :mod:`htnagent.runtime.progress`);
         returns the function that removes it."""
         removers = [actor.progress.add(listener) for actor in [*self.agents.values(), self.executor]]
 
@@ -312,7 +312,7 @@ class Runtime:
         """A stream of every trace event from now on; it ends when the runtime closes.
 
         A reader that falls ``limit`` events behind loses the oldest ones and is told
-        so by an ``events_dropped`` event (see :class:`~htnagent.trace.EventStream`);
+        so by an ``events_dropped`` event (see :class:`~htnagent.runtime.trace.EventStream`);
         close it (``aclose``) to stop reading.
         """
         stream = EventStream(self.trace, limit)

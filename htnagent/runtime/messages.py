@@ -17,10 +17,10 @@ from typing import Literal
 
 from pydantic import BaseModel, ConfigDict, InstanceOf
 
-from htnagent.terms import Atom as _Atom
+from htnagent.model.terms import Atom as _Atom
 
 Atom = InstanceOf[_Atom]
-"""A task or action in a message: an :class:`~htnagent.terms.Atom` taken as it is.
+"""A task or action in a message: an :class:`~htnagent.model.terms.Atom` taken as it is.
 
 Checked by type only: validating it as the named tuple it is would rebuild it, argument
 by argument — the better part of the cost of a message on the way to the robot (issue

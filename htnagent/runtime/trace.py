@@ -1,4 +1,4 @@
-"""The trace: publishing events (:mod:`htnagent.events`) to the observers that receive them.
+"""The trace: publishing events (:mod:`htnagent.runtime.events`) to the observers that receive them.
 
 The runtime publishes events to every observer in order, each stamped with the
 simulated time; observers must not block (the CLI's printers, a collector for
@@ -15,9 +15,9 @@ from typing import Self
 
 import anyio
 
-from htnagent.clock import Clock
 from htnagent.errors import SettingsError
-from htnagent.events import EventsDropped, TraceEvent
+from htnagent.runtime.clock import Clock
+from htnagent.runtime.events import EventsDropped, TraceEvent
 
 Observer = Callable[[TraceEvent], None]
 

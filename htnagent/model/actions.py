@@ -1,6 +1,6 @@
 """Ground actions: what each does to a belief, worked out once per domain.
 
-A :class:`~htnagent.domain.Domain` says what operators exist; this module says
+A :class:`~htnagent.model.domain.Domain` says what operators exist; this module says
 what a ground action such as ``move(n1,n6,arc5)`` *does*.  Every domain owns one
 :class:`Actions` (``domain.actions``), which finds the operator implementing an
 action (grounding), caches the action with its precondition and effects made
@@ -33,12 +33,12 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Final
 
 from htnagent.errors import PlanningError
-from htnagent.preconditions import satisfiers
-from htnagent.state import State
-from htnagent.terms import Atom, Bindings, substitute, unify
+from htnagent.model.preconditions import satisfiers
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, Bindings, substitute, unify
 
 if TYPE_CHECKING:
-    from htnagent.domain import Domain, Operator
+    from htnagent.model.domain import Domain, Operator
 
 RESUME: Final = "resume"
 """The name of ``resume(A)``: finish the rest of the suspended action A."""
@@ -175,7 +175,7 @@ _MISSING: object = object()
 class Actions:
     """The ground actions of one domain: found, compiled and cached, and what they do.
 
-    Made by the :class:`~htnagent.domain.Domain` itself (``domain.actions``);
+    Made by the :class:`~htnagent.model.domain.Domain` itself (``domain.actions``);
     :meth:`forget` empties the caches when the domain gains an operator.
     """
 

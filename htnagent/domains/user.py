@@ -9,7 +9,7 @@ makes sure of is that nothing *else* runs:
   ``sys:exit`` exits -- nor is any ``__main__`` module (a program, not a library);
 - the module is looked up in the scenario file's folder first, then in the
   installed packages; not in the current working directory by accident;
-- the attribute must be a :class:`~htnagent.domain.Domain` or a function marked
+- the attribute must be a :class:`~htnagent.model.domain.Domain` or a function marked
   with :func:`~htnagent.domains.domain_factory`, and this is checked before
   anything is called;
 - whatever the user's code raises, ``SystemExit`` and ``KeyboardInterrupt``
@@ -34,10 +34,10 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any, NamedTuple
 
-from htnagent.domain import Domain
 from htnagent.domains import BUILTIN, DomainInfo, declared_info
+from htnagent.domains.maps import WorldMap
 from htnagent.errors import ScenarioError, shown
-from htnagent.maps import WorldMap
+from htnagent.model.domain import Domain
 
 __all__ = ["ResolvedDomain", "resolve_domain"]
 

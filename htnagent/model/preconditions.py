@@ -3,7 +3,7 @@
 An operator's or method's precondition is a conjunction of :class:`Literal`
 values, positive or negated atoms with variables.  :func:`satisfiers` yields
 every binding of the variables under which the conjunction holds in a
-:class:`~htnagent.state.State`, binding left to right by matching facts (SHOP
+:class:`~htnagent.model.state.State`, binding left to right by matching facts (SHOP
 unification); :func:`all_satisfiers` is its list-returning form.  The planner
 decomposes at every search step with :func:`compile_method`: a method made once
 into one function that gives, for a task and a state, the subtasks of every
@@ -16,8 +16,8 @@ from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass, field
 from typing import cast
 
-from htnagent.state import FactBase, State
-from htnagent.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
+from htnagent.model.state import FactBase, State
+from htnagent.model.terms import Atom, Bindings, Term, atom, is_variable, substitute, unify
 
 
 @dataclass(frozen=True, slots=True)

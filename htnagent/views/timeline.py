@@ -7,7 +7,7 @@ stack and paler while it waits behind another goal for its first plan;
 emergencies have their own colour; a failure is a cross at its end with the
 reason beside it.  Below the lanes, each agent's stack depth over time.
 Emergencies arriving and doors shutting or opening are vertical lines across
-both.  Needs matplotlib (the ``plot`` extra), like :mod:`htnagent.plot`.
+both.  Needs matplotlib (the ``plot`` extra), like :mod:`htnagent.views.plot`.
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ from __future__ import annotations
 from typing import Any
 
 from htnagent.errors import PlotError, drawing
-from htnagent.history import GoalBar, History
+from htnagent.views.history import GoalBar, History
 
 GOAL_COLOUR = "#4c78a8"
 EMERGENCY_COLOUR = "#e45756"

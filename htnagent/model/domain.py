@@ -16,15 +16,15 @@ subtasks" (docs/design.md §1)::
 
 Besides what was declared, a domain keeps two caches, both emptied whenever an
 operator is added: the set of dynamic predicates, and ``domain.actions`` (an
-:class:`~htnagent.actions.Actions`: ground actions compiled once, and what each
+:class:`~htnagent.model.actions.Actions`: ground actions compiled once, and what each
 does to a belief).  For convenience the domain forwards the belief transitions
 to it (:meth:`Domain.apply`, :meth:`~Domain.progress`, :meth:`~Domain.suspend`,
 :meth:`~Domain.clear`, :meth:`~Domain.can_suspend`); their meaning is defined in
-:mod:`htnagent.actions`.
+:mod:`htnagent.model.actions`.
 
-Related modules: beliefs are :mod:`htnagent.state`, precondition literals and
-their matching :mod:`htnagent.preconditions`, A*'s estimate over a task list is
-:func:`htnagent.planner.heuristic`.  The names those modules define that were
+Related modules: beliefs are :mod:`htnagent.model.state`, precondition literals and
+their matching :mod:`htnagent.model.preconditions`, A*'s estimate over a task list is
+:func:`htnagent.planning.planner.heuristic`.  The names those modules define that were
 once defined here are still importable from here.
 """
 
@@ -35,9 +35,9 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TypeVar
 
-from htnagent.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
 from htnagent.errors import DomainError
-from htnagent.preconditions import (
+from htnagent.model.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
+from htnagent.model.preconditions import (
     Decomposer,
     LazyDecomposer,
     Literal,
@@ -48,8 +48,8 @@ from htnagent.preconditions import (
     literals,
     satisfiers,
 )
-from htnagent.state import FactBase, State
-from htnagent.terms import Atom, Bindings, atom, is_variable, substitute
+from htnagent.model.state import FactBase, State
+from htnagent.model.terms import Atom, Bindings, atom, is_variable, substitute
 
 _F = TypeVar("_F")
 
@@ -154,7 +154,7 @@ class Operator:
 
     def effects_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
         """The dynamic facts after the delete then add effects, unchecked (the precondition
-        is the caller's to test: see :mod:`htnagent.actions` for the checked forms)."""
+        is the caller's to test: see :mod:`htnagent.model.actions` for the checked forms)."""
         return _changed(dynamic, self.delete, self.add, bindings)
 
     def suspension_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
@@ -210,7 +210,7 @@ class Method:
 
     def subtasks_in(self, task: Atom, state: State) -> list[tuple[Atom, ...]]:
         """The subtask lists for ``task`` in ``state``: one for each way the precondition
-        holds, in SHOP's order (that of :func:`~htnagent.preconditions.all_satisfiers`);
+        holds, in SHOP's order (that of :func:`~htnagent.model.preconditions.all_satisfiers`);
         none when the head does not match the task.
 
         The head and precondition are compiled once per set of dynamic predicates
@@ -220,11 +220,11 @@ class Method:
 
     def compiled(self, dynamic_predicates: frozenset[str]) -> Decomposer:
         """:meth:`subtasks_in` for states with these dynamic predicates, as one function
-        (made once; see :func:`~htnagent.preconditions.compile_method`)."""
+        (made once; see :func:`~htnagent.model.preconditions.compile_method`)."""
         return self._once(self._compiled, compile_method, dynamic_predicates)
 
     def compiled_lazy(self, dynamic_predicates: frozenset[str]) -> LazyDecomposer:
-        """:meth:`compiled` as a generator (see :func:`~htnagent.preconditions.compile_method_lazy`)."""
+        """:meth:`compiled` as a generator (see :func:`~htnagent.model.preconditions.compile_method_lazy`)."""
         return self._once(self._lazy, compile_method_lazy, dynamic_predicates)
 
     def _once(
@@ -269,9 +269,9 @@ class Domain:
     """The least cost of each task name whatever the state (``inf``: the task can never be
     done).  When set, the planner's estimate of a task list is the sum over its tasks (in
     place of :attr:`estimates`): admissible, and it sees the whole list.  The HDDL
-    translation sets it (:mod:`htnagent.hddl_domain`)."""
+    translation sets it (:mod:`htnagent.planning.hddl_problems`)."""
     actions: Actions = field(init=False, repr=False, compare=False)
-    """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.actions`)."""
+    """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.model.actions`)."""
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)
     _read: tuple[frozenset[str], frozenset[str]] | None = field(default=None, repr=False, compare=False)
 
@@ -424,7 +424,7 @@ class Domain:
         """Every resume and rollback operator (tried by the planner first, see planner)."""
         return [op for name in RECOVERY for op in self.operators.get(name, ())]
 
-    # -- belief transitions, forwarded to ``actions`` (defined in htnagent.actions) ----------
+    # -- belief transitions, forwarded to ``actions`` (defined in htnagent.model.actions) ----------
 
     def apply(self, state: State, action: Atom) -> State | None:
         """The state after the action, or None when its precondition is false."""

@@ -36,26 +36,26 @@ import anyio
 from rich.console import Console
 from rich.text import Text
 
-from htnagent.console import JsonLines, LiveTrace, print_summary, printable
 from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
-from htnagent.events import TraceEvent
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
 from htnagent.hddl.reader import read_domain, read_problem
-from htnagent.hddl_domain import actions_of, ipc_plan, solve, translate
-from htnagent.history import History
 from htnagent.limits import MAX_SPEED, MIN_SPEED
-from htnagent.plan import Plan
-from htnagent.planner import PlanStatus, Search, plan, stop_searches
-from htnagent.plot import check_plot_target, draw_run
-from htnagent.report import check_report_target, write_report
+from htnagent.model.plans import Plan
+from htnagent.model.terms import Atom, parse
+from htnagent.planning.hddl_problems import actions_of, ipc_plan, solve, translate
+from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
+from htnagent.runtime.events import TraceEvent
+from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.terms import Atom, parse
-from htnagent.timeline import draw_timeline
-from htnagent.trace import Observer
-from htnagent.trace_file import read_trace
+from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.views.console import JsonLines, LiveTrace, print_summary, printable
+from htnagent.views.history import History
+from htnagent.views.plot import check_plot_target, draw_run
+from htnagent.views.report import check_report_target, write_report
+from htnagent.views.timeline import draw_timeline
+from htnagent.views.trace_file import read_trace
 
 PROG = "htnagent"
 
@@ -650,7 +650,7 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
 def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
     scenario = load_scenario(args.scenario)
     import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
-    from htnagent.remote.host import check_served, serve
+    from htnagent.system.serving import check_served, serve
 
     check_served(scenario, args.agent)
 

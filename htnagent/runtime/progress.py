@@ -13,8 +13,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from enum import Enum
 
-from htnagent.listeners import Listeners
-from htnagent.terms import Atom
+from htnagent.model.terms import Atom
+from htnagent.runtime.listeners import Listeners
 
 
 class Phase(Enum):

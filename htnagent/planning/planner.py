@@ -27,13 +27,13 @@ from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
 
-from htnagent.actions import ROLLBACK, Actions
-from htnagent.domain import Domain, Estimate
 from htnagent.errors import PlanningError, SettingsError
-from htnagent.plan import Decomposition, Plan, Step, tidy
-from htnagent.preconditions import Decomposer, LazyDecomposer, satisfiers
-from htnagent.state import State
-from htnagent.terms import Atom, Bindings, substitute, unify
+from htnagent.model.actions import ROLLBACK, Actions
+from htnagent.model.domain import Domain, Estimate
+from htnagent.model.plans import Decomposition, Plan, Step, tidy
+from htnagent.model.preconditions import Decomposer, LazyDecomposer, satisfiers
+from htnagent.model.state import State
+from htnagent.model.terms import Atom, Bindings, substitute, unify
 
 TaskEntry = tuple[Atom, Decomposition | None]
 

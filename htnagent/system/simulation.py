@@ -21,20 +21,20 @@ from typing import TYPE_CHECKING
 import anyio
 
 from htnagent.agent import AgentConfig, GoalStatus
-from htnagent.clock import Clock, TimerHandle
-from htnagent.events import ArcClosed, ArcOpened, FactsChanged, GoalRow, Summary, TraceEvent
-from htnagent.executor import ExecutorActor
 from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
-from htnagent.hddl_domain import MARKERS
-from htnagent.messages import BeliefUpdate
+from htnagent.model.terms import Atom
+from htnagent.planning.hddl_problems import MARKERS
 from htnagent.planset import Replanning
-from htnagent.progress import Phase, Progress
-from htnagent.runtime import Runtime
+from htnagent.runtime.clock import Clock, TimerHandle
+from htnagent.runtime.events import ArcClosed, ArcOpened, FactsChanged, GoalRow, Summary, TraceEvent
+from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.messages import BeliefUpdate
+from htnagent.runtime.progress import Phase, Progress
+from htnagent.runtime.trace import Observer, Trace
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.scenario.hddl_agent import DEFAULT_DURATION
-from htnagent.terms import Atom
-from htnagent.trace import Observer, Trace
+from htnagent.system.runtime import Runtime
 
 if TYPE_CHECKING:
     from htnagent.remote.link import Keys

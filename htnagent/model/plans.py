@@ -13,10 +13,10 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from htnagent.actions import ROLLBACK, rolled_back
-from htnagent.domain import Domain
-from htnagent.state import State
-from htnagent.terms import Atom
+from htnagent.model.actions import ROLLBACK, rolled_back
+from htnagent.model.domain import Domain
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
 
 
 @dataclass(frozen=True, slots=True, eq=False)

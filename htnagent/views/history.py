@@ -1,6 +1,6 @@
 """What happened in a run, read from its trace alone: goals, stacks, the robot's way.
 
-:meth:`History.from_events` turns a run's typed events (:mod:`htnagent.events`,
+:meth:`History.from_events` turns a run's typed events (:mod:`htnagent.runtime.events`,
 as ``run --json`` writes them or ``RunReport.events`` keeps them) into the
 facts a person asks about afterwards:
 
@@ -17,7 +17,7 @@ facts a person asks about afterwards:
 goal, its stack (bottom first), the selected plan and the action under way,
 and where the robot stood.  "At t" means after every event stamped t.
 
-The drawings (:mod:`htnagent.timeline`, :mod:`htnagent.report`) read only this
+The drawings (:mod:`htnagent.views.timeline`, :mod:`htnagent.views.report`) read only this
 model; nothing here imports the runtime or draws.  The runtime never reads it
 (docs/style.md "Concurrency": behaviour never depends on the trace).
 """
@@ -30,7 +30,8 @@ from dataclasses import dataclass, field
 from typing import Literal
 
 from htnagent.errors import TextFormError, TraceFormatError
-from htnagent.events import (
+from htnagent.model.terms import Atom, parse
+from htnagent.runtime.events import (
     ActionFinished,
     ActionStarted,
     AgentCrashed,
@@ -49,7 +50,6 @@ from htnagent.events import (
     Summary,
     TraceEvent,
 )
-from htnagent.terms import Atom, parse
 
 ROBOT = "robot"
 """The simulated robot's name in the trace (it is no planning agent: no lane of its own)."""

@@ -8,7 +8,7 @@ traceback) however early or late it comes:
   package's ``__init__`` imports nothing heavy.  Until a run starts there is
   nothing to save, and the handler ends the process at once.
 - A run installs its own handlers, which let it stop and print its summary
-  (:class:`htnagent.cli._RunSignals`), and keeps them to the end.
+  (:class:`htnagent.cli.commands._RunSignals`), and keeps them to the end.
 - Once the command has returned, signals are ignored: at shutdown Python would
   put the default actions back, and a late SIGTERM would kill the process
   after its result was printed.
@@ -31,7 +31,7 @@ def run() -> NoReturn:
     for sig in (signal.SIGINT, signal.SIGTERM):
         if signal.getsignal(sig) is not signal.SIG_IGN:
             signal.signal(sig, _interrupted)
-    from htnagent.cli import main  # after the handlers, on purpose
+    from htnagent.cli.commands import main  # after the handlers, on purpose
 
     try:
         code = main(owns_process=True)

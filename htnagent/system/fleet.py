@@ -4,7 +4,7 @@ A fleet server runs, for every robot, the agents at the top of its chain (a
 guide, say) while each robot's navigator and robot are usually served by a
 process of their own (``remote:``, ``python -m htnagent serve``).  Each robot is
 one scenario file, so a robot is described exactly as when it runs alone;
-:func:`run_fleet` runs their :func:`~htnagent.simulation.run_scenario` side by
+:func:`run_fleet` runs their :func:`~htnagent.system.simulation.run_scenario` side by
 side in one task group of the caller's event loop and returns each run's report.
 
 The runs share nothing but the event loop: each has its own runtime, clock and
@@ -24,9 +24,9 @@ from dataclasses import dataclass
 import anyio
 
 from htnagent.errors import HtnAgentError, ScenarioError
+from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.simulation import RunReport, run_scenario
-from htnagent.trace import Observer
+from htnagent.system.simulation import RunReport, run_scenario
 
 
 @dataclass(frozen=True, slots=True)
@@ -81,7 +81,7 @@ async def run_fleet(
     """Run every scenario (one robot each) to its end, side by side; their reports.
 
     ``observers(i)`` gives the observers of the ``i``-th robot's run.  Setting
-    ``stop`` stops every run as :func:`~htnagent.simulation.run_scenario` does.
+    ``stop`` stops every run as :func:`~htnagent.system.simulation.run_scenario` does.
     An error at start-up (a serving process not reached within the scenario's
     ``peer_wait``: :class:`~htnagent.errors.RemoteError`) ends the whole fleet and
     is raised as it is (the first, if several robots could not start): a fleet

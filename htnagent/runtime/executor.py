@@ -2,7 +2,7 @@
 
 Whatever carries out an agent's actions — the simulated robot, a scripted
 executor in tests, a child agent, a real robot — is an *executor actor*: it
-reads orders (:class:`~htnagent.messages.Execute`, ``Suspend``, ``Resume``,
+reads orders (:class:`~htnagent.runtime.messages.Execute`, ``Suspend``, ``Resume``,
 ``Clear``) from its mailbox and answers each order with one result on its
 parent's mailbox.
 
@@ -21,10 +21,11 @@ from typing import Self
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.clock import Clock, Mailbox
-from htnagent.domain import Domain
-from htnagent.events import ExecutorError, MessageSent
-from htnagent.messages import (
+from htnagent.model.domain import Domain
+from htnagent.model.terms import Atom
+from htnagent.runtime.clock import Clock, Mailbox
+from htnagent.runtime.events import ExecutorError, MessageSent
+from htnagent.runtime.messages import (
     Clear,
     Execute,
     Failure,
@@ -38,9 +39,8 @@ from htnagent.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.progress import ProgressListeners
-from htnagent.terms import Atom
-from htnagent.trace import Trace
+from htnagent.runtime.progress import ProgressListeners
+from htnagent.runtime.trace import Trace
 
 
 class ActionOutcome(Enum):
@@ -123,7 +123,7 @@ def must_propagate(exc: BaseException) -> bool:
 class ExecutorActor(ABC):
     """An executor that speaks the message protocol directly.
 
-    Its mailbox holds :data:`~htnagent.messages.Message`: orders from the parent,
+    Its mailbox holds :data:`~htnagent.runtime.messages.Message`: orders from the parent,
     and whatever else the actor sends itself (timers); it reports how far a timed
     action has got to :attr:`progress` (what scenario triggers follow).
     """
@@ -172,7 +172,7 @@ class ExecutorActor(ABC):
 class AdapterActor(ExecutorActor):
     """Runs a user's :class:`Executor` behind the message protocol.
 
-    An executor that raises becomes a :class:`~htnagent.messages.Failure` with
+    An executor that raises becomes a :class:`~htnagent.runtime.messages.Failure` with
     the exception's text; the actor goes on serving.
     """
 

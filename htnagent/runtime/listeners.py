@@ -1,9 +1,9 @@
 """Callbacks the runtime calls as things happen: a user's code, which must not stop the agents.
 
 A callback that raises is dropped, with a warning in the log, and the others are
-still called: the actors' progress (:mod:`htnagent.progress`) and goals' ends
-(:meth:`htnagent.runtime.Runtime.on_goal_end`).  Trace observers follow the same
-rule in :meth:`htnagent.trace.Trace.emit`, written out there: it is called for
+still called: the actors' progress (:mod:`htnagent.runtime.progress`) and goals' ends
+(:meth:`htnagent.system.runtime.Runtime.on_goal_end`).  Trace observers follow the same
+rule in :meth:`htnagent.runtime.trace.Trace.emit`, written out there: it is called for
 every event.
 """
 

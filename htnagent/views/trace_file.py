@@ -2,7 +2,7 @@
 
 The file is read as scenario files are (:func:`htnagent.scenario.read_text`:
 regular files only, at most ``HTNAGENT_MAX_FILE_BYTES``, UTF-8), then line by
-line: each non-blank line one JSON object that :func:`~htnagent.events.event_from_dict`
+line: each non-blank line one JSON object that :func:`~htnagent.runtime.events.event_from_dict`
 accepts, the ``summary`` event last.  Whatever is wrong is one
 :class:`~htnagent.errors.TraceFormatError` naming the file, the line and the
 reason (docs/contracts.md "Command line").
@@ -15,7 +15,7 @@ import math
 from pathlib import Path
 
 from htnagent.errors import ScenarioError, TraceFormatError, shown
-from htnagent.events import Summary, TraceEvent, event_from_dict
+from htnagent.runtime.events import Summary, TraceEvent, event_from_dict
 from htnagent.scenario import read_text
 
 

@@ -1,0 +1,2 @@
+"""The command line: :mod:`.launch` installs the signal handlers, :mod:`.commands` parses
+and runs ``run``, ``plan``, ``check``, ``report``, ``serve``."""
