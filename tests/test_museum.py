@@ -594,7 +594,7 @@ def test_plot_draws_the_run_into_a_png(tmp_path: Path, capsys: pytest.CaptureFix
 
 @pytest.mark.parametrize(
     ("target", "reason"),
-    [("run.jpg", "give a file name ending in .png"), ("no/such/folder/run.png", "does not exist")],
+    [("run.jpg", "give one of .png, .svg, .pdf"), ("no/such/folder/run.png", "does not exist")],
 )
 def test_a_bad_plot_target_is_a_one_line_error_before_the_run(
     tmp_path: Path, capsys: pytest.CaptureFixture[str], target: str, reason: str

@@ -39,7 +39,7 @@ def test_a_failed_run_still_draws_and_keeps_its_exit_code(tmp_path: Path) -> Non
     assert out.read_bytes()[:8] == PNG
 
 
-@pytest.mark.parametrize(("target", "reason"), [("t.svg", "--timeline writes PNG"), (".", "is a directory")])
+@pytest.mark.parametrize(("target", "reason"), [("t.jpg", "writes PNG, SVG or PDF"), (".", "is a directory")])
 def test_a_bad_target_is_refused_before_the_run(
     target: str, reason: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

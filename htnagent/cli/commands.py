@@ -36,7 +36,7 @@ import anyio
 from rich.console import Console
 from rich.text import Text
 
-from htnagent.errors import HtnAgentError, ScenarioError, TextFormError
+from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
@@ -50,9 +50,9 @@ from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.system.simulation import RunReport, run_scenario
-from htnagent.views.console import JsonLines, LiveTrace, print_summary, printable
+from htnagent.views.console import KEY, JsonLines, LiveTrace, print_summary, printable
 from htnagent.views.history import History
-from htnagent.views.plot import check_plot_target, draw_run
+from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
 from htnagent.views.timeline import draw_timeline
 from htnagent.views.trace_file import read_trace
@@ -481,8 +481,11 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
         import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     if args.plot is not None:
         check_plot_target(args.plot)
+        check_plot_scenario(scenario, args.scenario)
     if args.timeline is not None:
         check_plot_target(args.timeline, "--timeline")
+    if args.plot and args.timeline and _same_file(args.plot, args.timeline):
+        raise PlotError(f"{args.plot}: --plot and --timeline name the same file; give each its own")
     with _RunSignals(restore=restore_signals) as signals:
         console = Console(highlight=False)
         if args.json:
@@ -490,6 +493,7 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
         else:
             mode = args.replanning or scenario.replanning
             console.print(Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)"))
+            console.print(Text(KEY, style="dim"))
             printer = _Printer(LiveTrace(console, scenario.agent_names))
         run = functools.partial(
             run_scenario,
@@ -519,6 +523,11 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
     return EXIT_OK if report.succeeded else EXIT_FAILED
+
+
+def _same_file(a: str, b: str) -> bool:
+    """Whether two names lead to one file (the same path, or a link to it)."""
+    return os.path.realpath(a) == os.path.realpath(b)
 
 
 class _Printer:

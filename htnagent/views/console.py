@@ -35,6 +35,9 @@ from htnagent.runtime.events import (
     TraceEvent,
 )
 
+KEY = "◆ goal given  ▶ action  ⏸ suspended (on the stack)  ⏵ resumed  ✔ ✘ ended"
+"""The marks of the live trace, printed under its title."""
+
 _STYLES = ["bold cyan", "bold green", "bold magenta", "bold yellow", "bold blue"]
 
 
@@ -80,7 +83,9 @@ class LiveTrace:
             return
         agent = event.agent
         level = self.level.get(agent, 0)
-        line = Text(f"{event.t:>9.2f}s ", style="dim")
+        # The time alone is dim: a style given to Text() itself would dim the whole line.
+        line = Text()
+        line.append(f"{event.t:>9.2f}s ", style="dim")
         line.append("  " * level)
         line.append(
             f"{agent:<10} ", style=_STYLES[level % len(_STYLES)] if agent in self.level else "bold red"
