@@ -291,7 +291,21 @@ class PeerJoined(TraceEvent):
     endpoint: str
 
 
-# -- the end of a run ----------------------------------------------------------------------------
+# -- the start and the end of a run ---------------------------------------------------------------
+
+
+@dataclass(slots=True, kw_only=True)
+class RunStarted(TraceEvent):
+    """The first event of a run of a scenario (agent ``runtime``, at t 0): what runs, and how.
+
+    A trace saved before this event existed has no header; readers do without it.
+    """
+
+    event: ClassVar[Literal["run_started"]] = "run_started"
+    scenario: str
+    mode: str
+    version: str
+
 
 
 @dataclass(frozen=True, slots=True)
@@ -325,6 +339,7 @@ class Summary(TraceEvent):
 EVENT_KINDS: dict[str, type[TraceEvent]] = {
     cls.event: cls
     for cls in (
+        RunStarted,
         GoalReceived,
         PlanSelected,
         GoalSuspended,

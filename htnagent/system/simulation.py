@@ -27,7 +27,15 @@ from htnagent.model.terms import Atom
 from htnagent.planning.hddl_problems import MARKERS
 from htnagent.planset import Replanning
 from htnagent.runtime.clock import Clock, TimerHandle
-from htnagent.runtime.events import ArcClosed, ArcOpened, FactsChanged, GoalRow, Summary, TraceEvent
+from htnagent.runtime.events import (
+    ArcClosed,
+    ArcOpened,
+    FactsChanged,
+    GoalRow,
+    RunStarted,
+    Summary,
+    TraceEvent,
+)
 from htnagent.runtime.executor import ExecutorActor
 from htnagent.runtime.messages import BeliefUpdate
 from htnagent.runtime.progress import Phase, Progress
@@ -35,6 +43,7 @@ from htnagent.runtime.trace import Observer, Trace
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.scenario.hddl_agent import DEFAULT_DURATION
 from htnagent.system.runtime import Runtime
+from htnagent.version import VERSION
 
 if TYPE_CHECKING:
     from htnagent.remote.link import Keys
@@ -183,6 +192,9 @@ async def run_scenario(
 
     async with runtime:
         clock = runtime.clock
+        mode = replanning or scenario.replanning
+        header = RunStarted(agent="runtime", scenario=scenario.name, mode=mode, version=VERSION)
+        runtime.trace.emit(header)
 
         def give(index: int, goal: GoalSpec) -> None:
             tickets[index] = runtime.submit(goal.agent, goal.task, emergency=goal.emergency)
