@@ -1,7 +1,7 @@
 """htnagent: on-line HTN planning agents that handle emergency goals.
 
 The planner and plan maintenance are pure synchronous code (:mod:`htnagent.planner`,
-:mod:`htnagent.planset`); the runtime of agents on anyio sits on top
+:mod:`htnagent.upkeep`); the runtime of agents on anyio sits on top
 (:mod:`htnagent.runtime`, :mod:`htnagent.agent`).
 
 The names below are imported on first use: ``import htnagent`` itself costs
@@ -80,8 +80,8 @@ _WHERE = {
     "PlannerSettings": "planner",
     "PlanResult": "planner",
     "PlanStatus": "planner",
-    "PlanSet": "planset",
-    "Replanning": "planset",
+    "PlanSet": "upkeep",
+    "Replanning": "upkeep",
     "GoalOutcome": "runtime",
     "Runtime": "runtime",
     "Scenario": "scenario",
@@ -173,10 +173,10 @@ if TYPE_CHECKING:
     from htnagent.executor import ActionOutcome, Executor, ExecutorActor
     from htnagent.plan import Plan, Step
     from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
-    from htnagent.planset import PlanSet, Replanning
     from htnagent.runtime import GoalOutcome, Runtime
     from htnagent.scenario import Scenario, load_scenario
     from htnagent.simulation import RunReport, run_scenario
     from htnagent.state import State
     from htnagent.terms import Atom, parse
     from htnagent.trace import EventStream
+    from htnagent.upkeep import PlanSet, Replanning

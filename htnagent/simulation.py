@@ -28,13 +28,13 @@ from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.hddl_domain import MARKERS
 from htnagent.messages import BeliefUpdate
-from htnagent.planset import Replanning
 from htnagent.progress import Phase, Progress
 from htnagent.runtime import Runtime
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.scenario.hddl_agent import DEFAULT_DURATION
 from htnagent.terms import Atom
 from htnagent.trace import Observer, Trace
+from htnagent.upkeep import Replanning
 
 if TYPE_CHECKING:
     from htnagent.remote.link import Keys

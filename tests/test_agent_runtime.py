@@ -32,10 +32,10 @@ from htnagent.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
 from htnagent.executor import ActionOutcome, Executor
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.messages import Clear, Execute, Resume, Suspend
-from htnagent.planset import Replanning
 from htnagent.runtime import GoalOutcome, Runtime
 from htnagent.terms import Atom, atom
 from htnagent.trace import Trace
+from htnagent.upkeep import Replanning
 from tests.support import Event, record
 
 ROADS = {("a", "b"): 4.0, ("b", "d"): 4.0, ("a", "c"): 5.0, ("c", "d"): 5.0}

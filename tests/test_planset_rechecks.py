@@ -13,8 +13,8 @@ from __future__ import annotations
 from htnagent.domain import Domain, Effect, State, Suspension
 from htnagent.plan import Plan, Step
 from htnagent.planner import PlannerSettings
-from htnagent.planset import OnlinePlanSet
 from htnagent.terms import Atom, parse
+from htnagent.upkeep import OnlinePlanSet
 
 # -- a belief change that no step reads ---------------------------------------------------------
 

@@ -14,9 +14,8 @@ import itertools
 from htnagent.domain import Domain, State
 from htnagent.plan import Decomposition, Done, Step
 from htnagent.planner import PlannerSettings
-from htnagent.planset import OnlinePlanSet
-from htnagent.repair import done_subtasks
 from htnagent.terms import parse
+from htnagent.upkeep import OnlinePlanSet, done_subtasks
 
 
 def carrier() -> Domain:

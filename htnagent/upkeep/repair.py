@@ -1,0 +1,262 @@
+"""Plan repair (docs/design.md §2.4): re-plan only the lowest task above a failing step.
+
+The rule (§2.4): "A plan whose action *i* fails is repaired, not thrown
+away: walk up its decomposition record from action *i* to the lowest compound
+task that can be decomposed again from the state at that point, and re-plan
+only that task (plus what follows it)."
+
+A plan that fails at action *i* when re-checked is not thrown away: the
+:class:`Repairer` walks up its decomposition record from action *i* to the
+lowest compound task that can be decomposed again from the state at that point,
+and re-plans that task plus what follows it; only when no ancestor below the
+goal can be, the goal itself is planned from the current belief.  The same
+object makes the searches of the comparison with a plan made afresh
+(:mod:`htnagent.upkeep.quality`), so the two share them.
+
+One :class:`Repairer` serves one update of one plan set
+(:class:`~htnagent.upkeep.online.OnlinePlanSet`); a :class:`SearchMemo` shares the
+searches of one update between all the plan sets of an agent.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass, field, replace
+
+from htnagent.actions import resumed
+from htnagent.domain import Domain
+from htnagent.plan import Decomposition, Done, Plan, span, tidy
+from htnagent.planner import PlannerSettings, PlanStatus, TaskEntry, plan
+from htnagent.state import State
+from htnagent.terms import Atom
+from htnagent.upkeep.stats import PlanningStats
+
+
+@dataclass
+class SearchMemo:
+    """Searches made during one update of an agent's plan sets, shared between them.
+
+    The goals on a stack often repeat, and all of them are updated from the same
+    belief: a search one plan set made (a goal from a state, or a task list found
+    impossible) answers for the others.  Make one per update; never keep it.
+    """
+
+    results: dict[tuple[object, ...], Plan | None] = field(default_factory=dict)
+    impossible: set[tuple[object, ...]] = field(default_factory=set)
+    costs: dict[tuple[object, ...], float] = field(default_factory=dict)
+    """The cost of the plan found for a task list from a state, whatever the tasks' records."""
+
+
+def one_plan(settings: PlannerSettings) -> PlannerSettings:
+    """The settings for one plan (repairs, fresh comparisons, naive mode)."""
+    return replace(settings, alternatives=1)
+
+
+_REPAIR_LEVELS = 3
+"""How many of the lowest ancestors a repair tries before it re-plans the goal itself."""
+
+_REDO = 2
+"""How many of a method's subtasks already done a repair may do again (see :func:`done_subtasks`)."""
+
+LOCAL_BUDGET = 2_000
+"""Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
+
+
+class Repairer:
+    """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
+
+    A repair re-decomposes the lowest ancestor task of a failing step that can
+    be decomposed again.  Searches are shared — through ``memo``, with the other
+    plan sets updated from the same belief — so a goal re-planned for one broken
+    plan answers for all.  Repairs below the goal share ``local_budget``
+    expansions; the goal itself gets the planner's full budget.  Make one per
+    update; ``unsolvable`` is then the belief the goal was found impossible
+    from, if it was.
+    """
+
+    __slots__ = (
+        "_avoided",
+        "_costs",
+        "_domain",
+        "_goal",
+        "_impossible",
+        "_results",
+        "_settings",
+        "_stats",
+        "local_left",
+        "unsolvable",
+    )
+
+    def __init__(
+        self,
+        domain: Domain,
+        goal: Atom,
+        settings: PlannerSettings,
+        stats: PlanningStats,
+        avoided: Callable[[State], frozenset[Atom]],
+        memo: SearchMemo | None = None,
+        local_budget: int = 0,
+    ) -> None:
+        memo = memo if memo is not None else SearchMemo()
+        self._domain = domain
+        self._goal = goal
+        self._settings = settings
+        self._stats = stats
+        self._avoided = avoided
+        self._results = memo.results
+        self._impossible = memo.impossible
+        self._costs = memo.costs
+        self.local_left = local_budget
+        """Expansions left for repairs below the goal in this update."""
+        self.unsolvable: tuple[object, ...] | None = None
+        """The key of a belief from which the goal itself has no plan, once a repair found so."""
+
+    def repair(
+        self, p: Plan, index: int, states: list[State], done: Done | None = None, *, redo: bool = True
+    ) -> Plan | None:
+        """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
+
+        ``states`` are the beliefs before each of the plan's first ``index + 1``
+        steps.  The last ancestor is the goal itself; steps inserted by maintenance
+        (undo, rollback) belong to no task, so for them the goal is the only
+        ancestor.  The goal is re-decomposed from the current belief, once per
+        update, and the result is shared by every plan that needs it.
+
+        ``done`` are the goal's steps carried out so far.  When an ancestor cannot
+        be decomposed again, the last of its subtasks already done are done again
+        before what is left of it (docs/design.md §2.4): an emergency may have undone
+        what they achieved (a truck driven away with the parcel still on it).  Only
+        with ``redo``: such a search is the costliest part of a repair (the steps kept
+        after the subtasks are fixed, so one that cannot meet them runs until the
+        budget is spent), worth it when no other plan of the goal is left.
+        """
+        step = p.steps[index]
+        chain = step.record.chain() if step.record is not None else []
+        # A recursive method makes the record as long as the plan; past a few levels a
+        # re-decomposition costs as much as planning the goal, so go straight to it.
+        for record in chain[:_REPAIR_LEVELS]:
+            start, end = span(p.steps, record)
+            if start > index:
+                continue
+            # Repairs below the goal are local fixes: together, in one update, they get
+            # a small budget; what they cannot fix the goal's re-decomposition will.
+            if self.local_left <= 0:
+                break
+            if record.parent is not None:
+                tasks: list[TaskEntry] = [(record.task, record.parent)]
+                tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
+                result = self._local(states[start], tasks)
+                if result is not None:
+                    return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+            # §2.4 (our choice): do again the subtasks of this task's method already done,
+            # the last one first, then the plan's steps from there as they are.
+            rest: list[TaskEntry] = [(s.action, s.record) for s in p.steps[start:]]
+            again = done_subtasks(done, record, _REDO) if redo else []
+            for k in range(1, len(again) + 1):
+                if self.local_left <= 0:
+                    break
+                result = self._local(states[start], [*again[-k:], *rest])
+                if result is not None:
+                    return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+            if record.parent is None:
+                break  # the goal's own decomposition: below, shared
+        # The goal itself, from the current belief: one search shared by all plans.
+        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings))
+        if found is None:
+            self.unsolvable = states[0].key()
+        return found
+
+    def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
+        """A search below the goal, within what is left of the local budget."""
+        spent = self._stats.expansions
+        local = replace(self._settings, alternatives=1, budget=self.local_left)
+        result = self.search(state, tasks, local)
+        self.local_left -= self._stats.expansions - spent
+        return result
+
+    def known_cost(self, state: State, tasks: Sequence[TaskEntry]) -> float | None:
+        """The cost of the plan a search this update found for the task list from the state,
+        under any records (a recursive method's repair re-plans a task equal to the goal:
+        that search answers what a search for the goal would find), if one did."""
+        return self._costs.get((state.dynamic, self._avoided(state), *(t for t, _ in tasks)))
+
+    def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
+        """The best plan for the task list from the state, searched once per update."""
+        avoided = self._avoided(state)
+        # Records do not change whether tasks can be done: a search that found the
+        # task list impossible from a state answers for every plan that asks again.
+        impossible: tuple[object, ...] = (state.dynamic, avoided, *(t for t, _ in tasks))
+        if impossible in self._impossible:
+            return None
+        # Records compare by identity; the key holds them, so none can be mistaken for another.
+        key: tuple[object, ...] = (*impossible, *(r for _, r in tasks))
+        if key in self._results:
+            return self._results[key]
+        result = plan(self._domain, state, tasks, settings, avoid=avoided)
+        self._stats.expansions += result.expansions
+        found = result.best
+        self._results[key] = found
+        if result.status is PlanStatus.UNSOLVABLE:
+            self._impossible.add(impossible)
+        elif found is not None:
+            # The search is deterministic and stops at its first plan: a larger budget
+            # would have found the same one.
+            self._costs[impossible] = found.cost
+        return found
+
+
+class OnDemand:
+    """A :class:`Repairer` made when first asked for: most updates re-check nothing or
+    find every plan valid, and need none."""
+
+    __slots__ = ("_make", "made")
+
+    def __init__(self, make: Callable[[], Repairer]) -> None:
+        self._make = make
+        self.made: Repairer | None = None
+        """The repairer, once made."""
+
+    def __call__(self) -> Repairer:
+        if self.made is None:
+            self.made = self._make()
+        return self.made
+
+
+def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[TaskEntry]:
+    """The last ``limit`` subtasks of ``record``'s method that are done, in their order.
+
+    Each is a task entry to plan again under ``record``: a compound subtask as its
+    task, a primitive one as its action (a ``resume(A)`` as A).  Steps inserted by
+    maintenance (no record) are passed over; the walk stops at the first step that
+    ``record`` did not produce.  Consecutive steps under the same compound task are
+    one subtask (two equal tasks one after the other are taken as one).
+    """
+    found: list[TaskEntry] = []
+    last: object = None
+    link = done
+    while link is not None:
+        step, link = link.step, link.before
+        node = step.record
+        if node is None:
+            continue
+        key: object
+        if node is record:
+            key, entry = step, (resumed(step.action) or step.action, record)
+        else:
+            while node is not None and node.parent is not record:
+                node = node.parent
+            if node is None:
+                break
+            # A subtask re-decomposed part way by an earlier repair has two records for
+            # one task: its steps before and after the repair are still one subtask.
+            key, entry = node.task, (node.task, record)
+        if key != last:
+            if len(found) == limit:
+                break
+            found.append(entry)
+            last = key
+    found.reverse()
+    return found
+
+
+__all__ = ["LOCAL_BUDGET", "OnDemand", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]
