@@ -20,7 +20,7 @@ from htnagent.domains.maps import WorldMap, generate_map
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import PlanSet
+from htnagent.upkeep import new_plan_set
 
 RESULTS = Path(__file__).resolve().parent / "results"
 
@@ -48,7 +48,7 @@ def measure(world: WorldMap, k: int, repeats: int = 5) -> dict[str, float]:
     length = 0
     for _ in range(repeats):
         belief: State = domain.initial_state(start)
-        ps = PlanSet(domain, goal, settings=PlannerSettings(alternatives=k))
+        ps = new_plan_set(domain, goal, settings=PlannerSettings(alternatives=k))
         ps.make(belief)
         best = ps.best
         assert best is not None

@@ -47,8 +47,8 @@ _EXPORTS: dict[str, str] = {
     "PlannerSettings": "planning.planner",
     "PlanResult": "planning.planner",
     "PlanStatus": "planning.planner",
-    "PlanSet": "planset",
-    "Replanning": "planset",
+    "PlanSet": "upkeep",
+    "Replanning": "upkeep",
     "event_from_dict": "runtime.events",
     "EVENT_KINDS": "runtime.events",
     "Summary": "runtime.events",
@@ -148,12 +148,6 @@ if TYPE_CHECKING:
     from htnagent.planning.planner import (
         plan as plan,
     )
-    from htnagent.planset import (
-        PlanSet as PlanSet,
-    )
-    from htnagent.planset import (
-        Replanning as Replanning,
-    )
     from htnagent.runtime.events import (
         EVENT_KINDS as EVENT_KINDS,
     )
@@ -195,6 +189,12 @@ if TYPE_CHECKING:
     )
     from htnagent.system.simulation import (
         run_scenario as run_scenario,
+    )
+    from htnagent.upkeep import (
+        PlanSet as PlanSet,
+    )
+    from htnagent.upkeep import (
+        Replanning as Replanning,
     )
 
 __all__ = sorted(_EXPORTS)

@@ -9,7 +9,7 @@ goal or takes one step of the running one:
 - **Algorithm 2** (:meth:`Agent._step`): make sure the goal has plans, select
   the cheapest, send its first action to the executor, wait for the result,
   update the belief and *all* plan sets (the running goal's and every stacked
-  goal's, through :class:`~htnagent.planset.PlanSet`).
+  goal's, through :class:`~htnagent.upkeep.PlanSet`).
 - **Algorithm 3**: an emergency that arrives while an action runs asks the
   executor to suspend it (if the domain can follow that); when the action's
   result is in, the running goal is pushed on the stack with its plans and its
@@ -49,7 +49,6 @@ from htnagent.model.domain import Domain, State
 from htnagent.model.plans import replay
 from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import PlanningStats, PlanSet, Replanning, SearchMemo
 from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import (
     ActionFinished,
@@ -81,6 +80,7 @@ from htnagent.runtime.messages import (
 )
 from htnagent.runtime.progress import Phase, Progress
 from htnagent.runtime.trace import Trace
+from htnagent.upkeep import PlanningStats, PlanSet, Replanning, SearchMemo, new_plan_set
 
 OutcomeCallback = Callable[[int, "GoalStatus", str], None]
 
@@ -872,7 +872,7 @@ class Agent(ExecutorActor):
     # -- outcomes --------------------------------------------------------------------------------
 
     def _planset(self, goal: Atom) -> PlanSet:
-        return PlanSet(self.domain, goal, self.mode, self.settings, self.stats)
+        return new_plan_set(self.domain, goal, self.mode, self.settings, self.stats)
 
     def _end(
         self, entry: GoalEntry, status: GoalStatus, reason: str = "", *, permanent: bool = False

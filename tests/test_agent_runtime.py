@@ -29,13 +29,13 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.model.domain import Domain, Effect, Suspension
 from htnagent.model.terms import Atom, atom
-from htnagent.planset import Replanning
 from htnagent.runtime.clock import Clock
 from htnagent.runtime.events import ActionStarted, GoalFinished, GoalResumed, TraceEvent
 from htnagent.runtime.executor import ActionOutcome, Executor
 from htnagent.runtime.messages import Clear, Execute, Resume, Suspend
 from htnagent.runtime.trace import Trace
 from htnagent.system.runtime import GoalOutcome, Runtime
+from htnagent.upkeep import Replanning
 from tests.support import Event, record
 
 ROADS = {("a", "b"): 4.0, ("b", "d"): 4.0, ("a", "c"): 5.0, ("c", "d"): 5.0}

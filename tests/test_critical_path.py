@@ -17,12 +17,12 @@ import pytest
 from htnagent.agent import Agent, GoalEntry, _Prepared
 from htnagent.model.domain import State
 from htnagent.model.terms import Atom
-from htnagent.planset import OnlinePlanSet, PlanSet
 from htnagent.reading import read_yaml
 from htnagent.runtime.events import GoalFinished, GoalReceived, MessageSent, RobotMoving, TraceEvent
 from htnagent.scenario import load_scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import run_scenario
+from htnagent.upkeep import OnlinePlanSet, PlanSet
 
 # -- the agent takes a prepared resumption over without walking its plans again ---------------------
 

@@ -24,13 +24,13 @@ from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.model.domain import Domain, Effect, Suspension
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings, achieved_by_nothing
-from htnagent.planset import PlanSet
 from htnagent.runtime.clock import Clock
 from htnagent.runtime.trace import Trace
 from htnagent.scenario import parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.testing.differential import DOORS_SLACK, NO_DOORS_SLACK, compare
+from htnagent.upkeep import new_plan_set
 from tests.support import Event, events_of, record, summary_of
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
@@ -85,7 +85,7 @@ def test_an_empty_kept_plan_counts_only_if_the_goal_decomposes_to_nothing(museum
     goal = parse("goto(n29)")
     # goto(n29) from area7 still has goto_node(n29) to do, whatever a kept plan says.
     assert not achieved_by_nothing(areas, in_area7, goal)
-    ps = PlanSet(areas, goal)
+    ps = new_plan_set(areas, goal)
     ps.make(in_area7)
     ps.action_succeeded(parse("goto_node(n29)"), in_area7, in_area7)  # done by another goal
     assert ps.finished
@@ -357,9 +357,11 @@ async def test_random_scenarios_online_is_as_right_as_naive(seed: int) -> None:
 def test_planner_settings_can_forbid_rollbacks() -> None:
     parent, _ = _relay(child_suspends=True, rollback=True)
     state = parent.initial_state().updated(add=[parse("fetching(d)")])
-    with_rollback = PlanSet(parent, parse("bring(a)"), settings=PlannerSettings(alternatives=2))
+    with_rollback = new_plan_set(parent, parse("bring(a)"), settings=PlannerSettings(alternatives=2))
     with_rollback.make(state)
-    without = PlanSet(parent, parse("bring(a)"), settings=PlannerSettings(alternatives=2, rollbacks=False))
+    without = new_plan_set(
+        parent, parse("bring(a)"), settings=PlannerSettings(alternatives=2, rollbacks=False)
+    )
     without.make(state)
     assert any(p.actions[0].name == "rollback" for p in with_rollback.plans)
     assert all(s.action.name != "rollback" for p in without.plans for s in p.steps)

@@ -78,6 +78,7 @@ def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
     d.method(
         "reach(?n)", "walk", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"]
     )
+
     def estimate(task: Atom, state: State) -> float:
         seen.append(gc.isenabled())
         return 0.0

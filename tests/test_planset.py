@@ -7,15 +7,15 @@ from pathlib import Path
 import pytest
 import yaml
 
-from htnagent import repair as repair_module
 from htnagent.domains import areas_domain, nodes_domain
 from htnagent.domains.maps import WorldMap
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Plan, Step, replay, tidy
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings, Search, plan
-from htnagent.planset import OnlinePlanSet, PlanSet, Replanning
 from htnagent.scenario import parse_map
+from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
+from htnagent.upkeep import repair as repair_module
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -74,7 +74,7 @@ def line_state(d: Domain, at: str) -> State:
 
 def test_success_removes_the_executed_first_action(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    ps = PlanSet(nav, a("goto_node(n10)"))
+    ps = new_plan_set(nav, a("goto_node(n10)"))
     ps.make(belief)
     assert texts(ps.best) == ["move(n1,n6,arc5)", "move(n6,n10,arc12)"]
     belief = execute(ps, nav, belief, "move(n1,n6,arc5)")
@@ -86,7 +86,7 @@ def test_success_removes_the_executed_first_action(nav: Domain) -> None:
 def test_success_puts_the_undo_in_front_of_other_plans() -> None:
     d = line_domain(undo=True)
     belief = line_state(d, "p0")
-    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=3))
+    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=3))
     ps.make(belief)
     # An action no plan starts with (an emergency's move) is undone in front of every plan.
     after = d.apply(belief, a("step(p0,p1)"))
@@ -103,7 +103,7 @@ def test_success_puts_the_undo_in_front_of_other_plans() -> None:
 def test_success_without_undo_rechecks_and_repairs() -> None:
     d = line_domain(undo=False)
     belief = line_state(d, "p0")
-    ps = PlanSet(d, a("reach(p4)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(d, a("reach(p4)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)", "step(p3,p4)"]
     belief = execute(ps, d, belief, "step(p0,p2)")
@@ -120,7 +120,7 @@ def test_success_without_undo_rechecks_and_repairs() -> None:
 def test_a_plan_broken_at_the_goal_level_is_replanned_once_from_the_belief() -> None:
     d = line_domain(undo=False)
     belief = line_state(d, "p0")
-    ps = PlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=2))
+    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     assert len(ps.plans) == 2
     # The robot is found elsewhere (a belief change from outside).
@@ -140,7 +140,7 @@ def test_a_plan_broken_at_the_goal_level_is_replanned_once_from_the_belief() -> 
 
 def test_failure_removes_plans_starting_with_the_failed_action(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    ps = PlanSet(nav, a("goto_node(n10)"))
+    ps = new_plan_set(nav, a("goto_node(n10)"))
     ps.make(belief)
     starts = {p.steps[0].action for p in ps.plans}
     assert a("move(n1,n6,arc5)") in starts and len(starts) > 1
@@ -153,7 +153,7 @@ def test_failure_removes_plans_starting_with_the_failed_action(nav: Domain) -> N
 
 def test_belief_change_repairs_the_plan_around_a_closed_arc(nav: Domain) -> None:
     belief = nav.initial_state("n40")
-    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert "move(n10,n6,arc12)" in texts(ps.best)
     closed = belief.updated(add=[a("closed(arc12)")])
@@ -177,7 +177,7 @@ def test_belief_change_repairs_the_plan_around_a_closed_arc(nav: Domain) -> None
 def test_repair_works_in_every_search_order(nav: Domain, search: Search) -> None:
     # docs/design.md §1.1: the records are the same in every order, so is repair (§2.4).
     belief = nav.initial_state("n40")
-    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1, search=search))
+    ps = new_plan_set(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=1, search=search))
     ps.make(belief)
     best = ps.best
     assert best is not None
@@ -196,7 +196,7 @@ def test_repair_works_in_every_search_order(nav: Domain, search: Search) -> None
 def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
-    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert texts(ps.best) == [
         "move_area(area8,area7)",
@@ -224,7 +224,7 @@ def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> N
 def test_the_repair_a_fresh_plan_beat_is_not_kept_as_an_alternative(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
-    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=2))
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     ps.plans = ps.plans[:1]  # a goal's first plan comes alone (§1, §4)
     closed = belief.updated(add=[a("closed(arc12)")])
@@ -244,12 +244,12 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
     # cost instead of searching the goal again.
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
-    ps = PlanSet(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     for action in ("move_area(area8,area7)", "move_area(area7,area5)"):
         belief = execute(ps, areas, belief, action)
     searched: list[list[str]] = []
-    real_plan = plan  # what htnagent.repair calls
+    real_plan = plan  # what htnagent.upkeep.repair calls
 
     def counting(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
         searched.append([str(t[0] if isinstance(t, tuple) else t) for t in tasks])
@@ -266,7 +266,7 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
-    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     # area8 is reachable only through arc51: every ancestor up to the goal fails.
     closed = belief.updated(add=[a("closed(arc51)")])
@@ -281,7 +281,7 @@ def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -
 def test_plan_removed_by_a_closed_door_is_revived_when_it_opens(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
-    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     original = texts(ps.best)
     closed = belief.updated(add=[a("closed(arc51)")])
@@ -324,7 +324,7 @@ def test_tidy_turns_rollback_then_action_into_resume(nav: Domain) -> None:
 
 def test_success_then_tidy_cancels_undo_against_the_plan(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    ps = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     # An emergency goes n1 -> n4: the undo n4 -> n1 is put in front of [n1 -> n6, n6 -> n10].
     belief = execute(ps, nav, belief, "move(n1,n4,arc3)")
@@ -339,11 +339,11 @@ def test_success_then_tidy_cancels_undo_against_the_plan(nav: Domain) -> None:
 
 def test_plans_from_scratch_when_nothing_is_left(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    ps = PlanSet(nav, a("goto_node(n10)"))
+    ps = new_plan_set(nav, a("goto_node(n10)"))
     assert ps.ensure(belief)
     assert ps.stats.from_scratch == 1
     assert ps.ensure(belief) and ps.stats.from_scratch == 1
-    unreachable = PlanSet(nav, a("goto_node(n10)"))
+    unreachable = new_plan_set(nav, a("goto_node(n10)"))
     walled = belief.updated(add=[a("closed(arc5)"), a("closed(arc3)"), a("closed(arc1)")])
     assert not unreachable.ensure(walled)
 
@@ -353,7 +353,7 @@ def test_plans_from_scratch_when_nothing_is_left(nav: Domain) -> None:
 
 def test_suspension_replaces_the_running_action_by_resume(nav: Domain) -> None:
     belief = nav.initial_state("n40")
-    ps = PlanSet(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=2))
+    ps = new_plan_set(nav, a("goto_node(n1)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     running = a("move(n40,n35,arc59)")
     assert all(p.steps[0].action == running for p in ps.plans)
@@ -368,7 +368,7 @@ def test_suspension_replaces_the_running_action_by_resume(nav: Domain) -> None:
 
 def test_suspension_puts_rollback_in_front_of_other_plans(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    ps = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=3))
+    ps = new_plan_set(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=3))
     ps.make(belief)
     running = a("move(n1,n6,arc5)")
     others = [p for p in ps.plans if p.steps[0].action != running]
@@ -383,7 +383,7 @@ def test_suspension_puts_rollback_in_front_of_other_plans(nav: Domain) -> None:
 
 def test_suspension_drops_plans_in_naive_mode(nav: Domain) -> None:
     belief = nav.initial_state("n40")
-    ps = PlanSet(nav, a("goto_node(n1)"), Replanning.NAIVE)
+    ps = new_plan_set(nav, a("goto_node(n1)"), Replanning.NAIVE)
     ps.make(belief)
     assert len(ps.plans) == 1
     running = a("move(n40,n35,arc59)")
@@ -410,7 +410,7 @@ def test_clearing_a_suspended_action_removes_its_half_done_facts(world: WorldMap
 def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None:
     """The n38 situation at the child: the kept alternative through n38 becomes the best plan."""
     belief = nav.initial_state("n40")
-    stacked = PlanSet(nav, a("move_area(area8,area7)"))
+    stacked = new_plan_set(nav, a("move_area(area8,area7)"))
     stacked.make(belief)
     running = a("move(n40,n35,arc59)")
     after = nav.suspend(belief, running)
@@ -438,7 +438,7 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
     """§4: while the goal waits (lazy) its plans follow every rewrite unchecked; checked when it
     is about to run again, its best plan is the one keeping them up after every event gives."""
     start = nav.initial_state("n40")
-    sets = {lazy: PlanSet(nav, a(goal)) for lazy in (False, True)}
+    sets = {lazy: new_plan_set(nav, a(goal)) for lazy in (False, True)}
     running = a("move(n40,n35,arc59)")
     after = nav.suspend(start, running)
     for lazy, stacked in sets.items():
@@ -468,7 +468,7 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
 def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
     """n1 -> n10 was planned through n6; an emergency took the robot to n4 meanwhile."""
     belief = nav.initial_state("n1")
-    stacked = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
+    stacked = new_plan_set(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=1))
     stacked.make(belief)
     belief = execute(stacked, nav, belief, "move(n1,n4,arc3)")
     # Expect: the undo of the emergency's move in front of the kept route.
@@ -484,7 +484,7 @@ def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Dom
 
 def test_the_detour_a_shortcut_beat_is_not_kept_as_an_alternative(nav: Domain) -> None:
     belief = nav.initial_state("n1")
-    stacked = PlanSet(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=2))
+    stacked = new_plan_set(nav, a("goto_node(n10)"), settings=PlannerSettings(alternatives=2))
     stacked.make(belief)
     stacked.plans = stacked.plans[:1]  # a goal's first plan comes alone (§1, §4)
     belief = execute(stacked, nav, belief, "move(n1,n4,arc3)")
@@ -497,7 +497,7 @@ def test_the_detour_a_shortcut_beat_is_not_kept_as_an_alternative(nav: Domain) -
 def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")
-    ps = PlanSet(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
+    ps = new_plan_set(areas, a("goto(n40)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     running = a("move_area(area1,area3)")
     suspended = areas.suspend(belief, running)
@@ -522,7 +522,7 @@ def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
     start = names[0]
     target = max(names, key=lambda n: world.distance(start, n))
     belief = nodes.initial_state(start)
-    ps = PlanSet(nodes, Atom("goto_node", (target,)))
+    ps = new_plan_set(nodes, Atom("goto_node", (target,)))
     ps.make(belief)
     best = ps.best
     assert best is not None and len(best) > 30

@@ -13,7 +13,7 @@ from htnagent.model.domain import Domain, State
 from htnagent.model.plans import replay
 from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings, plan
-from htnagent.planset import PlanSet, Replanning
+from htnagent.upkeep import Replanning, new_plan_set
 
 OPS = st.sampled_from(["follow", "wander", "suspend", "close", "open", "fail"])
 
@@ -52,8 +52,8 @@ def test_kept_plans_stay_valid_and_agree_with_naive(
     start, target = rng.choice(names), rng.choice(names)
     goal = Atom("goto_node", (target,))
     belief = domain.initial_state(start)
-    online = PlanSet(domain, goal, Replanning.ONLINE, PlannerSettings(alternatives=k))
-    naive = PlanSet(domain, goal, Replanning.NAIVE)
+    online = new_plan_set(domain, goal, Replanning.ONLINE, PlannerSettings(alternatives=k))
+    naive = new_plan_set(domain, goal, Replanning.NAIVE)
     online.make(belief)
     naive.make(belief)
     arcs = sorted(world.arcs)

@@ -14,7 +14,7 @@ from htnagent.model.domain import Domain, Effect, State, Suspension
 from htnagent.model.plans import Plan, Step
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import OnlinePlanSet
+from htnagent.upkeep import OnlinePlanSet
 
 # -- a belief change that no step reads ---------------------------------------------------------
 

@@ -11,15 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import pytest
-
-from htnagent.errors import SettingsError
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Plan, Step, replay
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import NaivePlanSet, OnlinePlanSet, PlanSet, Replanning
-from htnagent.revival import Revival
+from htnagent.upkeep import PLAN_SET_KINDS, NaivePlanSet, OnlinePlanSet, Replanning, Revival, new_plan_set
 
 # -- §2.1 trusting a plan behind an undo -------------------------------------------------------
 
@@ -60,7 +56,7 @@ def alarm_domain() -> Domain:
 def test_a_plan_behind_an_undo_that_does_not_restore_the_belief_is_rechecked() -> None:
     d = alarm_domain()
     belief = State.from_facts([*d.facts, parse("at(a)")], d)
-    ps = PlanSet(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
+    ps = new_plan_set(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     # Expect: walk a → b → c (2), or sneak through the tunnel (3).
     assert [p.text() for p in ps.plans] == [["go(a,b)", "go(b,c)"], ["sneak(a,c)"]]
@@ -83,7 +79,7 @@ def test_a_plan_behind_an_undo_that_restores_the_belief_is_kept() -> None:
     d.method("reach(?n)", "walk", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["go(?x,?y)", "reach(?n)"])
     d.facts = tuple(Atom("link", p) for p in [("a", "b"), ("b", "a"), ("a", "c"), ("c", "a"), ("b", "c")])
     belief = State.from_facts([*d.facts, parse("at(a)")], d)
-    ps = PlanSet(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
+    ps = new_plan_set(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     assert [p.text() for p in ps.plans] == [["go(a,c)"], ["go(a,b)", "go(b,c)"]]
     moved = d.apply(belief, parse("go(a,b)"))
@@ -171,12 +167,11 @@ def test_revival_store_never_grows_past_its_capacity() -> None:
 def test_plan_set_mode_picks_the_class() -> None:
     d = doors_domain()
     goal = parse("reach(t)")
-    assert type(PlanSet(d, goal)) is OnlinePlanSet
-    assert type(PlanSet(d, goal, Replanning.NAIVE)) is NaivePlanSet
-    assert type(PlanSet(d, goal, mode=Replanning.ONLINE)) is OnlinePlanSet
-    assert NaivePlanSet(d, goal).mode is Replanning.NAIVE
-    with pytest.raises(SettingsError, match="NaivePlanSet keeps plans naive, not online"):
-        NaivePlanSet(d, goal, Replanning.ONLINE)
+    assert type(new_plan_set(d, goal)) is OnlinePlanSet
+    assert type(new_plan_set(d, goal, Replanning.NAIVE)) is NaivePlanSet
+    assert type(new_plan_set(d, goal, mode=Replanning.ONLINE)) is OnlinePlanSet
+    # Every mode has its class: the mode is a lookup, never a comparison.
+    assert set(PLAN_SET_KINDS) == set(Replanning)
 
 
 def test_a_fork_keeps_its_own_revival_store() -> None:

@@ -21,11 +21,11 @@ from htnagent.domains.museum import nodes_domain
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import PlanSet, Replanning
 from htnagent.runtime.events import ActionStarted
 from htnagent.scenario import load_scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.upkeep import Replanning, new_plan_set
 
 SCENARIOS = Path(__file__).resolve().parent.parent / "scenarios"
 
@@ -193,7 +193,7 @@ def test_a_way_opened_while_waiting_is_weighed_against_the_lowest_task_done_agai
     d = parcel_domain()
     shut = (Atom("closed", ("y", "p6")), Atom("closed", ("p6", "y")))
     belief = State.from_facts([*d.facts, Atom("at", ("p3",)), Atom("in", ("par", "p0")), *shut], d)
-    ps = PlanSet(d, parse("deliver(par,p6)"), Replanning.ONLINE, PlannerSettings(alternatives=1))
+    ps = new_plan_set(d, parse("deliver(par,p6)"), Replanning.ONLINE, PlannerSettings(alternatives=1))
     ps.make(belief)
 
     def done(action: str) -> None:

@@ -15,8 +15,7 @@ from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Decomposition, Done, Step
 from htnagent.model.terms import parse
 from htnagent.planning.planner import PlannerSettings
-from htnagent.planset import OnlinePlanSet
-from htnagent.repair import done_subtasks
+from htnagent.upkeep import OnlinePlanSet, done_subtasks
 
 
 def carrier() -> Domain:

@@ -40,9 +40,9 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.model.domain import Domain, Effect, Suspension
 from htnagent.model.terms import Atom, atom
-from htnagent.planset import Replanning
 from htnagent.runtime.messages import BeliefUpdate, Clear, Execute, Suspend
 from htnagent.system.runtime import Runtime
+from htnagent.upkeep import Replanning
 from tests.support import Event, record
 
 ROADS = {("s", "m"): 2.0, ("m", "t"): 2.0, ("s", "c"): 3.0, ("c", "t"): 3.0, ("s", "e"): 3.0}

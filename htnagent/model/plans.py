@@ -133,7 +133,7 @@ class Done:
 
     A link per step, so that adding one is O(1) and a plan set's forks share what
     came before.  Repair reads it to find the subtasks of a method already done
-    (:func:`htnagent.repair.done_subtasks`).
+    (:func:`htnagent.upkeep.repair.done_subtasks`).
     """
 
     step: Step

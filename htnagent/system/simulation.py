@@ -25,7 +25,6 @@ from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.model.terms import Atom
 from htnagent.planning.hddl_problems import MARKERS
-from htnagent.planset import Replanning
 from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import (
     ArcClosed,
@@ -43,6 +42,7 @@ from htnagent.runtime.trace import Observer, Trace
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.scenario.hddl_agent import DEFAULT_DURATION
 from htnagent.system.runtime import Runtime
+from htnagent.upkeep import Replanning
 from htnagent.version import VERSION
 
 if TYPE_CHECKING:

@@ -1,15 +1,20 @@
 """Plan repair (docs/design.md §2.4): re-plan only the lowest task above a failing step.
 
+The rule (§2.4): "A plan whose action *i* fails is repaired, not thrown
+away: walk up its decomposition record from action *i* to the lowest compound
+task that can be decomposed again from the state at that point, and re-plan
+only that task (plus what follows it)."
+
 A plan that fails at action *i* when re-checked is not thrown away: the
 :class:`Repairer` walks up its decomposition record from action *i* to the
 lowest compound task that can be decomposed again from the state at that point,
 and re-plans that task plus what follows it; only when no ancestor below the
 goal can be, the goal itself is planned from the current belief.  The same
-object makes the comparison with a plan made afresh (§2.4, "a repair must not
-be worse than planning afresh"), so the two share their searches.
+object makes the searches of the comparison with a plan made afresh
+(:mod:`htnagent.upkeep.quality`), so the two share them.
 
 One :class:`Repairer` serves one update of one plan set
-(:class:`~htnagent.planset.OnlinePlanSet`); a :class:`SearchMemo` shares the
+(:class:`~htnagent.upkeep.online.OnlinePlanSet`); a :class:`SearchMemo` shares the
 searches of one update between all the plan sets of an agent.
 """
 
@@ -17,7 +22,6 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
-from typing import TYPE_CHECKING
 
 from htnagent.model.actions import resumed
 from htnagent.model.domain import Domain
@@ -25,9 +29,7 @@ from htnagent.model.plans import Decomposition, Done, Plan, span, tidy
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings, PlanStatus, TaskEntry, plan
-
-if TYPE_CHECKING:
-    from htnagent.planset import PlanningStats
+from htnagent.upkeep.stats import PlanningStats
 
 
 @dataclass
@@ -203,6 +205,23 @@ class Repairer:
         return found
 
 
+class OnDemand:
+    """A :class:`Repairer` made when first asked for: most updates re-check nothing or
+    find every plan valid, and need none."""
+
+    __slots__ = ("_make", "made")
+
+    def __init__(self, make: Callable[[], Repairer]) -> None:
+        self._make = make
+        self.made: Repairer | None = None
+        """The repairer, once made."""
+
+    def __call__(self) -> Repairer:
+        if self.made is None:
+            self.made = self._make()
+        return self.made
+
+
 def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[TaskEntry]:
     """The last ``limit`` subtasks of ``record``'s method that are done, in their order.
 
@@ -240,4 +259,4 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
     return found
 
 
-__all__ = ["LOCAL_BUDGET", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]
+__all__ = ["LOCAL_BUDGET", "OnDemand", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]

@@ -1,5 +1,9 @@
 """Revival of removed plans (docs/design.md §2.5): a plan broken by a fact comes back with it.
 
+The rule (§2.5): "A plan removed earlier because a fact was false is
+revived when that fact becomes true again (keep removed plans, indexed by the
+fact that broke them, for a bounded while).  This covers repaired plans too."
+
 A plan removed because a fact was false — or the plan as it was before a
 repair — is kept in a :class:`Revival` store, indexed by the precondition
 literal that broke it, and revived when that fact becomes true again (a door
