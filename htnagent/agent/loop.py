@@ -429,7 +429,8 @@ class Agent(ExecutorActor):
         """Carry out the action; its result, and whether a suspension of it was asked for."""
         running = self._send(action)
         try:
-            await self._while_it_runs(action)
+            if self.upkeep.pending or self.look_ahead.has_work(action):
+                await self._while_it_runs(action)
             result = await self._await_result(running)
             if isinstance(result, Suspended) and not self.domain.can_suspend(action):
                 # The executor stopped half way an action the domain says cannot be: the
@@ -469,7 +470,8 @@ class Agent(ExecutorActor):
         return running
 
     async def _while_it_runs(self, action: Atom) -> None:
-        """§4: the order is on its way; the work kept off the critical path runs now.
+        """§4: the order is on its way; the work kept off the critical path runs now
+        (called when there is some: deferred upkeep, or something to work out ahead).
 
         The order passes one mailbox per level below on its way to the robot, and
         nothing answers its arrival: the agent lets the event loop run once per level
@@ -479,8 +481,6 @@ class Agent(ExecutorActor):
         meanwhile (given as the order reached the robot): that is seen first, and the
         upkeep waits for the next order.
         """
-        if not (self.upkeep.pending or self.look_ahead.has_work(action)):
-            return
         for _ in range(self.executor.levels_below()):
             await anyio.lowlevel.checkpoint()
         self.upkeep.let_go()
