@@ -616,6 +616,7 @@ class Agent(ExecutorActor):
     # -- messages -------------------------------------------------------------------------------
 
     def _on_message(self, message: Message) -> None:
+        """Take one message in: a goal, a parent's order or hint, or a change of the world."""
         if isinstance(message, Submit):
             self._submitted(message)
         elif isinstance(message, Execute | Resume | Clear):
@@ -630,12 +631,15 @@ class Agent(ExecutorActor):
         elif isinstance(message, ParentLost):
             self._parent_lost()
         elif isinstance(message, BeliefUpdate):
+            # §2.3: the belief changed from outside; every plan follows.
             before = self.belief
             after = self.belief = before.updated(message.add, message.delete)
             self._maintain(lambda ps, memo: ps.belief_changed(before, after, memo))
         # Anything else is a late answer to an abandoned order: ignored.
 
     def _submitted(self, message: Submit) -> None:
+        """A goal arrives: a normal one waits its turn (Algorithm 4), an emergency
+        suspends the running goal (Algorithm 3)."""
         entry = GoalEntry(message.goal, self.new_plans(message.goal), message.emergency, message.ticket)
         entry.arrival = next(self._arrivals)
         self.trace.emit(
