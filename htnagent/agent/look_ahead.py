@@ -21,7 +21,7 @@ with nothing compared or computed again.  Otherwise it works everything out then
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Protocol
 
@@ -80,9 +80,12 @@ class NoLookAhead:
         """The plans made ahead for the order ``action``, if made for this ``belief``."""
         return None
 
-    def came_true(self, action: Atom, before: State, after: State, plans: Iterable[PlanSet]) -> State | None:
-        """``action`` succeeded: if as predicted, update ``plans`` taking over what was
-        worked out ahead, and return the predicted belief (the agent's belief from now)."""
+    def came_true(
+        self, action: Atom, before: State, after: State, plans: Callable[[], list[PlanSet]]
+    ) -> State | None:
+        """``action`` succeeded: if as predicted, update the plan sets kept valid (``plans()``)
+        taking over what was worked out ahead, and return the predicted belief (the agent's
+        belief from now)."""
         return None
 
     def went_otherwise(self) -> None:
@@ -196,9 +199,12 @@ class LookAhead(NoLookAhead):
         # The plans were checked from the belief after the clears, worked out then: take
         # that very belief as theirs (the agent takes it as its own as it clears).
         entry.plans.rebase(worked_out.clears[-1][1] if worked_out.clears else belief)
-        return Resumption(entry.plans, worked_out.clears)
+        worked_out.plans = entry.plans
+        return worked_out
 
-    def came_true(self, action: Atom, before: State, after: State, plans: Iterable[PlanSet]) -> State | None:
+    def came_true(
+        self, action: Atom, before: State, after: State, plans: Callable[[], list[PlanSet]]
+    ) -> State | None:
         prediction = self.prediction
         if prediction is None or not prediction.came_true(action, before, after):
             return None
@@ -207,7 +213,7 @@ class LookAhead(NoLookAhead):
         # plans and resumption are known to hold for it by identity.
         after = prediction.after
         self.prediction = None
-        for ps in plans:
+        for ps in plans():
             fork = prediction.fork_of(ps)
             if fork is not None:
                 self.agent.upkeep.keep_until_sent(ps.adopt(fork))

@@ -534,7 +534,7 @@ class Agent(ExecutorActor):
         """§2.1: the action succeeded."""
         before = self.belief
         after = self.belief = self.domain.progress(before, action)
-        predicted = self.look_ahead.came_true(action, before, after, self._plansets())
+        predicted = self.look_ahead.came_true(action, before, after, self._plansets)
         if predicted is not None:
             self.belief = predicted  # the plans worked out ahead hold for it by identity
         else:
