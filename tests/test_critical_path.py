@@ -14,7 +14,9 @@ from pathlib import Path
 
 import pytest
 
-from htnagent.agent import Agent, GoalEntry, _Prepared
+from htnagent.agent import Agent, GoalEntry
+from htnagent.agent.look_ahead import LookAhead, PredictedSuccess
+from htnagent.agent.resumption import Resumption
 from htnagent.model.domain import State
 from htnagent.model.terms import Atom
 from htnagent.reading import read_yaml
@@ -50,20 +52,21 @@ async def test_a_resumption_made_ready_ahead_is_not_walked_again(
     # Had it taken beliefs worked out again (equal, but other objects) — after the
     # emergency's last action, and after each suspended action it clears — only a re-base
     # would spare the walk.
-    came_true, resume = _Prepared.came_true, Agent._resume
+    came_true, resume = PredictedSuccess.came_true, Agent._resume
 
-    def fresh_after_action(self: _Prepared, action: Atom, before: State, after: State) -> bool:
+    def fresh_after_action(self: PredictedSuccess, action: Atom, before: State, after: State) -> bool:
         if not came_true(self, action, before, after):
             return False
         self.after = after
         return True
 
     def fresh_after_clears(self: Agent, entry: GoalEntry) -> None:
-        if entry.ready is not None:
-            entry.ready.cleared = [(a, s.with_dynamic(frozenset(s.dynamic))) for a, s in entry.ready.cleared]
+        if entry.foreseen is not None:
+            worked_out = entry.foreseen.resumption
+            worked_out.clears = [(a, s.with_dynamic(frozenset(s.dynamic))) for a, s in worked_out.clears]
         resume(self, entry)
 
-    monkeypatch.setattr(_Prepared, "came_true", fresh_after_action)
+    monkeypatch.setattr(PredictedSuccess, "came_true", fresh_after_action)
     monkeypatch.setattr(Agent, "_resume", fresh_after_clears)
     assert taken_over < await _guide_rechecks(file)
 
@@ -114,14 +117,14 @@ async def test_the_emergency_reaches_the_robot_before_the_stacked_plans_are_kept
     # robot.  The guide's deferred upkeep of its suspended goal must come after the robot
     # has started moving for the emergency, not between the navigator and the robot.
     order: list[str] = []
-    flush = Agent._flush
+    flush = Agent._catch_up
 
     def recording_flush(self: Agent) -> None:
-        if self._later:
+        if self.upkeep.waiting:
             order.append(f"upkeep {self.name}")
         flush(self)
 
-    monkeypatch.setattr(Agent, "_flush", recording_flush)
+    monkeypatch.setattr(Agent, "_catch_up", recording_flush)
 
     def observe(event: TraceEvent) -> None:
         if isinstance(event, GoalReceived) and event.emergency:
@@ -149,15 +152,15 @@ async def test_a_child_readies_its_held_goal_for_the_parent_s_resume_on_its_last
     # mean updating a copy of its plans for every one of them, and again for real as they
     # are done: the child waits until the last one is under way.
     replayed: list[int] = []
-    get_ready = Agent._get_ready
+    foresee = LookAhead._foresee_resumption
 
     def recording(
-        self: Agent, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]
-    ) -> None:
+        self: LookAhead, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]
+    ) -> Resumption:
         replayed.append(len(done))
-        get_ready(self, entry, plans, belief, done)
+        return foresee(self, entry, plans, belief, done)
 
-    monkeypatch.setattr(Agent, "_get_ready", recording)
+    monkeypatch.setattr(LookAhead, "_foresee_resumption", recording)
     report = await run_scenario(load_scenario(SCENARIOS / file), replanning="online")
     assert report.succeeded
     assert replayed and max(replayed) == 1
@@ -174,23 +177,23 @@ async def test_only_the_goal_that_resumes_is_copied_and_updated_ahead(
     # copied and updated ahead as well.
     copies: list[int] = []
     fork = PlanSet.fork
-    prepare = Agent._prepare_resumption
+    prepare = LookAhead.foresee
 
     def counting_fork(self: PlanSet) -> PlanSet:
         if copies:
             copies[-1] += 1
         return fork(self)
 
-    def recording(self: Agent, action: Atom) -> bool:
+    def recording(self: LookAhead, action: Atom) -> bool:
         copies.append(0)
-        depth = len(self.stack)
+        depth = len(self.agent.stack)
         made = prepare(self, action)
         if copies[-1] == 0 or depth < 2:
             copies.pop()  # nothing made ready, or nothing below the goal that resumes
         return made
 
     monkeypatch.setattr(PlanSet, "fork", counting_fork)
-    monkeypatch.setattr(Agent, "_prepare_resumption", recording)
+    monkeypatch.setattr(LookAhead, "foresee", recording)
     report = await run_scenario(load_scenario(SCENARIOS / "nested_emergencies.yaml"), replanning="online")
     assert report.succeeded
     # Expect: the resuming goal's copy, and the copy of it that is made ready.
@@ -231,14 +234,14 @@ async def test_an_emergency_given_as_the_order_reaches_the_robot_is_seen_before_
     # works off that upkeep (§4: nothing that keeps the suspended plans valid may delay
     # the reaction), not after.
     order: list[str] = []  # from the moment the application gives the emergency
-    flush = Agent._flush
+    flush = Agent._catch_up
 
     def recording_flush(self: Agent) -> None:
-        if order and self._later and self.name == "guide":
+        if order and self.upkeep.waiting and self.name == "guide":
             order.append("upkeep")
         flush(self)
 
-    monkeypatch.setattr(Agent, "_flush", recording_flush)
+    monkeypatch.setattr(Agent, "_catch_up", recording_flush)
     runtimes: list[Runtime] = []
 
     def observe(event: TraceEvent) -> None:

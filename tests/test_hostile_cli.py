@@ -165,7 +165,7 @@ async def test_ending_goals_looks_at_each_once() -> None:
 
     def spent(event: object) -> None:
         # Ended goals are let go of after the next order, or at the latest 64 ends later.
-        held.append(len(runtimes[0].agents["navigator"]._spent))
+        held.append(runtimes[0].agents["navigator"].upkeep.kept)
 
     _Counting.looks = 0
     scenario = parse_scenario(data, "<many>", SCENARIOS)

@@ -16,7 +16,7 @@ from typing import Any
 
 import pytest
 
-from htnagent.agent import _make_ready
+from htnagent.agent.resumption import work_out_resumption
 from htnagent.domains.museum import nodes_domain
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom, parse
@@ -211,7 +211,7 @@ def test_a_way_opened_while_waiting_is_weighed_against_the_lowest_task_done_agai
     opened = belief.updated((), shut)
     ps.belief_changed(belief, opened)
     ps.lazy = False
-    _make_ready(ps, opened, [])
+    work_out_resumption(d, ps, opened, [])
     assert ps.best is not None and ps.best.text() == ["step(y,p6)", "drop(par,p6)"]
 
 

@@ -79,11 +79,13 @@ def build_runtime(
     replanning: str | None = None,
     speed: float | None = None,
     first: str | None = None,
+    look_ahead: bool = True,
 ) -> tuple[Runtime, RobotWorld]:
     """The scenario's agents over a simulated robot, ready to enter.
 
     ``first``: the agents from this one down (a process serving it); by default from
     the first.  The chain stops above an agent served elsewhere (``remote``).
+    ``look_ahead``: the agents' :attr:`AgentConfig.look_ahead` (it changes no outcome).
     """
     mode = Replanning(replanning or scenario.replanning)
     world = RobotWorld(scenario.world, at=scenario.robot.start, keep_path=True)
@@ -97,6 +99,7 @@ def build_runtime(
             replanning=mode,
             settings=scenario.settings,
             action_timeout=scenario.action_timeout,
+            look_ahead=look_ahead,
         )
         for spec in local
     ]
@@ -171,15 +174,17 @@ async def run_scenario(
     keep_events: bool = False,
     on_start: Callable[[Runtime], None] | None = None,
     stop: anyio.Event | None = None,
+    look_ahead: bool = True,
 ) -> RunReport:
     """Run the scenario to the end and return its summary (the last event published).
 
     ``on_start`` is called with the runtime before anything runs (for measurements).
     Setting ``stop`` ends the run early: goals not yet ended fail as interrupted,
     and the summary of what was done is still published.
+    ``look_ahead``: the agents' :attr:`AgentConfig.look_ahead` (it changes no outcome).
     """
     interrupted = False
-    runtime, world = build_runtime(scenario, replanning=replanning, speed=speed)
+    runtime, world = build_runtime(scenario, replanning=replanning, speed=speed, look_ahead=look_ahead)
     if on_start is not None:
         on_start(runtime)
     events: list[TraceEvent] = []
