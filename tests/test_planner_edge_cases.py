@@ -78,12 +78,13 @@ def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
     d.method(
         "reach(?n)", "walk", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"]
     )
+
     def estimate(task: Atom, state: State) -> float:
         seen.append(gc.isenabled())
         return 0.0
 
     d.estimate("reach", estimate)
-    state = State.from_facts([parse("at(a)"), parse("link(a,b)")], d)
+    state = State.from_facts([parse("at(a)"), parse("link(a,b)")], d.dynamic_predicates)
     assert gc.isenabled()
     assert plan(d, state, [parse("reach(b)")]).best is not None
     assert seen and not any(seen)  # paused while searching

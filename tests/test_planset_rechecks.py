@@ -38,7 +38,7 @@ def lamp_and_doors() -> Domain:
 
 
 def _planned(d: Domain, goal: str, *facts: str, alternatives: int = 2) -> tuple[OnlinePlanSet, State]:
-    belief = State.from_facts([*d.facts, *map(parse, facts)], d)
+    belief = State.from_facts([*d.facts, *map(parse, facts)], d.dynamic_predicates)
     ps = OnlinePlanSet(d, parse(goal), settings=PlannerSettings(alternatives=alternatives))
     ps.make(belief)
     return ps, belief

@@ -29,16 +29,15 @@ to the domain; they are the only mutable part, and never change an answer.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Final
+from typing import Final, Protocol
 
 from htnagent.errors import PlanningError
+from htnagent.model.operators import Operator
 from htnagent.model.preconditions import satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
-
-if TYPE_CHECKING:
-    from htnagent.model.domain import Domain, Operator
 
 RESUME: Final = "resume"
 """The name of ``resume(A)``: finish the rest of the suspended action A."""
@@ -172,6 +171,20 @@ def _static_bound(op: Operator, bindings: Bindings, dynamic: frozenset[str]) -> 
 _MISSING: object = object()
 
 
+class Operators(Protocol):
+    """What :class:`Actions` reads of its domain, at the time it reads it (a domain is
+    a builder: it gains operators, and may be renamed, after its actions were made)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def operators(self) -> Mapping[str, Sequence[Operator]]: ...
+
+    @property
+    def dynamic_predicates(self) -> frozenset[str]: ...
+
+
 class Actions:
     """The ground actions of one domain: found, compiled and cached, and what they do.
 
@@ -181,7 +194,7 @@ class Actions:
 
     __slots__ = ("_compiled", "_domain", "_ground", "_undo")
 
-    def __init__(self, domain: Domain) -> None:
+    def __init__(self, domain: Operators) -> None:
         self._domain = domain
         self._ground: dict[Atom, tuple[Operator, Bindings] | None] = {}
         self._compiled: dict[Atom, CompiledAction] = {}

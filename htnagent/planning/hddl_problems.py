@@ -423,7 +423,7 @@ class _Translator:
         # The start state indexes every fact at once (a second or so for millions of them):
         # the clock is read before and after.
         self.spend(CLOCK_EVERY)
-        state = State.from_facts(self.out.facts, self.out)
+        state = State.from_facts(self.out.facts, self.out.dynamic_predicates)
         self.spend(CLOCK_EVERY)
         return HddlPlanning(self.out, state, tuple(tasks), self.hddl, p)
 
