@@ -25,7 +25,7 @@ from htnagent.domains.user import ResolvedDomain
 from htnagent.errors import ScenarioError
 from htnagent.model.terms import Atom
 from htnagent.reading import read_yaml
-from htnagent.scenario.schema import HddlDomainSpec, TextForm, _Spec
+from htnagent.scenario.specs import Name, Spec, TextForm
 from htnagent.scenario.wording import kind_of
 from htnagent.scenario.wording import translate as translate_error
 
@@ -44,12 +44,27 @@ RESERVED = "__"
 __all__ = [
     "DEFAULT_DURATION",
     "RESERVED",
+    "HddlDomainSpec",
     "check_fact",
     "check_hddl_task",
     "load_hddl_agent",
     "no_map",
     "read_started",
 ]
+
+
+class HddlDomainSpec(Spec):
+    """An agent's domain written in HDDL: the domain file and a problem file (its ``:init``)."""
+
+    hddl: Name
+    """The HDDL domain file, relative to the scenario file."""
+    problem: Name
+    """The HDDL problem file, relative to the scenario file: the agent's start belief is its
+    ``:init`` (its objects are what the goals may name; its task network is not used)."""
+    started: Name | None = None
+    """Optional: a YAML file, relative to the scenario file, of the effects that hold as soon
+    as a suspendable action starts (``ACTION: {add: [fact], delete: [fact]}``, the facts over
+    the action's parameters): what a half-done one has changed (docs/design.md §7.1)."""
 
 
 def load_hddl_agent(
@@ -87,7 +102,7 @@ def load_hddl_agent(
     return ResolvedDomain(built, info), planning
 
 
-class _StartedSpec(_Spec):
+class _StartedSpec(Spec):
     """One action's entry in a started-effects file."""
 
     add: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
