@@ -19,7 +19,9 @@ from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import compile_method, compile_method_lazy, literals
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, atom
-from htnagent.planning.hddl_problems import ipc_plan, solve, translate
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_translation import translate
+from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
 
 

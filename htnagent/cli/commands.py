@@ -44,7 +44,9 @@ from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom, parse
-from htnagent.planning.hddl_problems import actions_of, ipc_plan, solve, translate
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_translation import translate
+from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer

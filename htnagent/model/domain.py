@@ -150,7 +150,7 @@ class Domain:
     """The least cost of each task name whatever the state (``inf``: the task can never be
     done).  When set, the planner's estimate of a task list is the sum over its tasks (in
     place of :attr:`estimates`): admissible, and it sees the whole list.  The HDDL
-    translation sets it (:mod:`htnagent.planning.hddl_problems`)."""
+    translation sets it (:mod:`htnagent.planning.hddl_translation`)."""
     actions: Actions = field(init=False, repr=False, compare=False)
     """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.model.actions`)."""
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)

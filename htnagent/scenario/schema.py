@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 from pydantic import (
     Discriminator,
@@ -31,13 +31,11 @@ from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
 from htnagent.model.actions import RECOVERY
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
+from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario.hddl_agent import HddlDomainSpec
 from htnagent.scenario.specs import Name, Spec, TextForm
 from htnagent.scenario.wording import kind_of
-
-if TYPE_CHECKING:  # the HDDL translation is imported when an agent has an HDDL domain
-    from htnagent.planning.hddl_problems import HddlPlanning
 
 __all__ = [
     "ROBOT",
