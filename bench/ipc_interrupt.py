@@ -1,4 +1,4 @@
-"""Emergencies on the IPC domains (``python -m bench ipc-interrupt --suite DIR``), issue 15.
+"""Emergencies on the IPC domains (``python -m bench ipc-interrupt --suite DIR``).
 
 For each problem of the suite (found as ``python -m bench ipc`` finds them:
 :func:`bench.ipc.find_problems`), one agent plans on the HDDL domain and executes

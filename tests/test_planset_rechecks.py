@@ -1,4 +1,4 @@
-"""Which plans an update walks again (issue #12: re-check only what a change can touch).
+"""Which plans an update walks again: only what a change can touch is re-checked.
 
 A plan known valid from the belief before an update is trusted after it, without
 a walk, when nothing it reads changed (no step's precondition names a changed
