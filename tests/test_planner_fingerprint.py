@@ -2,8 +2,8 @@
 
 ``planner_fingerprint.json`` was written by the planner before its search was
 compiled for speed, so that the compiled search is held to the same answers: for
-many searches on the museum map and generated maps — K = 1 to 3, shut doors, two goals in a row, a small budget, a suspended
-move (resume, rollback, rollbacks off, an action to avoid), ``move_area``, the
+many searches on the museum map and generated maps — K = 1 to 3, shut doors, two
+goals in a row, a small budget, a suspended move (resume, rollback, rollbacks off, an action to avoid), ``move_area``, the
 guide's ``goto`` and the talking guide's ``present`` — the status, the number of
 expansions, the plan costs, and a digest of every plan: its actions, step
 costs, decomposition records (task and method, up to the goal) and which steps
