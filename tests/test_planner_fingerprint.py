@@ -7,9 +7,10 @@ budget, a suspended move (resume, rollback, rollbacks off, an action to avoid),
 ``move_area``, the guide's ``goto`` and the talking guide's ``present`` — the status,
 the number of expansions, the plan costs, and a digest of every plan: its actions, step
 costs, decomposition records (task and method, up to the goal) and which steps and
-records the plans share. A change that alters any of these fails here; one that means to
-(a new tie-break, a better estimate) writes the file again with ``python -m
-tests.test_planner_fingerprint`` and says why. """
+records the plans share.  A change that alters any of these fails here; one that means
+to (a new tie-break, a better estimate) writes the file again with
+``python -m tests.test_planner_fingerprint`` and says why.
+"""
 
 from __future__ import annotations
 
