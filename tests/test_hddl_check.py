@@ -18,7 +18,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bench.hddl_read import suite_pairs
 from htnagent.cli.commands import main
 from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
@@ -26,6 +25,7 @@ from htnagent.hddl.check import Violation, check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import IpcDecomposition, IpcStep, parse_plan, read_plan
 from htnagent.model.terms import Atom
+from htnagent.testing.hddl_inputs import suite_pairs
 
 HERE = Path(__file__).resolve().parent / "hddl"
 REPO = Path(__file__).resolve().parents[1]
