@@ -1,10 +1,10 @@
-"""Emergencies on the IPC domains (``python -m bench ipc-interrupt --suite DIR``), issue 15.
+"""Emergencies on the IPC domains (``python -m bench ipc-interrupt --suite DIR``).
 
 For each problem of the suite (found as ``python -m bench ipc`` finds them:
 :func:`bench.ipc.find_problems`), one agent plans on the HDDL domain and executes
 on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
 
-1. **Solved?** ``htnagent.planning.hddl_problems.solve`` on the whole problem within
+1. **Solved?** ``htnagent.planning.hddl_solving.solve`` on the whole problem within
    ``--timeout`` seconds (default 20).  A problem it does not solve is skipped.
 2. **The goals.** The problem's initial task network ``t1 … tn`` (in its order)
    is split: ``t1 … tn-1`` are the agent's normal goals, each one scenario goal,
@@ -27,7 +27,7 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    of interruption); should a mode's run not do that action, the emergency is
    never given and the row fails with that reason.
 4. **Suspension.** Every action of the domain that
-   :func:`htnagent.planning.hddl_problems.unsuspendable` accepts is declared suspendable
+   :func:`htnagent.planning.hddl_translation.unsuspendable` accepts is declared suspendable
    (``agents[].suspendable``): the acting action is stopped half way, has had no
    effect, and the resumed goal may ``resume`` it (or drop it).
 5. **Both modes**, on-line then naive, each one warm-up run and ``--runs``
@@ -121,7 +121,8 @@ def prepare(problem: Problem, timeout: float) -> dict[str, Any]:
     """Steps 1–3: ``{skip: reason}`` or ``{goals, emergency, trigger, suspendable, actions}``."""
     from htnagent.errors import HtnAgentError
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.planning.hddl_problems import solve, unsuspendable
+    from htnagent.planning.hddl_solving import solve
+    from htnagent.planning.hddl_translation import unsuspendable
 
     try:
         domain = read_domain(problem.domain_file)
@@ -163,7 +164,7 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
 
     from bench.measure import RunFigures, measure_run
     from htnagent.executors.hddl_robot import HddlRobot
-    from htnagent.model.actions import ROLLBACK, half_done
+    from htnagent.model.actions import ROLLBACK, action_recovered_by
     from htnagent.model.terms import parse
     from htnagent.runtime.events import ActionFinished, Summary, TraceEvent
     from htnagent.scenario import parse_scenario
@@ -184,7 +185,7 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
         action = parse(event.action)
         if action.name == ROLLBACK or action.name.startswith("__"):
             return
-        done = half_done(action)
+        done = action_recovered_by(action)
         executed.append(str(done if done is not None else action))
         robot = runtimes[0].executor
         if isinstance(robot, HddlRobot) and not mismatches:

@@ -33,7 +33,7 @@ from dataclasses import dataclass
 import anyio
 from anyio.abc import TaskStatus
 
-from htnagent.model.actions import resume_action, rollback_action, rolled_back
+from htnagent.model.actions import action_rolled_back_by, resume_action, rollback_action
 from htnagent.model.domain import Domain
 from htnagent.model.preconditions import satisfiers
 from htnagent.model.state import State
@@ -189,7 +189,7 @@ class HddlRobot(ExecutorActor):
 
     def _execute(self, order: Execute) -> None:
         action = order.action
-        inner = rolled_back(action)
+        inner = action_rolled_back_by(action)
         if inner is not None:
             # Rolling back undoes what the action's start changed (if anything), at once.
             if inner not in self.kept:

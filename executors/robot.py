@@ -32,7 +32,7 @@ import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.domains.maps import WorldMap
-from htnagent.model.actions import rolled_back
+from htnagent.model.actions import action_rolled_back_by
 from htnagent.model.terms import Atom
 from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import RobotActing, RobotMoving
@@ -170,7 +170,7 @@ class Robot(ExecutorActor):
 
     def _execute(self, order: Execute) -> None:
         action = order.action
-        inner = rolled_back(action)
+        inner = action_rolled_back_by(action)
         if inner is not None:
             self._rollback(order, inner)
             return

@@ -36,8 +36,8 @@ _EXPORTS: dict[str, str] = {
     "TraceFormatError": "errors",
     "UnknownNameError": "errors",
     "Domain": "model.domain",
-    "Effect": "model.domain",
-    "Suspension": "model.domain",
+    "Effect": "model.operators",
+    "Suspension": "model.operators",
     "Plan": "model.plans",
     "Step": "model.plans",
     "State": "model.state",
@@ -115,10 +115,10 @@ if TYPE_CHECKING:
     from htnagent.model.domain import (
         Domain as Domain,
     )
-    from htnagent.model.domain import (
+    from htnagent.model.operators import (
         Effect as Effect,
     )
-    from htnagent.model.domain import (
+    from htnagent.model.operators import (
         Suspension as Suspension,
     )
     from htnagent.model.plans import (

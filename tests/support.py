@@ -16,7 +16,7 @@ from typing import Any
 import anyio
 
 from htnagent.runtime.events import TraceEvent
-from htnagent.scenario import Scenario, load_scenario
+from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.simulation import RunReport, run_scenario
 
 Event = dict[str, Any]
@@ -43,10 +43,20 @@ def summary_of(report: RunReport) -> Event:
     return report.summary.as_dict()
 
 
+def statuses(report: RunReport) -> list[str]:
+    """Each goal's status in a run's summary, in the order the goals were given."""
+    return [g["status"] for g in summary_of(report)["goals"]]
+
+
 SCENARIO_DIR = Path(__file__).resolve().parents[1] / "scenarios"
 
 SHIPPED = tuple(sorted(p.name for p in SCENARIO_DIR.glob("*.yaml") if p.name != "museum_map.yaml"))
 """Every scenario shipped in ``scenarios/`` (the map file aside)."""
+
+
+def inline(data: dict[str, Any], name: str = "inline.yaml") -> Scenario:
+    """A scenario written in the test, on the museum map."""
+    return parse_scenario({"name": name, "map": "museum_map.yaml", **data}, name, SCENARIO_DIR)
 
 
 @functools.cache

@@ -44,7 +44,7 @@ def test_the_first_open_door_in_the_maps_order_is_taken() -> None:
     d = two_doors()
     compiled = d.actions.compiled(parse("pass(r1,r2)"))
     assert compiled.checks is None and compiled.static_bound
-    base = State.from_facts([*d.facts, parse("at(r1)")], d)
+    base = State.from_facts([*d.facts, parse("at(r1)")], d.dynamic_predicates)
     for shut, used in [((), "front"), (("front",), "back"), (("back",), "front"), (("front", "back"), None)]:
         state = base.updated(add=[Atom("shut", (s,)) for s in shut])
         after = compiled.apply_dynamic(state)
@@ -58,7 +58,7 @@ def test_the_first_open_door_in_the_maps_order_is_taken() -> None:
 def test_a_changed_map_gets_ways_of_its_own() -> None:
     d = two_doors()
     compiled = d.actions.compiled(parse("pass(r1,r2)"))
-    state = State.from_facts([*d.facts, parse("at(r1)")], d)
+    state = State.from_facts([*d.facts, parse("at(r1)")], d.dynamic_predicates)
     assert compiled.apply_dynamic(state) is not None
     walled = state.updated(delete=[parse("door(r1,r2,front)"), parse("door(r1,r2,back)")])
     assert walled.static is not state.static
@@ -72,7 +72,7 @@ def test_a_variable_a_dynamic_fact_binds_is_matched_each_time() -> None:
     d.operator("walk(?r)", add=["here(?r)"])
     compiled = d.actions.compiled(parse("drop(box)"))
     assert compiled.checks is None and not compiled.static_bound
-    state = State.from_facts([parse("holding(box)"), parse("here(hall)")], d)
+    state = State.from_facts([parse("holding(box)"), parse("here(hall)")], d.dynamic_predicates)
     assert compiled.apply_dynamic(state) == _by_matching(d, state, parse("drop(box)"))
 
 
@@ -89,7 +89,7 @@ def test_museum_areas_actions_agree_with_matching_on_random_beliefs(seed: int) -
         facts += [Atom("closed", (a,)) for a in rng.sample(arcs, rng.randint(0, len(arcs)))]
         if rng.random() < 0.3:
             facts.append(Atom("moving", (rng.choice(areas), rng.choice(areas))))
-        state = State.from_facts(facts, d)
+        state = State.from_facts(facts, d.dynamic_predicates)
         a, b = rng.choice(areas), rng.choice(areas)
         for action in (Atom("move_area", (a, b)), Atom("goto_node", (rng.choice(nodes),))):
             compiled = d.actions.compiled(action)

@@ -1,4 +1,4 @@
-"""Work kept off the critical path (docs/design.md §4; issue #12), checked on the real agents.
+"""Work kept off the critical path (docs/design.md §4), checked on the real agents.
 
 - A resumption made ready while the emergency's last action ran is taken over as it
   is: its plans are not walked again at the next update.
@@ -210,7 +210,7 @@ def test_a_message_carries_the_atom_itself_and_refuses_what_is_not_one() -> None
     from htnagent.runtime.messages import BeliefUpdate, Execute, Resume, Submit
 
     # Validated as the named tuple it is, an atom was rebuilt argument by argument: a copy,
-    # and the better part of a message's cost on the way to the robot (issue #12).
+    # and the better part of a message's cost on the way to the robot.
     action = atom("drive(truck-0,city-loc-1,city-loc-2)")
     assert Execute(action=action, seq=1).action is action
     assert Resume(action=action, seq=2).action is action

@@ -41,7 +41,7 @@ def _nav() -> Domain:
 
 
 def _state(domain: Domain, *facts: str) -> State:
-    return State.from_facts(facts, domain)
+    return State.from_facts(facts, domain.dynamic_predicates)
 
 
 def _all(pre: list[str], state: State) -> list[dict[str, object]]:

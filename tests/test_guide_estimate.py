@@ -54,7 +54,7 @@ def test_the_estimate_is_admissible_and_exact_while_doors_are_open(seed: int) ->
         start, goal = rng.choice(names), rng.choice(names)
         shut = set(rng.sample(doors, rng.randint(0, len(doors) // 3))) if rng.random() < 0.5 else set()
         facts = [*areas_facts(world, start), *(Atom("closed", (arc,)) for arc in shut)]
-        state = State.from_facts(facts, d)
+        state = State.from_facts(facts, d.dynamic_predicates)
         task = Atom("goto", (goal,))
         estimate = heuristic(d, [task], state)
         best = _oracle(world, start, goal, shut)
@@ -73,7 +73,7 @@ def test_the_search_opens_little_more_than_the_route_on_a_large_map() -> None:
     world = generate_map(20, 14, 3, seed=1)
     d = areas_domain(world)
     names = list(world.nodes)
-    state = State.from_facts(areas_facts(world, names[0]), d)
+    state = State.from_facts(areas_facts(world, names[0]), d.dynamic_predicates)
     result = plan(d, state, [Atom("goto", (names[-1],))], PlannerSettings(alternatives=1))
     assert result.best is not None
     # Corner to corner over 280 areas: a few steps an area on the route (the goto, the

@@ -18,14 +18,14 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bench.hddl_read import suite_pairs
 from htnagent.cli.commands import main
 from htnagent.errors import HddlError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import Violation, check_plan
 from htnagent.hddl.model import Domain, Problem
-from htnagent.hddl.plan_file import Decomposition, Step, parse_plan, read_plan
+from htnagent.hddl.plan_file import IpcDecomposition, IpcStep, parse_plan, read_plan
 from htnagent.model.terms import Atom
+from htnagent.testing.hddl_inputs import suite_pairs
 
 HERE = Path(__file__).resolve().parent / "hddl"
 REPO = Path(__file__).resolve().parents[1]
@@ -72,11 +72,11 @@ def test_a_plan_reads_into_steps_root_and_decompositions() -> None:
         "solver says hi\n==>\n0 (move r1 hall kitchen)\nroot 2\n2 (goto r1 kitchen) -> m-step 0 3\n"
         "3 GOTO r1 kitchen -> m-goto-here\n<==\ntrailing words\n"
     )
-    assert plan.steps == (Step(0, Atom("move", ("r1", "hall", "kitchen"))),)
+    assert plan.steps == (IpcStep(0, Atom("move", ("r1", "hall", "kitchen"))),)
     assert plan.root == (2,)
     assert plan.decompositions == (
-        Decomposition(2, Atom("goto", ("r1", "kitchen")), "m-step", (0, 3)),
-        Decomposition(3, Atom("goto", ("r1", "kitchen")), "m-goto-here", ()),
+        IpcDecomposition(2, Atom("goto", ("r1", "kitchen")), "m-step", (0, 3)),
+        IpcDecomposition(3, Atom("goto", ("r1", "kitchen")), "m-goto-here", ()),
     )
 
 

@@ -27,7 +27,8 @@ from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, parse_plan, spellings
 from htnagent.model.terms import Atom
-from htnagent.planning.hddl_problems import actions_of, ipc_plan, solve
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search
 
 HERE = Path(__file__).resolve().parent / "hddl"

@@ -14,7 +14,6 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bench.hddl_read import suite_pairs, synthetic
 from htnagent.errors import HddlError, HtnAgentError
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.model import (
@@ -37,6 +36,7 @@ from htnagent.hddl.model import (
 )
 from htnagent.limits import MAX_HDDL_DEPTH
 from htnagent.model.terms import Atom
+from htnagent.testing.hddl_inputs import suite_pairs, synthetic
 
 REPO = Path(__file__).resolve().parents[1]
 IPC = REPO.parent / "shared" / "data" / "ipc"

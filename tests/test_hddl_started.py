@@ -129,7 +129,7 @@ def test_resume_and_rollback_give_back_what_the_start_took(tmp_path: Path) -> No
     # A start that takes away a fact the move does not change (the door behind it): resumed
     # or rolled back, the move ends where the move done at once ends, or where it began.
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.planning.hddl_problems import Started, translate
+    from htnagent.planning.hddl_translation import Started, translate
 
     repo = Path(__file__).resolve().parents[1] / "scenarios"
     d = read_domain(repo / "courier_hddl_domain.hddl")
@@ -158,7 +158,7 @@ def test_without_started_effects_a_stopped_move_has_changed_nothing(tmp_path: Pa
 
 def test_the_translation_resumes_without_what_the_start_undid() -> None:
     from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.planning.hddl_problems import Started, translate
+    from htnagent.planning.hddl_translation import Started, translate
 
     repo = Path(__file__).resolve().parents[1] / "scenarios"
     d = read_domain(repo / "courier_hddl_domain.hddl")

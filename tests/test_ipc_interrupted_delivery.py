@@ -5,20 +5,23 @@ package_1 at city_loc_1, and drives the truck away with package_1 still in it.
 ``deliver`` has no method from "the package is in a truck": planned afresh (naive)
 the interrupted goal is impossible; on-line, the kept plan's repair drives back to
 city_loc_1 and resumes the drop.  Needs ``../shared/data/ipc`` (skipped without it).
+
+Each scenario is the one ``python -m bench ipc-interrupt`` makes of the problem: the
+initial task network's tasks but the last as goals, the last as an emergency half way
+through the first action after the middle of their plan, every action suspendable.
 """
 
 from __future__ import annotations
 
 import functools
 from pathlib import Path
+from typing import Any
 
 import anyio
 import pytest
 
-from bench.ipc import find_problems
-from bench.ipc_interrupt import prepare, scenario_data
 from htnagent.runtime.events import ActionFinished
-from htnagent.scenario import parse_scenario
+from htnagent.scenario import Scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import run_scenario
 
@@ -27,12 +30,40 @@ SUITE = Path(__file__).resolve().parents[2] / "shared" / "data" / "ipc"
 pytestmark = pytest.mark.skipif(not (SUITE / "Transport" / "pfile03.hddl").exists(), reason="no IPC suite")
 
 
+def transport(problem: str, goals: list[str], emergency: str, trigger: str) -> Scenario:
+    """One agent on a Transport problem: ``goals``, then ``emergency`` half way through ``trigger``."""
+    folder = SUITE / "Transport"
+    data: dict[str, Any] = {
+        "name": f"ipc-interrupt Transport {problem}",
+        "robot": {},
+        "agents": [
+            {
+                "name": "agent",
+                "domain": {"hddl": str(folder / "domain.hddl"), "problem": str(folder / problem)},
+                "executor": "robot",
+                "suspendable": ["drive", "noop", "pick_up", "drop"],
+            }
+        ],
+        "goals": [
+            *({"agent": "agent", "task": g} for g in goals),
+            {
+                "agent": "agent",
+                "task": emergency,
+                "emergency": True,
+                "when": {"action": trigger, "progress": 0.5},
+            },
+        ],
+    }
+    return parse_scenario(data, str(folder / problem), folder)
+
+
 def test_on_line_drives_back_and_resumes_the_drop_naive_cannot_go_on() -> None:
-    problem = next(p for p in find_problems(SUITE, ["Transport"], 3) if p.name == "pfile03.hddl")
-    ready = prepare(problem, 20.0)
-    assert ready["trigger"] == "drop(truck_0,city_loc_1,package_1,capacity_1,capacity_2)"
-    data = scenario_data(problem, ready["goals"], ready["suspendable"], ready["emergency"], ready["trigger"])
-    scenario = parse_scenario(data, str(problem.problem_file), problem.problem_file.parent)
+    scenario = transport(
+        "pfile03.hddl",
+        ["deliver(package_1,city_loc_1)", "deliver(package_0,city_loc_0)"],
+        "deliver(package_2,city_loc_0)",
+        "drop(truck_0,city_loc_1,package_1,capacity_1,capacity_2)",
+    )
     online = anyio.run(functools.partial(run_scenario, scenario, replanning="online", keep_events=True))
     naive = anyio.run(functools.partial(run_scenario, scenario, replanning="naive"))
     assert online.succeeded
@@ -54,10 +85,12 @@ def test_subtasks_are_not_done_again_for_a_second_plan_while_the_first_is_kept()
     # followed by its kept steps, cannot meet it: such a search runs until its budget is
     # spent.  The first plan is repaired and kept, so no such search is made for the
     # second (docs/design.md §2.4): 2,098 expansions in the run once, under 200 now.
-    problem = next(p for p in find_problems(SUITE, ["Transport"], 4) if p.name == "pfile04.hddl")
-    ready = prepare(problem, 20.0)
-    data = scenario_data(problem, ready["goals"], ready["suspendable"], ready["emergency"], ready["trigger"])
-    scenario = parse_scenario(data, str(problem.problem_file), problem.problem_file.parent)
+    scenario = transport(
+        "pfile04.hddl",
+        ["deliver(package_1,city_loc_0)", "deliver(package_0,city_loc_3)", "deliver(package_3,city_loc_0)"],
+        "deliver(package_2,city_loc_1)",
+        "noop(truck_0,city_loc_0)",
+    )
     runtimes: list[Runtime] = []
     online = anyio.run(
         functools.partial(run_scenario, scenario, replanning="online", on_start=runtimes.append)

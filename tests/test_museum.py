@@ -29,7 +29,7 @@ from htnagent.runtime.events import GoalResumed, PlanSelected, TraceEvent
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
-from tests.support import Event, events_of, summary_of
+from tests.support import Event, events_of, inline, statuses, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -63,19 +63,10 @@ def run(scenario: Scenario, mode: str | None = None) -> RunReport:
     return anyio.run(functools.partial(run_scenario, scenario, replanning=mode, keep_events=True))
 
 
-def inline(data: dict[str, Any], name: str = "inline.yaml") -> Scenario:
-    """A scenario written in the test, on the museum map."""
-    return parse_scenario({"name": name, "map": "museum_map.yaml", **data}, name, SCENARIOS)
-
-
 TWO_LEVELS = [
     {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
     {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
 ]
-
-
-def statuses(report: RunReport) -> list[str]:
-    return [g["status"] for g in summary_of(report)["goals"]]
 
 
 def of(events: Iterable[Event], kind: str, agent: str | None = None) -> list[Event]:

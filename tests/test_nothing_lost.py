@@ -291,7 +291,7 @@ def test_a_run_with_only_a_trigger_that_never_fires_ends() -> None:
 
 @pytest.mark.parametrize("seed", [511, 882])
 def test_a_child_drops_what_its_crashed_parent_ordered(seed: int) -> None:
-    from bench.reliability import crash_run
+    from htnagent.testing.storms import crash_run
 
     _, lost, crashed, violations = anyio.run(crash_run, seed)
     # Expect: the guide crashes with orders held by the navigator; they are dropped, so

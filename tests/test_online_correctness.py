@@ -31,7 +31,7 @@ from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.testing.differential import DOORS_SLACK, NO_DOORS_SLACK, compare
 from htnagent.upkeep import new_plan_set
-from tests.support import Event, events_of, record, summary_of
+from tests.support import Event, events_of, record, statuses, summary_of
 
 SCENARIOS = Path(__file__).resolve().parents[1] / "scenarios"
 MODES = ["online", "naive"]
@@ -46,10 +46,6 @@ def run(mode: str, **data: Any) -> RunReport:
     """A scenario on the shipped museum map, run in ``mode``."""
     scenario = parse_scenario({"name": "test", "map": "museum_map.yaml", **data}, "test.yaml", SCENARIOS)
     return anyio.run(functools.partial(run_scenario, scenario, replanning=mode, keep_events=True))
-
-
-def statuses(report: RunReport) -> list[str]:
-    return [g["status"] for g in summary_of(report)["goals"]]
 
 
 def of(events: list[Event], kind: str, agent: str | None = None) -> list[Event]:

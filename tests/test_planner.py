@@ -59,7 +59,7 @@ def _roads_state(domain: Domain, at: str, roads: dict[tuple[str, str], float] = 
     facts = [f"at({at})", "place(e)"]
     for f, t in roads:
         facts += [f"road({f},{t})", f"road({t},{f})"]
-    return State.from_facts(facts, domain)
+    return State.from_facts(facts, domain.dynamic_predicates)
 
 
 def _plan(domain: Domain, state: State, *tasks: str, k: int = 4, budget: int = 200_000) -> PlanResult:
@@ -150,13 +150,13 @@ def _drinks(order: list[str], *, coffee_cost: float = 1.0) -> Domain:
 def test_method_order_breaks_ties_between_equal_cost_plans() -> None:
     for order in (["tea", "coffee"], ["coffee", "tea"]):
         d = _drinks(order)
-        s = State.from_facts(["have(tea)", "have(coffee)"], d)
+        s = State.from_facts(["have(tea)", "have(coffee)"], d.dynamic_predicates)
         assert _texts(_plan(d, s, "serve(ann)")) == [[f"brew({name})"] for name in order]
 
 
 def test_cost_outranks_method_order() -> None:
     d = _drinks(["coffee", "tea"], coffee_cost=2.0)
-    s = State.from_facts(["have(tea)", "have(coffee)"], d)
+    s = State.from_facts(["have(tea)", "have(coffee)"], d.dynamic_predicates)
     result = _plan(d, s, "serve(ann)")
     assert _texts(result) == [["brew(tea)"], ["brew(coffee)"]]
     assert [p.cost for p in result.plans] == [1.0, 2.0]
@@ -164,7 +164,7 @@ def test_cost_outranks_method_order() -> None:
 
 def test_a_method_whose_precondition_fails_is_not_used() -> None:
     d = _drinks(["tea", "coffee"])
-    s = State.from_facts(["have(coffee)"], d)
+    s = State.from_facts(["have(coffee)"], d.dynamic_predicates)
     assert _texts(_plan(d, s, "serve(ann)")) == [["brew(coffee)"]]
 
 
@@ -180,7 +180,7 @@ def test_an_unreachable_goal_is_unsolvable() -> None:
 
 def test_a_task_no_method_applies_to_is_unsolvable() -> None:
     d = _drinks(["tea", "coffee"])
-    result = _plan(d, State.from_facts([], d), "serve(ann)")
+    result = _plan(d, State.from_facts([], d.dynamic_predicates), "serve(ann)")
     assert result.status is PlanStatus.UNSOLVABLE
     assert result.expansions == 1
 
@@ -230,7 +230,7 @@ def test_equal_cost_plans_come_in_the_same_order_whatever_the_hash_seed() -> Non
         d.method("goto(?n)", "step", when=["not at(?n)", "at(?x)", "edge(?x,?y)"],
                  do=["move(?x,?y)", "goto(?n)"])
         edges = [("a", "b"), ("a", "c"), ("b", "d"), ("c", "d"), ("a", "e"), ("e", "d")]
-        s = State.from_facts(["at(a)"] + [f"edge({x},{y})" for x, y in edges], d)
+        s = State.from_facts(["at(a)"] + [f"edge({x},{y})" for x, y in edges], d.dynamic_predicates)
         r = plan(d, s, [parse("goto(d)")], PlannerSettings(alternatives=3))
         print([p.text() for p in r.plans])
         """

@@ -84,7 +84,7 @@ def test_the_search_pauses_the_cyclic_collector_and_restores_it() -> None:
         return 0.0
 
     d.estimate("reach", estimate)
-    state = State.from_facts([parse("at(a)"), parse("link(a,b)")], d)
+    state = State.from_facts([parse("at(a)"), parse("link(a,b)")], d.dynamic_predicates)
     assert gc.isenabled()
     assert plan(d, state, [parse("reach(b)")]).best is not None
     assert seen and not any(seen)  # paused while searching

@@ -1,15 +1,15 @@
 """The planner finds what it found before it was made faster: same plans, costs, records, expansions.
 
-``planner_fingerprint.json`` was written by the planner of main before the search
-was compiled (issue 12, speed): for many searches on the museum map and generated
-maps — K = 1 to 3, shut doors, two goals in a row, a small budget, a suspended
-move (resume, rollback, rollbacks off, an action to avoid), ``move_area``, the
-guide's ``goto`` and the talking guide's ``present`` — the status, the number of
-expansions, the plan costs, and a digest of every plan: its actions, step
-costs, decomposition records (task and method, up to the goal) and which steps
-and records the plans share.  A change that alters any of these fails here;
-one that means to (a new tie-break, a better estimate) writes the file again
-with ``python -m tests.test_planner_fingerprint`` and says why.
+``planner_fingerprint.json`` was written by the planner before its search was compiled
+for speed, so that the compiled search is held to the same answers: for many searches on
+the museum map and generated maps — K = 1 to 3, shut doors, two goals in a row, a small
+budget, a suspended move (resume, rollback, rollbacks off, an action to avoid),
+``move_area``, the guide's ``goto`` and the talking guide's ``present`` — the status,
+the number of expansions, the plan costs, and a digest of every plan: its actions, step
+costs, decomposition records (task and method, up to the goal) and which steps and
+records the plans share.  A change that alters any of these fails here; one that means
+to (a new tie-break, a better estimate) writes the file again with
+``python -m tests.test_planner_fingerprint`` and says why.
 """
 
 from __future__ import annotations

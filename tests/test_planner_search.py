@@ -19,7 +19,9 @@ from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import compile_method, compile_method_lazy, literals
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, atom
-from htnagent.planning.hddl_problems import ipc_plan, solve, translate
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_translation import translate
+from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
 
 
@@ -37,7 +39,7 @@ def _choice_domain(task_costs: bool = False) -> Domain:
 
 def _actions(d: Domain, search: Search, **kw: object) -> list[str]:
     settings = PlannerSettings(alternatives=1, search=search, **kw)  # type: ignore[arg-type]
-    result = plan(d, State.from_facts([], d), [atom("get")], settings)
+    result = plan(d, State.from_facts([], d.dynamic_predicates), [atom("get")], settings)
     assert result.best is not None
     return result.best.text()
 
@@ -59,7 +61,7 @@ def test_a_task_no_method_ever_finishes_is_dropped_at_once() -> None:
     d.operator("a")
     d.method("t", "again", do=["a", "t"])  # always one more t
     d.task_costs = {"a": 1.0, "t": float("inf")}
-    result = plan(d, State.from_facts([], d), [atom("t")], PlannerSettings(alternatives=1))
+    result = plan(d, State.from_facts([], d.dynamic_predicates), [atom("t")], PlannerSettings(alternatives=1))
     assert result.status is PlanStatus.UNSOLVABLE
     assert result.expansions <= 1
 
@@ -73,7 +75,7 @@ def test_the_time_limit_ends_an_endless_search(search: Search) -> None:
     d.method("t", "stop", when=["q"], do=[])
     started = time.perf_counter()
     settings = PlannerSettings(alternatives=1, budget=10**9, search=search, time_limit=0.2)
-    result = plan(d, State.from_facts([], d), [atom("t")], settings)
+    result = plan(d, State.from_facts([], d.dynamic_predicates), [atom("t")], settings)
     assert result.status is PlanStatus.TIMED_OUT
     assert time.perf_counter() - started < 5  # generous: only that it stopped
 
@@ -95,7 +97,7 @@ def test_a_lazy_method_gives_the_same_ways_in_the_same_order() -> None:
     d = Domain("lazy")
     d.operator("take(?x,?y)")
     d.operator("go(?z)")
-    st = State.from_facts(facts, d)
+    st = State.from_facts(facts, d.dynamic_predicates)
     eager = compile_method(head, pre, subtasks, st.dynamic_predicates)
     lazy = compile_method_lazy(head, pre, subtasks, st.dynamic_predicates)
     task = atom("pick(x)")
@@ -138,7 +140,7 @@ def test_the_search_draws_only_the_ways_it_needs(monkeypatch: pytest.MonkeyPatch
 
     monkeypatch.setattr(Method, "compiled_lazy", counting)
     monkeypatch.setattr(Method, "compiled", counting_eager)
-    state = State.from_facts([atom(f"item(i{n})") for n in range(1000)], d)
+    state = State.from_facts([atom(f"item(i{n})") for n in range(1000)], d.dynamic_predicates)
     for search in Search:
         result = plan(d, state, [atom("get")], PlannerSettings(alternatives=1, search=search))
         assert result.best is not None and result.best.text() == ["take(i0)"]

@@ -66,7 +66,7 @@ def line_domain(undo: bool) -> Domain:
 
 
 def line_state(d: Domain, at: str) -> State:
-    return State.from_facts([*d.facts, Atom("at", (at,))], d)
+    return State.from_facts([*d.facts, Atom("at", (at,))], d.dynamic_predicates)
 
 
 # -- §2.1 an action finished with success ------------------------------------------------

@@ -1,4 +1,4 @@
-"""Which plans an update walks again (issue #12: re-check only what a change can touch).
+"""Which plans an update walks again: only what a change can touch is re-checked.
 
 A plan known valid from the belief before an update is trusted after it, without
 a walk, when nothing it reads changed (no step's precondition names a changed
@@ -38,7 +38,7 @@ def lamp_and_doors() -> Domain:
 
 
 def _planned(d: Domain, goal: str, *facts: str, alternatives: int = 2) -> tuple[OnlinePlanSet, State]:
-    belief = State.from_facts([*d.facts, *map(parse, facts)], d)
+    belief = State.from_facts([*d.facts, *map(parse, facts)], d.dynamic_predicates)
     ps = OnlinePlanSet(d, parse(goal), settings=PlannerSettings(alternatives=alternatives))
     ps.make(belief)
     return ps, belief

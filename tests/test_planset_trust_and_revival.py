@@ -55,7 +55,7 @@ def alarm_domain() -> Domain:
 
 def test_a_plan_behind_an_undo_that_does_not_restore_the_belief_is_rechecked() -> None:
     d = alarm_domain()
-    belief = State.from_facts([*d.facts, parse("at(a)")], d)
+    belief = State.from_facts([*d.facts, parse("at(a)")], d.dynamic_predicates)
     ps = new_plan_set(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     # Expect: walk a → b → c (2), or sneak through the tunnel (3).
@@ -78,7 +78,7 @@ def test_a_plan_behind_an_undo_that_restores_the_belief_is_kept() -> None:
     d.method("reach(?n)", "here", when=["at(?n)"], do=[])
     d.method("reach(?n)", "walk", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["go(?x,?y)", "reach(?n)"])
     d.facts = tuple(Atom("link", p) for p in [("a", "b"), ("b", "a"), ("a", "c"), ("c", "a"), ("b", "c")])
-    belief = State.from_facts([*d.facts, parse("at(a)")], d)
+    belief = State.from_facts([*d.facts, parse("at(a)")], d.dynamic_predicates)
     ps = new_plan_set(d, parse("reach(c)"), settings=PlannerSettings(alternatives=2))
     ps.make(belief)
     assert [p.text() for p in ps.plans] == [["go(a,c)"], ["go(a,b)", "go(b,c)"]]
@@ -114,7 +114,7 @@ def doors_domain(doors: int = 3) -> Domain:
 
 def _shut_d1_then_d2(capacity: int) -> tuple[Domain, OnlinePlanSet, State]:
     d = doors_domain()
-    belief = State.from_facts([*d.facts, parse("at(s)")], d)
+    belief = State.from_facts([*d.facts, parse("at(s)")], d.dynamic_predicates)
     settings = PlannerSettings(alternatives=1)
     ps = OnlinePlanSet(d, parse("reach(t)"), settings=settings, revival_capacity=capacity)
     ps.make(belief)
@@ -147,7 +147,7 @@ def test_revival_keeps_at_most_its_capacity_the_oldest_going_first() -> None:
 
 def test_revival_store_never_grows_past_its_capacity() -> None:
     d = doors_domain(12)
-    belief = State.from_facts([*d.facts, parse("at(s)")], d)
+    belief = State.from_facts([*d.facts, parse("at(s)")], d.dynamic_predicates)
     ps = OnlinePlanSet(d, parse("reach(t)"), settings=PlannerSettings(alternatives=1), revival_capacity=3)
     ps.make(belief)
     for i in range(1, 12):
@@ -188,7 +188,7 @@ def test_a_fork_keeps_its_own_revival_store() -> None:
 
 def test_a_revived_plan_has_had_every_rewrite_since_it_was_kept_in_order() -> None:
     d = doors_domain()
-    shut = State.from_facts([*d.facts, parse("at(s)"), parse("closed(d1)")], d)
+    shut = State.from_facts([*d.facts, parse("at(s)"), parse("closed(d1)")], d.dynamic_predicates)
     opened = shut.updated(delete=[parse("closed(d1)")])
     store = Revival(d, window=2)  # a long log is caught up with past 4 × window rewrites
 

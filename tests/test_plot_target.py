@@ -1,7 +1,7 @@
 """``run --plot FILE``: a bad place is refused before the run; a late failure keeps the run's result.
 
-Writing the picture used to be tried only after the whole run, and its
-failure (exit 2) then hid the run's real result.
+The picture is written only after the whole run: a place found bad only then must not
+hide the run's real result behind the picture's failure (exit 2).
 """
 
 from __future__ import annotations

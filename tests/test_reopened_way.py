@@ -192,7 +192,9 @@ def test_a_way_opened_while_waiting_is_weighed_against_the_lowest_task_done_agai
     # detour check that finds it.
     d = parcel_domain()
     shut = (Atom("closed", ("y", "p6")), Atom("closed", ("p6", "y")))
-    belief = State.from_facts([*d.facts, Atom("at", ("p3",)), Atom("in", ("par", "p0")), *shut], d)
+    belief = State.from_facts(
+        [*d.facts, Atom("at", ("p3",)), Atom("in", ("par", "p0")), *shut], d.dynamic_predicates
+    )
     ps = new_plan_set(d, parse("deliver(par,p6)"), Replanning.ONLINE, PlannerSettings(alternatives=1))
     ps.make(belief)
 

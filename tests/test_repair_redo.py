@@ -39,7 +39,7 @@ def carrier() -> Domain:
 def carried_to_b() -> tuple[Domain, OnlinePlanSet, State]:
     """deliver(p,b) from a, carried out up to the unload: the domain, the plan set, the belief."""
     d = carrier()
-    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d)
+    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d.dynamic_predicates)
     ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
     ps.make(start)
     assert ps.best is not None and ps.best.text() == ["load(p)", "drive(a,b)", "unload(p,b)"]
@@ -168,7 +168,7 @@ def test_doing_subtasks_again_is_not_cut_short_when_the_way_back_is_long() -> No
         if 0 <= i + di < n and 0 <= j + dj < n
     )
     a, b = place(0, 0), place(0, 1)
-    belief = State.from_facts([*d.facts, parse(f"at({a})"), parse(f"in(p,{a})")], d)
+    belief = State.from_facts([*d.facts, parse(f"at({a})"), parse(f"in(p,{a})")], d.dynamic_predicates)
     ps = OnlinePlanSet(d, parse(f"deliver(p,{b})"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert ps.best is not None and ps.best.text()[-1] == f"unload(p,{b})"

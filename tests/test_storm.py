@@ -1,11 +1,11 @@
-"""Storms (bench/reliability.py): random museums, goals, nested emergencies, faults, doors."""
+"""Storms (htnagent/testing/storms.py): random museums, goals, nested emergencies, faults, doors."""
 
 from __future__ import annotations
 
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from bench.reliability import storm
+from htnagent.testing.storms import storm
 
 
 @settings(max_examples=60, deadline=None, derandomize=True, suppress_health_check=[HealthCheck.too_slow])

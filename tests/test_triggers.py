@@ -27,7 +27,7 @@ from htnagent.runtime.messages import Execute, Resume, Suspend, Suspended
 from htnagent.runtime.trace import Trace
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.simulation import NEVER_TRIGGERED, RunReport, run_scenario
-from tests.support import Event, events_of, summary_of
+from tests.support import Event, events_of, inline, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -36,11 +36,6 @@ TWO_LEVELS = [
     {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
     {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
 ]
-
-
-def inline(data: dict[str, Any], name: str = "inline.yaml") -> Scenario:
-    """A scenario written in the test, on the museum map."""
-    return parse_scenario({"name": name, "map": "museum_map.yaml", **data}, name, SCENARIOS)
 
 
 def run(scenario: Scenario) -> RunReport:

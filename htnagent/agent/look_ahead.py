@@ -28,7 +28,7 @@ from typing import Protocol
 from htnagent.agent.deferred import DeferredUpkeep
 from htnagent.agent.goals import GoalEntry
 from htnagent.agent.resumption import Foreseen, Resumption, work_out_resumption
-from htnagent.model.actions import half_done, resumed
+from htnagent.model.actions import action_recovered_by, action_resumed_by
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import replay
 from htnagent.model.terms import Atom
@@ -181,7 +181,7 @@ class LookAhead(NoLookAhead):
         updated up to that belief, once the actions ``done`` have succeeded)."""
         plans.lazy = False
         # A resume or rollback among the actions done settles what it finished or undid.
-        settled = {a for step in done if (a := half_done(step)) is not None}
+        settled = {a for step in done if (a := action_recovered_by(step)) is not None}
         suspended = [a for a in entry.suspended if a not in settled]
         resumption = work_out_resumption(self.agent.domain, plans, belief, suspended)
         if plans.best is not None:
@@ -248,7 +248,7 @@ class LookAhead(NoLookAhead):
         predicted = replay(agent.domain, agent.belief, steps)
         if predicted is None:
             return True
-        inner = resumed(action)
+        inner = action_resumed_by(action)
         if inner is not None:
             held = agent.held_goal(inner)
             if held is not None:

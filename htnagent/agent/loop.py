@@ -48,7 +48,7 @@ from htnagent.agent.deferred import DeferredUpkeep
 from htnagent.agent.goals import GoalEntry, GoalStatus, Running
 from htnagent.agent.modes import mode_of
 from htnagent.agent.resumption import Resumption, work_out_resumption
-from htnagent.model.actions import ROLLBACK, half_done, resumed
+from htnagent.model.actions import ROLLBACK, action_recovered_by, action_resumed_by
 from htnagent.model.domain import State
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom
@@ -454,7 +454,7 @@ class Agent(ExecutorActor):
     def _send(self, action: Atom) -> Running:
         """Algorithm 2: order the action (``resume`` for ``resume(A)``) from the executor."""
         seq = next(self._seq)
-        inner = resumed(action)
+        inner = action_resumed_by(action)
         ordered = inner if inner is not None else action
         if inner is not None:
             self.order(self.executor, Resume(action=inner, seq=seq))
@@ -539,7 +539,7 @@ class Agent(ExecutorActor):
             self.belief = predicted  # the plans worked out ahead hold for it by identity
         else:
             self._maintain(lambda ps, memo: ps.action_succeeded(action, before, after, memo))
-        inner = half_done(action)
+        inner = action_recovered_by(action)
         if inner is not None:
             # The half-done action was finished or undone: nothing is left to clear.
             holder = self._holder(inner)
@@ -548,7 +548,7 @@ class Agent(ExecutorActor):
 
     def _suspended(self, action: Atom, asked: bool) -> None:
         """Algorithm 1: the action was stopped half way."""
-        inner = half_done(action)
+        inner = action_recovered_by(action)
         if inner is not None:
             # Algorithm 3: stopping resume(A) or rollback(A) leaves A suspended, as the
             # belief and every plan already say; whoever held A still holds it.
@@ -568,7 +568,7 @@ class Agent(ExecutorActor):
         """§2.2: the action failed."""
         before = self.belief
         self._maintain(lambda ps, memo: ps.action_failed(action, before, before, memo))
-        inner = resumed(action)
+        inner = action_resumed_by(action)
         if inner is not None:
             # The executor could not finish A: what was kept for it is no use, and the
             # same resume must not be planned again from the same belief (§5).

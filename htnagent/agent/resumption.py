@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from htnagent.model.actions import half_done
+from htnagent.model.actions import action_recovered_by
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
 from htnagent.runtime.messages import Clear
@@ -51,7 +51,7 @@ def work_out_resumption(domain: Domain, plans: PlanSet, belief: State, suspended
     best = plans.best
     # A plan that rolls an action back, or finishes it later (after walking back to where
     # it was stopped), still needs what was kept for it.
-    needed = {a for s in best.steps if (a := half_done(s.action)) is not None} if best else set()
+    needed = {a for s in best.steps if (a := action_recovered_by(s.action)) is not None} if best else set()
     unused = [a for a in suspended if a not in needed]
     clears: list[tuple[Clear, State]] = []
     state = belief

@@ -44,11 +44,14 @@ from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom, parse
-from htnagent.planning.hddl_problems import actions_of, ipc_plan, solve, translate
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_translation import translate
+from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
+from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.views.console import KEY, JsonLines, LiveTrace, print_summary, printable
 from htnagent.views.history import History
@@ -350,7 +353,7 @@ def _plan(args: argparse.Namespace) -> int:
         task = parse(args.task)
     except TextFormError as e:
         raise ScenarioError(file, "--task", str(e)) from None
-    scenario.check_task(args.agent, task, "--task")
+    check_task(scenario, args.agent, task, "--task")
     domain = scenario.domain_for(args.agent)
     settings = scenario.settings
     if args.search == "auto":

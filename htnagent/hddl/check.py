@@ -56,7 +56,7 @@ from htnagent.hddl.model import (
     SortOf,
     Typed,
 )
-from htnagent.hddl.plan_file import Decomposition, IpcPlan, Step
+from htnagent.hddl.plan_file import IpcDecomposition, IpcPlan, IpcStep
 from htnagent.model.terms import Atom
 
 __all__ = ["Violation", "check_plan"]
@@ -129,8 +129,8 @@ class _Checker:
         self.plan = plan
         self.world = _World(domain, problem)
         self.out: list[Violation] = []
-        self.steps: dict[int, Step] = {s.id: s for s in plan.steps}
-        self.decs: dict[int, Decomposition] = {x.id: x for x in plan.decompositions}
+        self.steps: dict[int, IpcStep] = {s.id: s for s in plan.steps}
+        self.decs: dict[int, IpcDecomposition] = {x.id: x for x in plan.decompositions}
         self.htn_binding: Binding = {}
 
     def bad(self, line: int, reason: str) -> None:
@@ -148,7 +148,7 @@ class _Checker:
 
     # -- lines on their own -----------------------------------------------------------------------
 
-    def action_line(self, s: Step) -> None:
+    def action_line(self, s: IpcStep) -> None:
         a = self.d.actions.get(s.action.name)
         if a is None:
             kind = "a compound task, not an action" if s.action.name in self.d.tasks else "no declared action"
@@ -240,7 +240,7 @@ class _Checker:
                 checks.append(check)
             stack.extend((c, dec.line) for c in reversed(dec.subtasks))
 
-    def decomposition(self, x: Decomposition, position: int) -> _MethodCheck | None:
+    def decomposition(self, x: IpcDecomposition, position: int) -> _MethodCheck | None:
         what = f"task {x.id} ({_text(x.task)})"
         task = self.d.tasks.get(x.task.name)
         if task is None:

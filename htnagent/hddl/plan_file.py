@@ -39,9 +39,9 @@ from htnagent.hddl.reader import read_file
 from htnagent.model.terms import Atom
 
 __all__ = [
-    "Decomposition",
+    "IpcDecomposition",
     "IpcPlan",
-    "Step",
+    "IpcStep",
     "format_plan",
     "object_spellings",
     "parse_plan",
@@ -51,7 +51,7 @@ __all__ = [
 
 
 @dataclass(frozen=True, slots=True)
-class Step:
+class IpcStep:
     """A primitive action of the plan: ``ID name arg...``."""
 
     id: int
@@ -60,7 +60,7 @@ class Step:
 
 
 @dataclass(frozen=True, slots=True)
-class Decomposition:
+class IpcDecomposition:
     """A decomposed task: ``ID task arg... -> method subtask-ID...``."""
 
     id: int
@@ -75,9 +75,9 @@ class IpcPlan:
     """A whole plan: the actions in order, the root tasks, the decompositions in file order."""
 
     file: str
-    steps: tuple[Step, ...]
+    steps: tuple[IpcStep, ...]
     root: tuple[int, ...]
-    decompositions: tuple[Decomposition, ...]
+    decompositions: tuple[IpcDecomposition, ...]
     root_line: int = field(default=0, compare=False)
 
 
@@ -96,8 +96,8 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
     start = next((i for i, line in enumerate(lines) if line.strip().startswith("==>")), None)
     if start is None:
         raise HddlError(file, "no '==>' line; a plan in the IPC format starts with '==>'")
-    steps: list[Step] = []
-    decompositions: list[Decomposition] = []
+    steps: list[IpcStep] = []
+    decompositions: list[IpcDecomposition] = []
     root: tuple[int, ...] | None = None
     root_line = 0
     ids: dict[int, int] = {}
@@ -136,7 +136,7 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
                 )
             if len(words) < 2:
                 raise HddlError(file, f"ID {ident} names no action", number, words[0][1] + 1)
-            steps.append(Step(ident, Atom(words[1][0], tuple(w for w, _ in words[2:])), number))
+            steps.append(IpcStep(ident, Atom(words[1][0], tuple(w for w, _ in words[2:])), number))
             continue
         if arrow is None:
             raise HddlError(file, "expected 'ID task args -> method subtask-IDs' (no '->')", number, 1)
@@ -147,7 +147,7 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
         task = Atom(words[1][0], tuple(w for w, _ in words[2:arrow]))
         method = words[arrow + 1][0]
         subtasks = tuple(_number(file, number, w, at) for w, at in words[arrow + 2 :])
-        decompositions.append(Decomposition(ident, task, method, subtasks, number))
+        decompositions.append(IpcDecomposition(ident, task, method, subtasks, number))
     if root is None:
         raise HddlError(file, "no 'root' line after the actions (it lists the root task IDs)")
     if not ended:

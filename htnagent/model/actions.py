@@ -29,16 +29,15 @@ to the domain; they are the only mutable part, and never change an answer.
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Final
+from typing import Final, Protocol
 
 from htnagent.errors import PlanningError
+from htnagent.model.operators import Operator
 from htnagent.model.preconditions import satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
-
-if TYPE_CHECKING:
-    from htnagent.model.domain import Domain, Operator
 
 RESUME: Final = "resume"
 """The name of ``resume(A)``: finish the rest of the suspended action A."""
@@ -58,21 +57,21 @@ def rollback_action(action: Atom) -> Atom:
     return Atom(ROLLBACK, (action,))
 
 
-def half_done(action: Atom) -> Atom | None:
+def action_recovered_by(action: Atom) -> Atom | None:
     """A for ``resume(A)`` or ``rollback(A)``; None for any other action."""
     if action.name in RECOVERY and len(action.args) == 1 and isinstance(action.args[0], Atom):
         return action.args[0]
     return None
 
 
-def resumed(action: Atom) -> Atom | None:
+def action_resumed_by(action: Atom) -> Atom | None:
     """A for ``resume(A)``; None for any other action (``rollback(A)`` included)."""
-    return half_done(action) if action.name == RESUME else None
+    return action_recovered_by(action) if action.name == RESUME else None
 
 
-def rolled_back(action: Atom) -> Atom | None:
+def action_rolled_back_by(action: Atom) -> Atom | None:
     """A for ``rollback(A)``; None for any other action (``resume(A)`` included)."""
-    return half_done(action) if action.name == ROLLBACK else None
+    return action_recovered_by(action) if action.name == ROLLBACK else None
 
 
 _Way = tuple[tuple[tuple[Atom, bool], ...], frozenset[Atom], frozenset[Atom]]
@@ -172,6 +171,20 @@ def _static_bound(op: Operator, bindings: Bindings, dynamic: frozenset[str]) -> 
 _MISSING: object = object()
 
 
+class Operators(Protocol):
+    """What :class:`Actions` reads of its domain, at the time it reads it (a domain is
+    a builder: it gains operators, and may be renamed, after its actions were made)."""
+
+    @property
+    def name(self) -> str: ...
+
+    @property
+    def operators(self) -> Mapping[str, Sequence[Operator]]: ...
+
+    @property
+    def dynamic_predicates(self) -> frozenset[str]: ...
+
+
 class Actions:
     """The ground actions of one domain: found, compiled and cached, and what they do.
 
@@ -181,7 +194,7 @@ class Actions:
 
     __slots__ = ("_compiled", "_domain", "_ground", "_undo")
 
-    def __init__(self, domain: Domain) -> None:
+    def __init__(self, domain: Operators) -> None:
         self._domain = domain
         self._ground: dict[Atom, tuple[Operator, Bindings] | None] = {}
         self._compiled: dict[Atom, CompiledAction] = {}
@@ -293,7 +306,7 @@ class Actions:
         ``rollback(A)`` of such an A: stopping either leaves A suspended, with
         less (or more) of it left to do (docs/design.md §4, Algorithm 3).
         """
-        target = half_done(action) or action
+        target = action_recovered_by(action) or action
         try:
             op, _ = self.ground(target)
         except PlanningError:
@@ -307,7 +320,7 @@ class Actions:
         they started: the belief already says so, and stays as it is.  Raises
         :class:`~htnagent.errors.PlanningError` for an action that cannot be suspended.
         """
-        if half_done(action) is not None:
+        if action_recovered_by(action) is not None:
             return state
         op, b = self.ground(action)
         if not op.suspendable:
@@ -359,9 +372,9 @@ __all__ = [
     "ROLLBACK",
     "Actions",
     "CompiledAction",
-    "half_done",
+    "action_recovered_by",
+    "action_resumed_by",
+    "action_rolled_back_by",
     "resume_action",
-    "resumed",
     "rollback_action",
-    "rolled_back",
 ]

@@ -2,9 +2,10 @@
 
 A :class:`Domain` is built step by step — it is a **mutable builder** — with
 :meth:`Domain.operator`, :meth:`Domain.method` and :meth:`Domain.estimate`; what
-it is made of (:class:`Operator`, :class:`Method`, and the :class:`Suspension` /
-:class:`Effect` declarations behind resume and rollback) are immutable values
-that check themselves when built.  A method reads as "when this holds, do these
+it is made of (:class:`Method` here; :class:`~htnagent.model.operators.Operator`, and the
+:class:`~htnagent.model.operators.Suspension` / :class:`~htnagent.model.operators.Effect`
+declarations behind resume and rollback, in :mod:`htnagent.model.operators`) are
+immutable values that check themselves when built.  A method reads as "when this holds, do these
 subtasks" (docs/design.md §1)::
 
     d = Domain("nav")
@@ -24,19 +25,19 @@ to it (:meth:`Domain.apply`, :meth:`~Domain.progress`, :meth:`~Domain.suspend`,
 
 Related modules: beliefs are :mod:`htnagent.model.state`, precondition literals and
 their matching :mod:`htnagent.model.preconditions`, A*'s estimate over a task list is
-:func:`htnagent.planning.planner.heuristic`.  The names those modules define that were
-once defined here are still importable from here.
+:func:`htnagent.planning.planner.heuristic`.  The names of the model a domain's author
+needs (operators, states, literals) are importable from here too, so one import serves.
 """
 
 from __future__ import annotations
 
-import math
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TypeVar
 
 from htnagent.errors import DomainError
-from htnagent.model.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, half_done
+from htnagent.model.actions import RECOVERY, RESUME, ROLLBACK, Actions, CompiledAction, action_recovered_by
+from htnagent.model.operators import CostSpec, Effect, Operator, Suspension
 from htnagent.model.preconditions import (
     Decomposer,
     LazyDecomposer,
@@ -49,133 +50,13 @@ from htnagent.model.preconditions import (
     satisfiers,
 )
 from htnagent.model.state import FactBase, State
-from htnagent.model.terms import Atom, Bindings, atom, is_variable, substitute
+from htnagent.model.terms import Atom, atom, is_variable
 
 _F = TypeVar("_F")
 
-CostSpec = float | int | Callable[[Atom], float]
-"""An operator's cost: a number, or a function of the ground action."""
 Estimate = Callable[[Atom, State], float]
 """A compound task's estimate of the cost left, from a state (A*'s h; admissible if it
 never over-estimates)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Effect:
-    """Precondition, effects and cost of a resume or rollback operator."""
-
-    add: tuple[str, ...] = ()
-    delete: tuple[str, ...] = ()
-    pre: tuple[str, ...] | None = None
-    cost: CostSpec | None = None
-
-
-@dataclass(frozen=True, slots=True)
-class Suspension:
-    """What stopping an action half way does, and how to finish or undo the half.
-
-    ``add``/``delete`` are the suspension effect on the belief (applied to the
-    state before the action); ``resume`` and ``rollback`` describe the operators
-    ``resume(A)`` and ``rollback(A)``, whose precondition defaults to the facts
-    the suspension added.  ``cleared`` names the facts that only record that A
-    can be resumed — they leave the belief when the suspension is cleared —
-    as opposed to facts about the world (a robot on an arc stays there).
-    """
-
-    add: tuple[str, ...] = ()
-    delete: tuple[str, ...] = ()
-    resume: Effect | None = None
-    rollback: Effect | None = None
-    cleared: tuple[str, ...] = ()
-
-
-@dataclass(frozen=True, slots=True)
-class Operator:
-    """A primitive task: precondition, add and delete effects, cost.
-
-    For suspension it may carry ``suspend_add``/``suspend_delete`` (the suspension
-    effect), ``resume``/``rollback`` operators and an ``undo`` pattern naming the
-    inverse action.
-    """
-
-    head: Atom
-    pre: tuple[Literal, ...] = ()
-    add: tuple[Atom, ...] = ()
-    delete: tuple[Atom, ...] = ()
-    cost: CostSpec = 1.0
-    suspendable: bool = False
-    suspend_add: tuple[Atom, ...] = ()
-    suspend_delete: tuple[Atom, ...] = ()
-    clear_delete: tuple[Atom, ...] = ()
-    resume: Operator | None = None
-    rollback: Operator | None = None
-    undo: Atom | None = None
-
-    def __post_init__(self) -> None:
-        known = self.head.variables() | bound_by(self.pre)
-        for part, items in (
-            ("add", self.add),
-            ("delete", self.delete),
-            ("suspension add", self.suspend_add),
-            ("suspension delete", self.suspend_delete),
-            ("suspension cleared", self.clear_delete),
-        ):
-            for a in items:
-                unknown = a.variables() - known
-                if unknown:
-                    raise DomainError(
-                        f"operator {self.head}: {part} effect {a} uses unbound {sorted(unknown)}"
-                    )
-        if self.undo is not None and self.undo.variables() - self.head.variables():
-            raise DomainError(f"operator {self.head}: undo {self.undo} uses unbound variables")
-        if isinstance(self.cost, int | float) and not (0 <= self.cost < math.inf):
-            raise DomainError(
-                f"operator {self.head}: cost {self.cost}: a cost is a finite number, not negative"
-            )
-
-    @property
-    def name(self) -> str:
-        """The task name this operator implements."""
-        return self.head.name
-
-    def action_cost(self, action: Atom) -> float:
-        """The cost of the ground action."""
-        c = self.cost
-        value = float(c(action)) if callable(c) else float(c)
-        if not 0 <= value < math.inf:  # NaN too: plans could no longer be put in cost order
-            raise DomainError(
-                f"operator {self.head}: cost {value} for {action}: a cost is a finite number, not negative"
-            )
-        return value
-
-    def applicable(self, state: State, bindings: Bindings) -> Bindings | None:
-        """The first extension of ``bindings`` that satisfies the precondition, or None."""
-        return next(satisfiers(self.pre, state, bindings), None)
-
-    def effects_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
-        """The dynamic facts after the delete then add effects, unchecked (the precondition
-        is the caller's to test: see :mod:`htnagent.model.actions` for the checked forms)."""
-        return _changed(dynamic, self.delete, self.add, bindings)
-
-    def suspension_on(self, dynamic: frozenset[Atom], bindings: Bindings) -> frozenset[Atom]:
-        """The dynamic facts after the action is stopped half way (its suspension effect)."""
-        return _changed(dynamic, self.suspend_delete, self.suspend_add, bindings)
-
-
-def _changed(
-    dynamic: frozenset[Atom],
-    delete: tuple[Atom, ...],
-    add: tuple[Atom, ...],
-    bindings: Bindings,
-) -> frozenset[Atom]:
-    if not delete and not add:
-        return dynamic
-    out = set(dynamic)
-    for d in delete:
-        out.discard(substitute(d, bindings))
-    for a in add:
-        out.add(substitute(a, bindings))
-    return frozenset(out)
 
 
 @dataclass(frozen=True, slots=True)
@@ -269,7 +150,7 @@ class Domain:
     """The least cost of each task name whatever the state (``inf``: the task can never be
     done).  When set, the planner's estimate of a task list is the sum over its tasks (in
     place of :attr:`estimates`): admissible, and it sees the whole list.  The HDDL
-    translation sets it (:mod:`htnagent.planning.hddl_problems`)."""
+    translation sets it (:mod:`htnagent.planning.hddl_translation`)."""
     actions: Actions = field(init=False, repr=False, compare=False)
     """The ground actions of this domain and what they do (a cache; see :mod:`htnagent.model.actions`)."""
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)
@@ -374,7 +255,7 @@ class Domain:
         facts: list[Atom] = list(self.facts)
         if self.world_facts is not None and start is not None:
             facts.extend(self.world_facts(start))
-        return State.from_facts(facts, self)
+        return State.from_facts(facts, self.dynamic_predicates)
 
     # -- what was declared ----------------------------------------------------------
 
@@ -460,8 +341,8 @@ def _inner_cost(cost: CostSpec) -> CostSpec:
     return cost
 
 
-# Besides its own names, the module still exports those other modules define that were
-# defined here before the split (State, FactBase, Literal, satisfiers, half_done...).
+# Besides its own names, the module exports those of the model's other modules that a
+# domain's author needs (Operator, Suspension, State, Literal, satisfiers, action_recovered_by...).
 __all__ = [
     "Atom",
     "CompiledAction",
@@ -475,8 +356,8 @@ __all__ = [
     "Operator",
     "State",
     "Suspension",
+    "action_recovered_by",
     "all_satisfiers",
-    "half_done",
     "is_variable",
     "satisfiers",
 ]

@@ -13,7 +13,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 
-from htnagent.model.actions import ROLLBACK, rolled_back
+from htnagent.model.actions import ROLLBACK, action_rolled_back_by
 from htnagent.model.domain import Domain
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
@@ -194,7 +194,7 @@ def tidy(domain: Domain, steps: Sequence[Step], *, front: bool = False) -> tuple
                 out.pop()
                 continue
             # §2.6: rollback(A) directly followed by A is resume(A).
-            if prev.name == rollback and rolled_back(prev) == step.action:
+            if prev.name == rollback and action_rolled_back_by(prev) == step.action:
                 resume = actions.resume_of(step.action)
                 if resume is not None:
                     out[-1] = Step(resume, actions.cost(resume), step.record)

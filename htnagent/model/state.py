@@ -17,12 +17,8 @@ from __future__ import annotations
 import itertools
 from collections import defaultdict
 from collections.abc import Iterable, Iterator
-from typing import TYPE_CHECKING
 
 from htnagent.model.terms import Atom, Bindings, Term, atom, unify
-
-if TYPE_CHECKING:
-    from htnagent.model.domain import Domain
 
 
 class FactBase:
@@ -95,10 +91,12 @@ class State:
         self.dynamic_predicates = dynamic_predicates
 
     @classmethod
-    def from_facts(cls, facts: Iterable[Atom | str], domain: Domain) -> State:
-        """Split ``facts`` into static and dynamic parts as the domain's effects dictate."""
+    def from_facts(cls, facts: Iterable[Atom | str], dynamic_predicates: frozenset[str]) -> State:
+        """Split ``facts`` into static and dynamic parts: a fact is dynamic when its predicate
+        is one of ``dynamic_predicates`` (a domain's, :attr:`Domain.dynamic_predicates
+        <htnagent.model.domain.Domain.dynamic_predicates>`: those some effect changes)."""
         parsed = [atom(f) for f in facts]
-        dyn = domain.dynamic_predicates
+        dyn = dynamic_predicates
         return cls(
             FactBase(f for f in parsed if f.name not in dyn),
             frozenset(f for f in parsed if f.name in dyn),

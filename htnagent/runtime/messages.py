@@ -23,8 +23,8 @@ Atom = InstanceOf[_Atom]
 """A task or action in a message: an :class:`~htnagent.model.terms.Atom` taken as it is.
 
 Checked by type only: validating it as the named tuple it is would rebuild it, argument
-by argument — the better part of the cost of a message on the way to the robot (issue
-#12), and a copy where the very object was meant (text forms and hashes are worked out
+by argument — the better part of the cost of a message on the way to the robot,
+and a copy where the very object was meant (text forms and hashes are worked out
 once per object).  Messages from another process are parsed into atoms first
 (:mod:`htnagent.remote.codec`)."""
 

@@ -11,8 +11,10 @@ the line.
 One module per job:
 
 - :mod:`~htnagent.reading` -- files and YAML, trusting nothing in them;
+- :mod:`~htnagent.scenario.specs` -- what the models are built from: the frozen base, names, tasks as text;
 - :mod:`~htnagent.scenario.schema` -- the scenario file's pydantic models, :class:`Scenario`;
 - :mod:`~htnagent.scenario.map_file` -- the map file's models and :func:`parse_map`;
+- :mod:`~htnagent.scenario.hddl_agent` -- agents on HDDL domains: the files read and translated;
 - :mod:`~htnagent.scenario.checks` -- cross-references against the map and the domains;
 - :mod:`~htnagent.scenario.wording` -- the one translator of validation errors to ScenarioError;
 - :mod:`~htnagent.scenario.loader` -- :func:`load_scenario` and :func:`parse_scenario`, tying them together.

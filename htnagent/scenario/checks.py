@@ -29,11 +29,12 @@ from htnagent.model.terms import Atom
 from htnagent.scenario.hddl_agent import (
     DEFAULT_DURATION,
     RESERVED,
+    HddlDomainSpec,
     check_fact,
     check_hddl_task,
     load_hddl_agent,
 )
-from htnagent.scenario.schema import ROBOT, HddlDomainSpec, Scenario, Trigger, no_agent
+from htnagent.scenario.schema import ROBOT, Scenario, Trigger, no_agent
 
 __all__ = ["check_task", "cross_check"]
 
@@ -133,7 +134,13 @@ def _check_facts(s: Scenario, i: int) -> None:
 
 
 def check_task(s: Scenario, agent_name: str, task: Atom, where: str) -> None:
-    """Raise ScenarioError at ``where`` unless the agent can plan for ``task`` (see Scenario.check_task)."""
+    """Raise ScenarioError at ``where`` unless ``task`` is a task the agent can plan for.
+
+    The task must be ground, named by an operator or method of the agent's
+    domain with the same number of arguments, and name nodes, arcs and
+    areas of the map where the domain says its arguments do (for an HDDL
+    domain: one of its tasks or actions, naming objects of the problem).
+    """
     planning = s.hddl_for(agent_name)
     if planning is not None:
         check_hddl_task(planning, agent_name, task, s.file, where)

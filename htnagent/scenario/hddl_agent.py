@@ -3,7 +3,7 @@
 The domain and problem files are read and checked by :mod:`htnagent.hddl` (any
 fault is its one line ``FILE:LINE:COL: reason``, an
 :class:`~htnagent.errors.HddlError`) and translated by
-:mod:`htnagent.planning.hddl_problems`: the agent plans with the translation's domain, its
+:mod:`htnagent.planning.hddl_translation`: the agent plans with the translation's domain, its
 start belief is the problem's ``:init`` with the translation's static type and
 equality facts (docs/design.md §7.1).  Its goals name the HDDL domain's tasks
 (or actions) and the problem's objects; the actions in ``agents[].suspendable``
@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated
+from typing import Annotated
 
 from pydantic import Field, ValidationError
 
@@ -23,33 +23,48 @@ from htnagent.domains import DomainInfo
 from htnagent.domains.maps import WorldMap
 from htnagent.domains.user import ResolvedDomain
 from htnagent.errors import ScenarioError
+from htnagent.hddl import model as m
+from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.model.terms import Atom
+from htnagent.planning.hddl_translation import (
+    RESERVED,
+    HddlPlanning,
+    Started,
+    StartedError,
+    translate,
+    unsuspendable,
+)
 from htnagent.reading import read_yaml
-from htnagent.scenario.schema import HddlDomainSpec, TextForm, _Spec
-from htnagent.scenario.wording import kind_of
-from htnagent.scenario.wording import translate as translate_error
-
-if TYPE_CHECKING:
-    from htnagent.hddl import model as m
-    from htnagent.planning.hddl_problems import HddlPlanning, Started
-
-# htnagent.hddl reads its files with htnagent.reading: this module imports the
-# HDDL modules when it uses them, so that importing either package first works.
+from htnagent.scenario.specs import Name, Spec, TextForm
+from htnagent.scenario.wording import kind_of, scenario_error
 
 DEFAULT_DURATION = 1.0
 """Simulated seconds an HDDL action takes when ``robot.durations`` does not name it."""
-RESERVED = "__"
-"""The prefix of the names the HDDL translation adds (htnagent.planning.hddl_problems.RESERVED)."""
 
 __all__ = [
     "DEFAULT_DURATION",
     "RESERVED",
+    "HddlDomainSpec",
     "check_fact",
     "check_hddl_task",
     "load_hddl_agent",
     "no_map",
     "read_started",
 ]
+
+
+class HddlDomainSpec(Spec):
+    """An agent's domain written in HDDL: the domain file and a problem file (its ``:init``)."""
+
+    hddl: Name
+    """The HDDL domain file, relative to the scenario file."""
+    problem: Name
+    """The HDDL problem file, relative to the scenario file: the agent's start belief is its
+    ``:init`` (its objects are what the goals may name; its task network is not used)."""
+    started: Name | None = None
+    """Optional: a YAML file, relative to the scenario file, of the effects that hold as soon
+    as a suspendable action starts (``ACTION: {add: [fact], delete: [fact]}``, the facts over
+    the action's parameters): what a half-done one has changed (docs/design.md §7.1)."""
 
 
 def load_hddl_agent(
@@ -65,9 +80,6 @@ def load_hddl_agent(
     ``where`` is the agent's key path (``agents[0]``).  Raises HddlError for the HDDL
     files, ScenarioError for an action of ``suspendable`` the domain cannot suspend.
     """
-    from htnagent.hddl.reader import read_domain, read_problem
-    from htnagent.planning.hddl_problems import StartedError, translate, unsuspendable
-
     domain = read_domain(base_dir / spec.hddl, max_file_bytes)
     problem = read_problem(base_dir / spec.problem, domain, max_file_bytes)
     for i, name in enumerate(suspendable):
@@ -87,7 +99,7 @@ def load_hddl_agent(
     return ResolvedDomain(built, info), planning
 
 
-class _StartedSpec(_Spec):
+class _StartedSpec(Spec):
     """One action's entry in a started-effects file."""
 
     add: Annotated[tuple[TextForm, ...], Field(fail_fast=True)] = ()
@@ -109,8 +121,6 @@ def read_started(
     over the action's parameters and the problem's objects.  Anything else is a
     ScenarioError naming the file and the key.
     """
-    from htnagent.planning.hddl_problems import Started
-
     file = str(path)
     data = read_yaml(path, "list of started effects", max_file_bytes)
     if not isinstance(data, Mapping):
@@ -138,7 +148,7 @@ def read_started(
         try:
             entry = _StartedSpec.model_validate(value if value is not None else {})
         except ValidationError as e:
-            raise translate_error(e, file, _StartedSpec, name) from None
+            raise scenario_error(e, file, _StartedSpec, name) from None
         if not entry.add and not entry.delete:
             raise ScenarioError(file, name, "no add nor delete: give what its start changes, or leave it out")
         params = {p.name: p.types for p in action.params}

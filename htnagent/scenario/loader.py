@@ -24,7 +24,7 @@ from htnagent.scenario.checks import cross_check
 from htnagent.scenario.hddl_agent import no_map
 from htnagent.scenario.map_file import load_map
 from htnagent.scenario.schema import Scenario
-from htnagent.scenario.wording import kind_of, translate
+from htnagent.scenario.wording import kind_of, scenario_error
 
 __all__ = ["load_scenario", "parse_scenario"]
 
@@ -65,7 +65,7 @@ def parse_scenario(
     try:
         scenario = Scenario.model_validate(data)
     except ValidationError as e:
-        raise translate(e, file, Scenario) from None
+        raise scenario_error(e, file, Scenario) from None
     scenario._file = file
     # Big maps make millions of objects (the map, the domains' tables); collecting garbage
     # meanwhile would walk them again and again for nothing, so it waits until the end.

@@ -44,7 +44,7 @@ from htnagent.domains.maps import Arc, Node, WorldMap
 from htnagent.errors import ScenarioError, shown
 from htnagent.limits import MAX_ARC_LENGTH, MAX_COORDINATE
 from htnagent.reading import read_yaml
-from htnagent.scenario.wording import NAME_PATTERN, kind_of, translate
+from htnagent.scenario.wording import NAME_PATTERN, kind_of, scenario_error
 
 __all__ = ["ArcEntry", "ArcForm", "AreaEntry", "MapFile", "NodeEntry", "load_map", "parse_map"]
 
@@ -138,7 +138,7 @@ def parse_map(data: object, file: str, where: str = "map") -> WorldMap:
     try:
         spec = MapFile.model_validate(data)
     except ValidationError as e:
-        raise translate(e, file, MapFile, where) from None
+        raise scenario_error(e, file, MapFile, where) from None
     return _world(spec, file, pre)
 
 

@@ -11,14 +11,11 @@ from __future__ import annotations
 
 import re
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Annotated, Literal
+from typing import Annotated, Literal
 
 from pydantic import (
-    BaseModel,
-    ConfigDict,
     Discriminator,
     Field,
-    PlainSerializer,
     PlainValidator,
     PrivateAttr,
     Strict,
@@ -29,16 +26,16 @@ from pydantic import (
 from htnagent.domains import DomainInfo
 from htnagent.domains.maps import WorldMap
 from htnagent.domains.user import ResolvedDomain
-from htnagent.errors import ScenarioError, TextFormError
+from htnagent.errors import ScenarioError
 from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
 from htnagent.model.actions import RECOVERY
 from htnagent.model.domain import Domain, State
-from htnagent.model.terms import Atom, parse
+from htnagent.model.terms import Atom
+from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, Search
+from htnagent.scenario.hddl_agent import HddlDomainSpec
+from htnagent.scenario.specs import Name, Spec, TextForm
 from htnagent.scenario.wording import kind_of
-
-if TYPE_CHECKING:  # htnagent.hddl reads files with htnagent.scenario: no import cycle at run time
-    from htnagent.planning.hddl_problems import HddlPlanning
 
 __all__ = [
     "ROBOT",
@@ -58,18 +55,6 @@ ROBOT = "robot"
 """The executor name of the last agent of the chain: the robot itself."""
 
 
-def _parse_atom(value: object) -> Atom:
-    if isinstance(value, Atom):
-        return value
-    if isinstance(value, str):
-        return parse(value)  # a TextFormError is a ValueError: pydantic reports it at the key
-    raise TextFormError(f"expected text like name(arg,...), got {type(value).__name__}")
-
-
-TextForm = Annotated[Atom, PlainValidator(_parse_atom), PlainSerializer(str)]
-"""A task or action written ``name(arg,...)`` in the file, held as an :class:`Atom`."""
-
-Name = Annotated[str, Field(min_length=1)]
 ENDPOINT_PATTERN = r"^tcp/(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):[0-9]{1,5}$"
 Endpoint = Annotated[str, Strict(), Field(pattern=ENDPOINT_PATTERN)]
 """A Zenoh endpoint: ``tcp/HOST:PORT`` (an IPv6 address in brackets)."""
@@ -89,18 +74,7 @@ MapSource = Annotated[str | Mapping[object, object], PlainValidator(_map_source)
 """A map file name (relative to the scenario file) or the map inline, as written."""
 
 
-class _Spec(BaseModel):
-    """A part of the file: frozen, and no key but those declared.
-
-    Its lists and mappings stop at their first bad item (``fail_fast``): only
-    the first error is told, and a file of a million bad goals must not make a
-    million errors first.
-    """
-
-    model_config = ConfigDict(frozen=True, extra="forbid")
-
-
-class RobotSpec(_Spec):
+class RobotSpec(Spec):
     """The simulated robot: where it starts, how fast it goes, how often an action fails."""
 
     start: Name | None = None
@@ -111,7 +85,7 @@ class RobotSpec(_Spec):
     """The chance that an action fails of itself (for failure experiments)."""
     seed: Annotated[int, Strict()] = 0
     """Seed of the robot's random failures, so runs repeat."""
-    durations: Annotated[dict[Name, PositiveSeconds], Field(fail_fast=True)] = {}
+    durations: Annotated[dict[Name, PositiveSeconds], Field(fail_fast=True)] = {}  # noqa: RUF012 (a pydantic field: copied per model)
     """Seconds each of the robot's other actions takes, by action name (``explain: 60``).
 
     Moves take their arc's length at ``speed``; an action named here takes its
@@ -123,20 +97,6 @@ class RobotSpec(_Spec):
     def metres_per_second(self) -> float:
         """:attr:`speed`, checked present for a robot on a map (1 for an HDDL agent's, unused)."""
         return 1.0 if self.speed is None else self.speed
-
-
-class HddlDomainSpec(_Spec):
-    """An agent's domain written in HDDL: the domain file and a problem file (its ``:init``)."""
-
-    hddl: Name
-    """The HDDL domain file, relative to the scenario file."""
-    problem: Name
-    """The HDDL problem file, relative to the scenario file: the agent's start belief is its
-    ``:init`` (its objects are what the goals may name; its task network is not used)."""
-    started: Name | None = None
-    """Optional: a YAML file, relative to the scenario file, of the effects that hold as soon
-    as a suspendable action starts (``ACTION: {add: [fact], delete: [fact]}``, the facts over
-    the action's parameters): what a half-done one has changed (docs/design.md §7.1)."""
 
 
 def _domain_form(value: object) -> str | None:
@@ -163,7 +123,7 @@ DomainForm = Annotated[
 """An agent's domain: a built-in or user's domain by name, or HDDL files."""
 
 
-class AgentSpec(_Spec):
+class AgentSpec(Spec):
     """One planning agent: its name, its domain and who executes its actions."""
 
     name: Name
@@ -178,7 +138,7 @@ class AgentSpec(_Spec):
     (``python -m htnagent serve``), e.g. ``tcp/127.0.0.1:7447``; None: in this process."""
 
 
-class PlannerSpec(_Spec):
+class PlannerSpec(Spec):
     """How hard every agent's planner tries (see :class:`~htnagent.planning.planner.PlannerSettings`)."""
 
     alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
@@ -188,7 +148,7 @@ class PlannerSpec(_Spec):
     depth-first in method order."""
 
 
-class Trigger(_Spec):
+class Trigger(Spec):
     """When something happens: at a simulated ``time``, or once ``action`` reaches ``progress``."""
 
     action: TextForm | None = None
@@ -214,7 +174,7 @@ class Trigger(_Spec):
         return self
 
 
-class GoalSpec(_Spec):
+class GoalSpec(Spec):
     """A task given to an agent: at the start, or when its trigger fires."""
 
     agent: Name
@@ -225,7 +185,7 @@ class GoalSpec(_Spec):
     """None: given at time 0, in file order."""
 
 
-class WorldEvent(_Spec):
+class WorldEvent(Spec):
     """A change of the world: an arc is closed (a door shut) or opened again, or, in the
     generic form for an HDDL agent's world, facts are added and deleted."""
 
@@ -266,7 +226,7 @@ class WorldEvent(_Spec):
         return self.close is not None
 
 
-class Scenario(_Spec):
+class Scenario(Spec):
     """A checked scenario; build it with :func:`~htnagent.scenario.load_scenario` (or ``parse_scenario``).
 
     Besides the fields of the file it holds the parsed map (:attr:`world`) and
@@ -398,17 +358,6 @@ class Scenario(_Spec):
             # (``__done``) succeed at once, so no trigger follows them.
             return action.name not in RECOVERY and not action.name.startswith("__")
         return action.name in self.info_for(last).robot_moves or action.name in self.robot.durations
-
-    def check_task(self, agent_name: str, task: Atom, where: str) -> None:
-        """Raise ScenarioError at ``where`` unless ``task`` is a task the agent can plan for.
-
-        The task must be ground, named by an operator or method of the agent's
-        domain with the same number of arguments, and name nodes, arcs and
-        areas of the map where the domain says its arguments do.
-        """
-        from htnagent.scenario.checks import check_task  # checks reads Scenario: imported when used
-
-        check_task(self, agent_name, task, where)
 
     def _resolved(self, agent_name: str) -> ResolvedDomain:
         self.agent(agent_name)

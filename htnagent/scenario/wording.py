@@ -36,7 +36,7 @@ from typing_extensions import is_typeddict
 
 from htnagent.errors import ScenarioError, shown
 
-__all__ = ["NAME_PATTERN", "key_path", "kind_of", "translate"]
+__all__ = ["NAME_PATTERN", "key_path", "kind_of", "scenario_error"]
 
 NAME_PATTERN = r"^[^(),\s\"'?]+$"
 """A name usable as one constant of a text form ``name(arg,...)``: what map names must match."""
@@ -52,7 +52,7 @@ _BOUNDS = {
 }
 
 
-def translate(error: ValidationError, file: str, schema: object, prefix: str = "") -> ScenarioError:
+def scenario_error(error: ValidationError, file: str, schema: object, prefix: str = "") -> ScenarioError:
     """The first error of ``error`` as a ScenarioError at ``file``, its key path under ``prefix``.
 
     ``schema`` is the type that was validated (a model class or a TypedDict):

@@ -24,7 +24,7 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.model.terms import Atom
-from htnagent.planning.hddl_problems import MARKERS
+from htnagent.planning.hddl_translation import MARKERS
 from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import (
     ArcClosed,

@@ -8,5 +8,7 @@ robot's physical state, and compare with shortest paths computed here.
   ends once, beliefs match the robot, nothing starts against the world,
   emergencies are served at once, a reached goal has the robot there);
 - :mod:`htnagent.testing.differential` — random scenarios run in both
-  replanning modes and compared.
+  replanning modes and compared;
+- :mod:`htnagent.testing.storms` — random and extreme scenarios, run and checked;
+- :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite, and a large generated one.
 """

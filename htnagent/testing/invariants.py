@@ -23,7 +23,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 from htnagent.executors.robot import Robot
-from htnagent.model.actions import half_done, resumed
+from htnagent.model.actions import action_recovered_by, action_resumed_by
 from htnagent.model.terms import Atom, parse
 from htnagent.runtime.events import (
     ActionFinished,
@@ -200,11 +200,11 @@ def world_refuses(robot: Robot, action: Atom) -> str | None:
         if arc in state.closed:
             return f"{arc} is closed"
         return None
-    inner = half_done(action)
+    inner = action_recovered_by(action)
     if inner is not None and inner.name == "move":
         frm, to, arc = (str(a) for a in inner.args)
         if state.on_arc is None or state.on_arc[:3] != (arc, frm, to):
             return f"the robot is not half way along {arc} from {frm} to {to}"
-        if resumed(action) is not None and arc in state.closed:
+        if action_resumed_by(action) is not None and arc in state.closed:
             return f"{arc} is closed"
     return None

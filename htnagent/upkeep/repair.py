@@ -23,7 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
-from htnagent.model.actions import resumed
+from htnagent.model.actions import action_resumed_by
 from htnagent.model.domain import Domain
 from htnagent.model.plans import Decomposition, Done, Plan, span, tidy
 from htnagent.model.state import State
@@ -241,7 +241,7 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
             continue
         key: object
         if node is record:
-            key, entry = step, (resumed(step.action) or step.action, record)
+            key, entry = step, (action_resumed_by(step.action) or step.action, record)
         else:
             while node is not None and node.parent is not record:
                 node = node.parent

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
-from htnagent.model.actions import RESUME, half_done
+from htnagent.model.actions import RESUME, action_recovered_by
 from htnagent.model.domain import Domain
 from htnagent.model.plans import Plan, Step, tidy
 from htnagent.model.state import State
@@ -40,7 +40,7 @@ def behind(domain: Domain, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, .
     # The name test first: this runs on every step of every kept plan.
     rest = tuple(
         Step(s.action, cost(inner), s.record)
-        if s.action.name == RESUME and (inner := half_done(s.action)) is not None
+        if s.action.name == RESUME and (inner := action_recovered_by(s.action)) is not None
         else s
         for s in steps
     )

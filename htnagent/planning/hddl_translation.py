@@ -19,7 +19,7 @@ of it what the planner (:mod:`htnagent.planning.planner`) reads (docs/design.md 
 - **Methods with no subtasks** do the zero-cost action ``__done()``, so that their
   decomposition appears in the plan's records (the IPC plan format lists it).
 - **Suspension** (docs/design.md §7.1): an action named in ``suspendable`` is declared
-  with a :class:`~htnagent.model.domain.Suspension`.  Stopped half way it has had no effect;
+  with a :class:`~htnagent.model.operators.Suspension`.  Stopped half way it has had no effect;
   the fact ``__suspended_A(args)`` records it.  ``resume(A)`` requires that record and
   A's own precondition (the rest of A is done now, so what A needs must hold now) and
   gives A's effects; ``rollback(A)`` just drops the record.
@@ -27,13 +27,13 @@ of it what the planner (:mod:`htnagent.planning.planner`) reads (docs/design.md 
   task takes whatever the state (over the method tree), which the planner sums over
   the task list.
 
-:func:`ipc_plan` turns a plan back into the IPC plan format's model
-(:class:`~htnagent.hddl.plan_file.IpcPlan`), without the additions above.
+A problem translated is planned by :mod:`htnagent.planning.hddl_solving`, and its plan
+given back in the IPC's terms, without the additions above, by
+:mod:`htnagent.planning.ipc_output`.
 """
 
 from __future__ import annotations
 
-import dataclasses
 import functools
 import itertools
 import math
@@ -43,16 +43,11 @@ from dataclasses import dataclass
 from typing import TypeVar
 
 from htnagent.hddl import model as m
-from htnagent.hddl.plan_file import Decomposition as IpcDecomposition
-from htnagent.hddl.plan_file import IpcPlan
-from htnagent.hddl.plan_file import Step as IpcStep
-from htnagent.model.domain import Domain as PlanningDomain
-from htnagent.model.domain import Effect, Suspension
-from htnagent.model.plans import Decomposition, Plan
+from htnagent.model.domain import Domain
+from htnagent.model.operators import Effect, Suspension
 from htnagent.model.preconditions import Literal
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute
-from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
 
 TOP = "__top"
 """The task whose one method is the problem's initial task network."""
@@ -82,7 +77,7 @@ MAX_DISJUNCTS = 256
 
 CLOCK_EVERY = 4096
 """How much work the translation does between two readings of the clock, when it has a
-deadline (:func:`solve` with a timeout): objects or facts gone through, literals made."""
+deadline (:func:`translate`'s ``deadline``): objects or facts gone through, literals made."""
 
 _T = TypeVar("_T")
 
@@ -95,7 +90,7 @@ _TRUE: list[_Conjunct] = [()]
 class HddlPlanning:
     """A problem ready for the planner: the domain, the start state and the task list."""
 
-    domain: PlanningDomain
+    domain: Domain
     state: State
     tasks: tuple[Atom, ...]
     hddl: m.Domain
@@ -126,6 +121,8 @@ def translate(
     problem: m.Problem,
     suspendable: Collection[str] = (),
     started: Mapping[str, Started] | None = None,
+    *,
+    deadline: float | None = None,
 ) -> HddlPlanning:
     """The planning domain, start state and tasks of an HDDL domain and problem.
 
@@ -136,8 +133,11 @@ def translate(
 
     Raises :class:`~htnagent.errors.HddlError` (with the file and place) for what the
     translation cannot take: a formula that multiplies out past :data:`MAX_DISJUNCTS`.
+    With a ``deadline`` (a :func:`time.perf_counter` value), the translation reads the
+    clock as it goes (every :data:`CLOCK_EVERY` objects, facts or literals) and raises
+    :class:`OutOfTime` once it has passed.
     """
-    return _Translator(domain, problem, frozenset(suspendable), dict(started or {})).run()
+    return _Translator(domain, problem, frozenset(suspendable), dict(started or {}), deadline).run()
 
 
 def unsuspendable(domain: m.Domain, name: str) -> str | None:
@@ -164,157 +164,8 @@ def suspended_fact(action: Atom) -> Atom:
     return Atom(SUSPENDED + action.name, action.args)
 
 
-HDDL_BUDGET = 20_000_000
-"""The expansions :func:`solve` allows by default: a limit on memory more than on time."""
-
-
-DFS_SHARE = 0.2
-"""The largest share of the time limit the default portfolio gives depth-first search
-before greedy best-first takes over."""
-DFS_SECONDS = 2.0
-"""The most seconds the portfolio's depth-first search may take.  Where it wins, it wins
-at once (Barman's and Depots's largest problems take it under 0.2 s); past that, the
-time is better spent on the greedy search."""
-
-
-class _OutOfTime(Exception):
-    """The deadline of a translation passed (:func:`solve` makes it a timed-out result)."""
-
-
-@dataclass(frozen=True, slots=True)
-class Solved:
-    """What :func:`solve` found: the translated problem, the search that ended it with its
-    settings, and the result (expansions and seconds of every search it ran).
-
-    ``planning`` is None when the time ran out during the translation: the result is then
-    :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`, after no expansion.
-    """
-
-    planning: HddlPlanning | None
-    search: Search
-    settings: PlannerSettings
-    result: PlanResult
-
-
-def solve(
-    domain: m.Domain,
-    problem: m.Problem,
-    *,
-    search: Search | None = None,
-    timeout: float | None = None,
-    budget: int = HDDL_BUDGET,
-) -> Solved:
-    """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
-    ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
-    in method order for :data:`DFS_SECONDS` (or a fifth of a shorter time left), then greedy
-    best-first for the rest.
-
-    The ``timeout`` bounds the translation and the searches together: the translation reads
-    the clock as it goes (every :data:`CLOCK_EVERY` objects, facts or literals), and when
-    the time runs out there, the result is :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`
-    as when a search runs out of it.
-
-    Some domains are written for SHOP's order (Barman: depth-first solves at once what
-    greedy search loses itself in), others need the estimate (Blocksworld): the portfolio
-    is never far from the better of the two.  Depth-first search that ends without a plan
-    has explored every node (there are no cycles: each state and task list is expanded
-    once), so that answer is final.
-    """
-    started = time.perf_counter()
-    deadline = None if timeout is None else started + timeout
-    try:
-        planning = _Translator(domain, problem, frozenset(), {}, deadline).run()
-    except _OutOfTime:
-        settings = PlannerSettings(
-            alternatives=1, budget=budget, search=search or Search.DFS, time_limit=timeout
-        )
-        out_of_time = PlanResult(PlanStatus.TIMED_OUT, seconds=time.perf_counter() - started)
-        return Solved(None, settings.search, settings, out_of_time)
-    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
-
-    def time_left() -> float | None:
-        # The planner takes a positive limit: a search started at the deadline reads the clock
-        # after its first few hundred nodes, as any search past its time does.
-        return None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
-
-    if search is not None:
-        settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
-        return Solved(planning, search, settings, run(settings))
-    left = time_left()
-    first = PlannerSettings(
-        alternatives=1,
-        budget=budget,
-        search=Search.DFS,
-        time_limit=min(left * DFS_SHARE, DFS_SECONDS) if left is not None else DFS_SECONDS,
-    )
-    tried = run(first)
-    if tried.status in (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE) or tried.expansions >= budget:
-        return Solved(planning, Search.DFS, first, tried)
-    left = time_left()
-    then = PlannerSettings(
-        alternatives=1, budget=budget - tried.expansions, search=Search.GBFS, time_limit=left
-    )
-    found = run(then)
-    total = dataclasses.replace(
-        found, expansions=found.expansions + tried.expansions, seconds=found.seconds + tried.seconds
-    )
-    return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
-
-
-def actions_of(plan: Plan) -> list[Atom]:
-    """The plan's HDDL actions, in order (the translation's markers left out)."""
-    return [s.action for s in plan.steps if s.action.name not in MARKERS]
-
-
-def ipc_plan(plan: Plan) -> IpcPlan:
-    """The plan in the IPC format's terms: its actions, the initial task network's tasks
-    (``root``) and each decomposed task with its method and subtasks, in order.
-
-    The plan's steps carry their decomposition records (docs/design.md §1): the tree is
-    read off them.  A record's subtasks are, in order, the steps and records whose parent
-    it is, as they first appear along the plan (HDDL's methods are totally ordered).
-    """
-    ids: dict[int, int] = {}  # id(record) -> plan id
-    records: list[Decomposition] = []
-    children: dict[int, list[int]] = {}
-    steps: list[IpcStep] = []
-    top: Decomposition | None = None
-    next_id = itertools.count()
-    for s in plan.steps:
-        if s.action.name not in MARKERS:
-            steps.append(IpcStep(next(next_id), s.action))
-    # Records get ids after the actions; walk each step's chain of records up to the top.
-    n = 0
-    for s in plan.steps:
-        own: int | None = None
-        if s.action.name not in MARKERS:
-            own = steps[n].id
-            n += 1
-        record = s.record
-        child = own
-        while record is not None:
-            if record.task.name == TOP:
-                top = record
-            known = id(record) in ids
-            if not known:
-                # The translation's own tasks are not in the plan: they take no ID.
-                hidden = record.task.name in (TOP, GOAL)
-                ids[id(record)] = -1 - len(ids) if hidden else next(next_id)
-                records.append(record)
-                children[id(record)] = []
-            if child is not None and child not in children[id(record)]:
-                children[id(record)].append(child)
-            if known:
-                break
-            child = ids[id(record)]
-            record = record.parent
-    root: tuple[int, ...] = tuple(children[id(top)]) if top is not None else ()
-    decompositions = tuple(
-        IpcDecomposition(ids[id(r)], r.task, r.method, tuple(children[id(r)]))
-        for r in records
-        if r.task.name not in (TOP, GOAL)
-    )
-    return IpcPlan("<plan>", tuple(steps), root, decompositions)
+class OutOfTime(Exception):
+    """The deadline given to :func:`translate` passed (a solver makes it a timed-out result)."""
 
 
 class _Translator:
@@ -333,7 +184,7 @@ class _Translator:
         # With a deadline (a time.perf_counter() value), the work since the clock was last read.
         self.deadline = deadline
         self.work = 0
-        self.out = PlanningDomain(domain.name)
+        self.out = Domain(domain.name)
         self.objects: dict[str, frozenset[str]] = {}  # object -> its types and their supertypes
         # Millions of objects may share a few types: each type's supertypes are found once,
         # and objects of the same types share one set.
@@ -368,7 +219,7 @@ class _Translator:
         if self.work >= CLOCK_EVERY:
             self.work = 0
             if time.perf_counter() > self.deadline:
-                raise _OutOfTime
+                raise OutOfTime
 
     def timed(self, items: Iterable[_T]) -> Iterable[_T]:
         """The items, with the clock read every :data:`CLOCK_EVERY` of them (see :meth:`spend`)."""
@@ -423,7 +274,7 @@ class _Translator:
         # The start state indexes every fact at once (a second or so for millions of them):
         # the clock is read before and after.
         self.spend(CLOCK_EVERY)
-        state = State.from_facts(self.out.facts, self.out)
+        state = State.from_facts(self.out.facts, self.out.dynamic_predicates)
         self.spend(CLOCK_EVERY)
         return HddlPlanning(self.out, state, tuple(tasks), self.hddl, p)
 
@@ -963,7 +814,7 @@ def _merge(x: _Conjunct, y: _Conjunct) -> _Conjunct | None:
     return tuple(out)
 
 
-def _least_costs(domain: PlanningDomain) -> dict[str, float]:
+def _least_costs(domain: Domain) -> dict[str, float]:
     """The least cost of each task name over the method tree, whatever the state: a
     primitive task costs its operator's least cost, a compound one its cheapest method's
     subtasks' sum (a fixed point; ``inf`` for a task no method ever finishes)."""
@@ -994,12 +845,9 @@ __all__ = [
     "SUSPENDED",
     "TOP",
     "HddlPlanning",
-    "Solved",
+    "OutOfTime",
     "Started",
     "StartedError",
-    "actions_of",
-    "ipc_plan",
-    "solve",
     "suspended_fact",
     "translate",
     "unsuspendable",

@@ -1,0 +1,113 @@
+"""An HDDL problem solved: translated, then planned for one plan by a portfolio of searches.
+
+:func:`solve` is what ``plan --hddl`` and the IPC bench run: the translation
+(:mod:`htnagent.planning.hddl_translation`) and the planner's searches
+(:mod:`htnagent.planning.planner`, docs/design.md §7) under one time limit and one
+budget of expansions.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import functools
+import time
+from dataclasses import dataclass
+
+from htnagent.hddl import model as m
+from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
+
+HDDL_BUDGET = 20_000_000
+"""The expansions :func:`solve` allows by default: a limit on memory more than on time."""
+
+
+DFS_SHARE = 0.2
+"""The largest share of the time limit the default portfolio gives depth-first search
+before greedy best-first takes over."""
+DFS_SECONDS = 2.0
+"""The most seconds the portfolio's depth-first search may take.  Where it wins, it wins
+at once (Barman's and Depots's largest problems take it under 0.2 s); past that, the
+time is better spent on the greedy search."""
+
+
+@dataclass(frozen=True, slots=True)
+class Solved:
+    """What :func:`solve` found: the translated problem, the search that ended it with its
+    settings, and the result (expansions and seconds of every search it ran).
+
+    ``planning`` is None when the time ran out during the translation: the result is then
+    :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`, after no expansion.
+    """
+
+    planning: HddlPlanning | None
+    search: Search
+    settings: PlannerSettings
+    result: PlanResult
+
+
+def solve(
+    domain: m.Domain,
+    problem: m.Problem,
+    *,
+    search: Search | None = None,
+    timeout: float | None = None,
+    budget: int = HDDL_BUDGET,
+) -> Solved:
+    """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
+    ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
+    in method order for :data:`DFS_SECONDS` (or a fifth of a shorter time left), then greedy
+    best-first for the rest.
+
+    The ``timeout`` bounds the translation and the searches together: the translation reads
+    the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
+    objects, facts or literals), and when the time runs out there, the result is
+    :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT` as when a search runs out of it.
+
+    Some domains are written for SHOP's order (Barman: depth-first solves at once what
+    greedy search loses itself in), others need the estimate (Blocksworld): the portfolio
+    is never far from the better of the two.  Depth-first search that ends without a plan
+    has explored every node (there are no cycles: each state and task list is expanded
+    once), so that answer is final.
+    """
+    started = time.perf_counter()
+    deadline = None if timeout is None else started + timeout
+    try:
+        planning = translate(domain, problem, deadline=deadline)
+    except OutOfTime:
+        settings = PlannerSettings(
+            alternatives=1, budget=budget, search=search or Search.DFS, time_limit=timeout
+        )
+        out_of_time = PlanResult(PlanStatus.TIMED_OUT, seconds=time.perf_counter() - started)
+        return Solved(None, settings.search, settings, out_of_time)
+    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
+
+    def time_left() -> float | None:
+        # The planner takes a positive limit: a search started at the deadline reads the clock
+        # after its first few hundred nodes, as any search past its time does.
+        return None if deadline is None else max(deadline - time.perf_counter(), 1e-3)
+
+    if search is not None:
+        settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
+        return Solved(planning, search, settings, run(settings))
+    left = time_left()
+    first = PlannerSettings(
+        alternatives=1,
+        budget=budget,
+        search=Search.DFS,
+        time_limit=min(left * DFS_SHARE, DFS_SECONDS) if left is not None else DFS_SECONDS,
+    )
+    tried = run(first)
+    if tried.status in (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE) or tried.expansions >= budget:
+        return Solved(planning, Search.DFS, first, tried)
+    left = time_left()
+    then = PlannerSettings(
+        alternatives=1, budget=budget - tried.expansions, search=Search.GBFS, time_limit=left
+    )
+    found = run(then)
+    total = dataclasses.replace(
+        found, expansions=found.expansions + tried.expansions, seconds=found.seconds + tried.seconds
+    )
+    return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
+
+
+__all__ = ["DFS_SECONDS", "DFS_SHARE", "HDDL_BUDGET", "Solved", "solve"]
