@@ -121,13 +121,14 @@ def test_without_the_scenario_the_page_has_no_map_but_the_same_history(tmp_path:
 def test_text_from_the_trace_cannot_close_the_script(tmp_path: Path) -> None:
     _, events = shipped_run(NESTED)
     hostile = [e.as_dict() for e in events]
-    hostile[0]["goal"] = "</script><script>alert(1)</script>"
+    first = next(e for e in hostile if e["event"] == "goal_received")
+    first["goal"] = "</script><script>alert(1)</script>"
     trace = tmp_path / "t.jsonl"
     trace.write_text("".join(json.dumps(e) + "\n" for e in hostile))
     assert main(["report", str(trace), "--html", str(tmp_path / "t.html")]) == 0
     page = (tmp_path / "t.html").read_text()
     assert page.count("<script") == 3
-    assert embedded(page)["history"]["goals"][0]["goal"] == hostile[0]["goal"]
+    assert embedded(page)["history"]["goals"][0]["goal"] == first["goal"]
 
 
 # -- the page's logic under Node ----------------------------------------------------------------------------
