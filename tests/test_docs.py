@@ -400,3 +400,16 @@ def test_the_layout_page_lists_every_module_of_the_package() -> None:
     modules = {str(p.relative_to(ROOT)) for p in package.rglob("*.py")}
     modules.add("htnagent/executors/__init__.py")
     assert listed == modules
+
+
+def test_every_function_the_design_table_names_exists() -> None:
+    # docs/design.md "Where each step is implemented": `module:Qual.name` cells.
+    text = (DOCS / "design.md").read_text(encoding="utf-8")
+    table = text[text.index("## Where each step is implemented") : text.index("## §1")]
+    cited = re.findall(r"`(htnagent[\w.]*):([\w.]+)`", table)
+    assert len(cited) >= 30
+    for module, qualname in cited:
+        value: object = importlib.import_module(module)
+        for part in qualname.split("."):
+            assert hasattr(value, part), f"{module}:{qualname}"
+            value = getattr(value, part)
