@@ -106,3 +106,18 @@ def test_no_module_imports_from_a_higher_layer_or_an_independent_sibling() -> No
         if upward or sideways:
             wrong.append(f"{importer} imports {imported}")
     assert not wrong, "\n".join(sorted(wrong))
+
+
+def test_the_agent_and_plan_upkeep_have_no_function_over_80_lines() -> None:
+    # One short function a step of the algorithms (docs/design.md, "Where each step is
+    # implemented"): a longer one is several steps to split.
+    root = Path(__file__).resolve().parent.parent / "htnagent"
+    long = []
+    for package in ("agent", "upkeep"):
+        for path in sorted((root / package).glob("*.py")):
+            for node in ast.walk(ast.parse(path.read_text())):
+                if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+                    lines = (node.end_lineno or node.lineno) - node.lineno + 1
+                    if lines > 80:
+                        long.append(f"{path.name}:{node.lineno} {node.name} ({lines} lines)")
+    assert not long, long
