@@ -21,6 +21,7 @@ import pytest
 
 from htnagent.clock import Clock, Mailbox
 from htnagent.errors import ScenarioError
+from htnagent.executor import AdapterActor
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.messages import Execute, Resume, Suspend, Suspended
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
@@ -324,7 +325,7 @@ async def robot_answers(orders: list[tuple[float, Any]], until: int) -> list[tup
     scenario = load_scenario(SCENARIOS / "museum.yaml")
     clock = Clock()
     trace = Trace(clock)
-    robot = Robot("robot", clock, trace, RobotWorld(scenario.world, at="n40"), 1.0)
+    robot = AdapterActor("robot", clock, trace, Robot(RobotWorld(scenario.world, at="n40"), 1.0))
     up: Mailbox[Any] = Mailbox(clock, "test")
     robot.connect(up)
     answers: list[tuple[float, Any]] = []
