@@ -75,6 +75,8 @@ _WHERE = {
     "Executor": "executor",
     "ExecutorActor": "executor",
     "ActionOutcome": "executor",
+    "ActionFailed": "executor",
+    "ExecutorContext": "executor",
     "Plan": "plan",
     "Step": "plan",
     "PlannerSettings": "planner",
@@ -95,6 +97,7 @@ _WHERE = {
 
 __all__ = [
     "EVENT_KINDS",
+    "ActionFailed",
     "ActionOutcome",
     "Agent",
     "AgentConfig",
@@ -105,6 +108,7 @@ __all__ = [
     "EventStream",
     "Executor",
     "ExecutorActor",
+    "ExecutorContext",
     "GoalOutcome",
     "GoalStatus",
     "HddlError",
@@ -170,7 +174,7 @@ if TYPE_CHECKING:
         UnknownNameError,
     )
     from htnagent.events import EVENT_KINDS, Summary, TraceEvent, event_from_dict
-    from htnagent.executor import ActionOutcome, Executor, ExecutorActor
+    from htnagent.executor import ActionFailed, ActionOutcome, Executor, ExecutorActor, ExecutorContext
     from htnagent.plan import Plan, Step
     from htnagent.planner import PlannerSettings, PlanResult, PlanStatus, plan
     from htnagent.planset import PlanSet, Replanning

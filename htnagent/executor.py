@@ -298,6 +298,7 @@ class AdapterActor(ExecutorActor):
         super().__init__(name, clock, trace)
         self.executor = executor
         self._running: dict[int, Atom] = {}  # orders being carried out, by seq
+        self._idle: list[anyio.Event] = []  # tasks done with their order, waiting for a turn to read
         executor.connect(ExecutorContext(self))
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
@@ -305,33 +306,46 @@ class AdapterActor(ExecutorActor):
             task_status.started()
             await self._serve(tg)
 
-    async def _serve(self, tg: TaskGroup) -> None:
-        """Read orders until one must be awaited; then hand the mailbox on to a new task.
+    async def _serve(self, tg: TaskGroup, turn: anyio.Event | None = None) -> None:
+        """Read orders (once ``turn`` is set); carry out one that must be awaited, handing
+        the mailbox on to another task meanwhile.
 
         The task that reads an ``Execute``, ``Resume`` or ``Suspend`` carries it out
         itself, at once — the executor's code up to its first await runs just when the
-        order arrives, as an actor's would — and a new task reads the orders after it
-        (a user's suspend that never returns keeps nothing waiting, nor time from
-        passing: an action timeout then ends the action).
+        order arrives, as an actor's would — and another task reads the orders after
+        it (a user's suspend that never returns keeps nothing waiting, nor time from
+        passing: an action timeout then ends the action).  That task wakes only when
+        an order comes; done, a task waits in :attr:`_idle` for its next turn to read,
+        so the robot's orders alternate between two tasks and none is spawned.
         """
         while True:
+            if turn is not None:
+                await turn.wait()
             order = await self.inbox.receive()
-            if isinstance(order, Execute | Resume):
-                self._running[order.seq] = order.action
-                tg.start_soon(self._serve, tg)
-                await self._carry_out(order)
-                return
-            if isinstance(order, Suspend):
-                tg.start_soon(self._serve, tg)
-                await self._suspend(order)
-                return
-            if isinstance(order, Clear):
-                try:
-                    await self.executor.clear(order.action)
-                except BaseException as exc:  # a faulty executor must not stop the runtime
-                    if must_propagate(exc):
-                        raise
-                    self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc!r}"))
+            if isinstance(order, Execute | Resume | Suspend):
+                follower = self._idle.pop() if self._idle else None
+                if follower is None:
+                    follower = anyio.Event()
+                    tg.start_soon(self._serve, tg, follower)
+                # The order counts as handled from now: the executor's code up to its first
+                # await runs before anything else can, so time stands still meanwhile.
+                self.inbox.hand_over(follower)
+                if isinstance(order, Suspend):
+                    await self._suspend(order)
+                else:
+                    self._running[order.seq] = order.action
+                    await self._carry_out(order)
+                turn = anyio.Event()
+                self._idle.append(turn)
+            else:
+                turn = None
+                if isinstance(order, Clear):
+                    try:
+                        await self.executor.clear(order.action)
+                    except BaseException as exc:  # a faulty executor must not stop the runtime
+                        if must_propagate(exc):
+                            raise
+                        self.trace.emit(ExecutorError(agent=self.name, error=f"clear: {exc!r}"))
 
     async def _suspend(self, order: Suspend) -> None:
         try:
