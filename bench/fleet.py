@@ -67,7 +67,7 @@ async def fleet(robots: int, freeze: bool = True) -> dict[str, Any]:
 
     def robot_factory(c: Clock, trace: Trace) -> Robot:
         world = RobotWorld(scenario.world, at=scenario.robot.start)
-        return Robot("robot", c, trace, world, scenario.robot.metres_per_second)
+        return Robot(world, scenario.robot.metres_per_second)
 
     gc.collect()
     rss_before = _rss_mb()

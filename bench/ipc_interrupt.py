@@ -187,7 +187,7 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
             return
         done = action_recovered_by(action)
         executed.append(str(done if done is not None else action))
-        robot = runtimes[0].executor
+        robot = runtimes[0].bottom_executor
         if isinstance(robot, HddlRobot) and not mismatches:
             world = robot.world.facts()
             for name, agent in runtimes[0].agents.items():

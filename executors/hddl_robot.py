@@ -25,35 +25,18 @@ as the museum robot's timed actions are (:mod:`htnagent.executors.robot`).
 
 from __future__ import annotations
 
-import functools
 import random
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-
-import anyio
-from anyio.abc import TaskStatus
 
 from htnagent.model.actions import action_rolled_back_by, resume_action, rollback_action
 from htnagent.model.domain import Domain
 from htnagent.model.preconditions import satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, substitute, unify
-from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import RobotActing
-from htnagent.runtime.executor import ExecutorActor
-from htnagent.runtime.messages import (
-    Clear,
-    Elapsed,
-    Execute,
-    Failure,
-    Refused,
-    Resume,
-    Success,
-    Suspend,
-    Suspended,
-)
-from htnagent.runtime.progress import Phase, Progress
-from htnagent.runtime.trace import Trace
+from htnagent.runtime.executor import ActionFailed, ActionOutcome, Alarm, Executor
+from htnagent.runtime.progress import Phase
 
 HIDDEN = "__"
 """The prefix of the translation's own predicates and actions (not facts of the HDDL world)."""
@@ -124,13 +107,13 @@ class FactWorld:
 
 @dataclass
 class _Running:
-    order: Execute | Resume
     action: Atom
     step: Atom  # what is done in the world at the end: the action, or resume(action)
+    fresh: bool  # a fresh action (not the rest of a resumed one)
     start: float  # the fraction done before this part
     started_at: float
     duration: float  # seconds for the part from ``start`` to the end
-    timer: TimerHandle
+    alarm: Alarm
 
     def fraction_at(self, now: float) -> float:
         if self.duration <= 0:
@@ -139,22 +122,21 @@ class _Running:
         return self.start + (1.0 - self.start) * done
 
 
-class HddlRobot(ExecutorActor):
+class HddlRobot(Executor):
     """The simulated robot at the bottom of an HDDL agent's chain (see the module's docstring)."""
 
     def __init__(
         self,
-        name: str,
-        clock: Clock,
-        trace: Trace,
         world: FactWorld,
         durations: Mapping[str, float] | None = None,
         markers: Iterable[str] = (),
         default_duration: float = 1.0,
         failure_rate: float = 0.0,
         seed: int = 0,
+        *,
+        name: str = "robot",
     ) -> None:
-        super().__init__(name, clock, trace)
+        self.name = name
         self.world = world
         self.durations = dict(durations or {})
         self.markers = frozenset(markers)
@@ -164,125 +146,95 @@ class HddlRobot(ExecutorActor):
         self.running: _Running | None = None
         self.kept: dict[Atom, float] = {}  # suspended actions: the fraction already done
 
-    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
-        task_status.started()
-        while True:
-            message = await self.inbox.receive()
-            if isinstance(message, Elapsed):
-                if self.running is not None and self.running.order.seq == message.seq:
-                    self._done(self.running)
-                # else: a stale timer of a suspended action
-            elif isinstance(message, Execute):
-                self._execute(message)
-            elif isinstance(message, Resume):
-                self._resume(message)
-            elif isinstance(message, Suspend):
-                self._suspend(message)
-            elif isinstance(message, Clear):
-                self._clear(message.action)
-
     def duration(self, action: Atom) -> float:
         """The simulated seconds the whole action takes."""
         return self.durations.get(action.name, self.default_duration)
 
     # -- orders ------------------------------------------------------------------------
 
-    def _execute(self, order: Execute) -> None:
-        action = order.action
+    async def execute(self, action: Atom) -> ActionOutcome:
         inner = action_rolled_back_by(action)
         if inner is not None:
             # Rolling back undoes what the action's start changed (if anything), at once.
             if inner not in self.kept:
-                self._fail(order, f"nothing to roll back for {inner}")
-            elif not self.world.carry_out(action):
-                self._fail(order, self.world.why_not(action) or f"the robot cannot do {action}")
-            else:
-                del self.kept[inner]
-                self.reply(Success(action=action, seq=order.seq))
-            return
+                raise ActionFailed(f"nothing to roll back for {inner}")
+            if not self.world.carry_out(action):
+                raise ActionFailed(self.world.why_not(action) or f"the robot cannot do {action}")
+            del self.kept[inner]
+            return ActionOutcome.SUCCESS
         if action.name in self.markers:
-            self.reply(Success(action=action, seq=order.seq))  # the translation's no-op
-            return
+            return ActionOutcome.SUCCESS  # the translation's no-op
         if self.failure_rate and self._rng.random() < self.failure_rate:
-            self._fail(order, f"{action} failed (simulated fault)")
-            return
-        self._start(order, action, 0.0)
+            raise ActionFailed(f"{action} failed (simulated fault)")
+        return await self._run(self._start(action, 0.0, action, fresh=True))
 
-    def _resume(self, order: Resume) -> None:
-        done = self.kept.get(order.action)
+    async def resume(self, action: Atom) -> ActionOutcome:
+        done = self.kept.get(action)
         if done is None:
-            self._fail(order, f"nothing to resume for {order.action}")
-            return
+            raise ActionFailed(f"nothing to resume for {action}")
         # What is done stays kept until the resume succeeds: a resume that fails leaves
         # the action half done, to be rolled back or resumed again.
-        self._start(order, order.action, done, resume_action(order.action))
+        outcome = await self._run(self._start(action, done, resume_action(action), fresh=False))
+        if outcome is ActionOutcome.SUCCESS:
+            del self.kept[action]
+        return outcome
 
-    def _start(self, order: Execute | Resume, action: Atom, done: float, step: Atom | None = None) -> bool:
-        """Start (the rest of) the action; False, with the failure reported, if it cannot.
+    def _start(self, action: Atom, done: float, step: Atom, *, fresh: bool) -> _Running:
+        """Start (the rest of) the action; a failure if it cannot.
 
-        ``step`` is what happens in the world at the end (default: the action itself).
+        ``step`` is what happens in the world at the end.
         """
         if self.running is not None:
-            self._fail(order, f"the robot is busy with {self.running.action}")
-            return False
-        step = step or action
+            raise ActionFailed(f"the robot is busy with {self.running.action}")
         why = self.world.why_not(step)
         if why is not None:
-            self._fail(order, why)
-            return False
+            raise ActionFailed(why)
+        context = self.context
         duration = (1.0 - done) * self.duration(action)
-        now = self.clock.now()
-        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
-        self.running = _Running(order, action, step, done, now, duration, timer)
-        self.progress.report(Progress(self.name, action, Phase.STARTED, duration, done))
-        self.trace.emit(
+        running = _Running(action, step, fresh, done, context.now(), duration, context.alarm(duration))
+        self.running = running
+        context.report_progress(action, Phase.STARTED, duration, done)
+        context.emit(
             RobotActing(
                 agent=self.name,
                 action=str(action),
                 duration=round(duration, 6),
                 done=round(done, 6),
-                resumed=isinstance(order, Resume),
+                resumed=not fresh,
             )
         )
-        return True
+        return running
 
-    def _suspend(self, order: Suspend) -> None:
-        running = self.running
-        if running is None or running.action != order.action or running.order.seq != order.seq:
-            self.reply(Refused(action=order.action, seq=order.seq))
-            return
-        # Stopped half way, the action has had only what its start does (docs/design.md §7.1);
-        # a resume stopped again leaves the world as the first stop did.
-        running.timer.cancel()
+    async def _run(self, running: _Running) -> ActionOutcome:
+        if not await running.alarm.wait():
+            return ActionOutcome.SUSPENDED
         self.running = None
-        if isinstance(running.order, Execute):
-            self.world.suspend(running.action)
-        self.kept[running.action] = running.fraction_at(self.clock.now())
-        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
-        self.reply(Suspended(action=order.action, seq=running.order.seq))
-
-    def _clear(self, action: Atom) -> None:
-        # What the action's start changed stays in the world, and with it what is done.
-        if self.world.clear(action):
-            self.kept.pop(action, None)
-
-    def _timer_done(self, seq: int) -> None:
-        self.inbox.send(Elapsed(seq=seq))
-
-    def _done(self, running: _Running) -> None:
-        self.running = None
-        order = running.order
         # The world may have changed while the action ran (an event): checked again.
         why = self.world.why_not(running.step)
         if why is not None or not self.world.carry_out(running.step):
-            self._fail(order, why or f"the precondition of {running.step} does not hold in the world")
-            return
-        if isinstance(order, Resume):
-            del self.kept[order.action]
-        self.reply(Success(action=order.action, seq=order.seq))
+            raise ActionFailed(why or f"the precondition of {running.step} does not hold in the world")
+        return ActionOutcome.SUCCESS
 
-    def _fail(self, order: Execute | Resume, reason: str) -> None:
-        self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+    def can_suspend(self, action: Atom) -> bool:
+        running = self.running
+        return running is not None and running.action == action and not running.alarm.rang
+
+    async def suspend(self, action: Atom) -> None:
+        running = self.running
+        assert running is not None  # can_suspend said so
+        # Stopped half way, the action has had only what its start does (docs/design.md §7.1);
+        # a resume stopped again leaves the world as the first stop did.
+        running.alarm.stop()
+        self.running = None
+        if running.fresh:
+            self.world.suspend(running.action)
+        self.kept[running.action] = running.fraction_at(self.context.now())
+        self.context.report_progress(action, Phase.STOPPED)
+
+    async def clear(self, action: Atom) -> None:
+        # What the action's start changed stays in the world, and with it what is done.
+        if self.world.clear(action):
+            self.kept.pop(action, None)
 
 
 __all__ = ["FactWorld", "HddlRobot"]

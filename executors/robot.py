@@ -17,46 +17,31 @@ rollback as ``rollback(...)``), for a move the ``arc`` it travels, ``duration``
 before this part started) and ``resumed`` (this part finishes a suspended
 action). Any of them can be suspended half way — a fresh move or action, a
 resumed rest, a rollback — and the robot stops where it is. It reports the same
-motions to its :attr:`~htnagent.runtime.executor.ExecutorActor.progress` listeners
-(what triggers follow).
+motions as progress reports (what triggers follow).  It is an
+:class:`~htnagent.runtime.executor.Executor` like any user's: its time is its
+context's clock.
 """
 
 from __future__ import annotations
 
-import functools
 import random
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 
-import anyio
-from anyio.abc import TaskStatus
-
 from htnagent.domains.maps import WorldMap
 from htnagent.model.actions import action_rolled_back_by
 from htnagent.model.terms import Atom
-from htnagent.runtime.clock import Clock, TimerHandle
 from htnagent.runtime.events import RobotActing, RobotMoving
-from htnagent.runtime.executor import ExecutorActor
-from htnagent.runtime.messages import (
-    Clear,
-    Elapsed,
-    Execute,
-    Failure,
-    Refused,
-    Resume,
-    Success,
-    Suspend,
-    Suspended,
-)
-from htnagent.runtime.progress import Phase, Progress
-from htnagent.runtime.trace import Trace
+from htnagent.runtime.executor import ActionFailed, ActionOutcome, Alarm, Executor
+from htnagent.runtime.progress import Phase
 
 
 @dataclass
 class Motion:
     """The robot is travelling ``arc`` from fraction ``start`` to ``end`` (0 = ``frm``, 1 = ``to``)."""
 
-    order: Execute | Resume
+    action: Atom
+    """The action in the plan (a resumed move is the move; a rollback, ``rollback(...)``)."""
     arc: str
     frm: str
     to: str
@@ -64,7 +49,7 @@ class Motion:
     end: float
     started_at: float
     duration: float
-    timer: TimerHandle
+    alarm: Alarm
 
     def fraction_at(self, now: float) -> float:
         if self.duration <= 0:
@@ -77,12 +62,11 @@ class Motion:
 class Activity:
     """The robot is doing a timed non-move ``action``, from fraction ``start`` to the end."""
 
-    order: Execute | Resume
     action: Atom
     start: float
     started_at: float
     duration: float  # seconds for the part from ``start`` to the end
-    timer: TimerHandle
+    alarm: Alarm
 
     def fraction_at(self, now: float) -> float:
         if self.duration <= 0:
@@ -113,29 +97,20 @@ class RobotWorld:
         return {"at": self.at or ""}
 
 
-class Robot(ExecutorActor):
-    """The simulated robot, an executor actor at the bottom of the agent chain."""
-
-    def travelled(self) -> float:
-        """Metres travelled so far, including the part of an arc it is on now."""
-        motion = self.motion
-        if motion is None:
-            return self.state.distance
-        done = abs(motion.fraction_at(self.clock.now()) - motion.start)
-        return self.state.distance + done * self._length(motion.arc)
+class Robot(Executor):
+    """The simulated robot, the executor at the bottom of the agent chain."""
 
     def __init__(
         self,
-        name: str,
-        clock: Clock,
-        trace: Trace,
         world: RobotWorld,
         speed: float,
         failure_rate: float = 0.0,
         seed: int = 0,
         durations: Mapping[str, float] | None = None,
+        *,
+        name: str = "robot",
     ) -> None:
-        super().__init__(name, clock, trace)
+        self.name = name
         self.state = world
         self.speed = speed
         self.failure_rate = failure_rate
@@ -147,48 +122,32 @@ class Robot(ExecutorActor):
         if world.keep_path and world.at is not None and not world.visited:
             world.visited.append(world.at)
 
-    async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
-        task_status.started()
-        while True:
-            message = await self.inbox.receive()
-            if isinstance(message, Elapsed):
-                if self.activity is not None and self.activity.order.seq == message.seq:
-                    self._done(self.activity)
-                elif self.motion is not None and self.motion.order.seq == message.seq:
-                    self._arrive(self.motion)
-                # else: a stale timer of a suspended motion or activity
-            elif isinstance(message, Execute):
-                self._execute(message)
-            elif isinstance(message, Resume):
-                self._resume(message)
-            elif isinstance(message, Suspend):
-                self._suspend(message)
-            elif isinstance(message, Clear):
-                self._clear(message)
+    def travelled(self) -> float:
+        """Metres travelled so far, including the part of an arc it is on now."""
+        motion = self.motion
+        if motion is None:
+            return self.state.distance
+        done = abs(motion.fraction_at(self.context.now()) - motion.start)
+        return self.state.distance + done * self._length(motion.arc)
 
     # -- orders --------------------------------------------------------------------
 
-    def _execute(self, order: Execute) -> None:
-        action = order.action
+    async def execute(self, action: Atom) -> ActionOutcome:
         inner = action_rolled_back_by(action)
         if inner is not None:
-            self._rollback(order, inner)
-            return
+            frm, to, arc, fraction = self._half(inner, "roll back")
+            return await self._travel(self._start(action, arc, frm, to, fraction, 0.0, resumed=False))
         if action.name != "move" and action.name in self.durations:
-            self._act(order, action)
-            return
+            return await self._act(self._begin_act(action, 0.0, resumed=False))
         if action.name != "move" or len(action.args) != 3:
-            self._fail(order, f"the robot cannot do {action}")
-            return
+            raise ActionFailed(f"the robot cannot do {action}")
         frm, to, arc = (str(a) for a in action.args)
         problem = self._check_move(frm, to, arc)
         if problem:
-            self._fail(order, problem)
-            return
+            raise ActionFailed(problem)
         if self.failure_rate and self._rng.random() < self.failure_rate:
-            self._fail(order, "the move failed (simulated fault)")
-            return
-        self._start(order, arc, frm, to, 0.0, 1.0)
+            raise ActionFailed("the move failed (simulated fault)")
+        return await self._travel(self._start(action, arc, frm, to, 0.0, 1.0, resumed=False))
 
     def _check_move(self, frm: str, to: str, arc: str) -> str | None:
         world = self.state.world
@@ -207,140 +166,117 @@ class Robot(ExecutorActor):
             return f"{arc} is closed"
         return None
 
-    def _resume(self, order: Resume) -> None:
-        if order.action in self.kept:
-            if self._act(order, order.action, self.kept[order.action]):
-                del self.kept[order.action]
-            return
-        half = self._half(order.action)
-        if half is None:
-            self._fail(order, f"nothing to resume for {order.action}")
-            return
-        arc, frm, to, fraction = half
+    async def resume(self, action: Atom) -> ActionOutcome:
+        if action in self.kept:
+            activity = self._begin_act(action, self.kept[action], resumed=True)
+            del self.kept[action]
+            return await self._act(activity)
+        frm, to, arc, fraction = self._half(action, "resume")
         if arc in self.state.closed:
-            self._fail(order, f"{arc} is closed")
-            return
-        self._start(order, arc, frm, to, fraction, 1.0)
+            raise ActionFailed(f"{arc} is closed")
+        return await self._travel(self._start(action, arc, frm, to, fraction, 1.0, resumed=True))
 
-    def _rollback(self, order: Execute, inner: Atom) -> None:
-        half = self._half(inner)
+    def _half(self, action: Atom, what: str) -> tuple[str, str, str, float]:
+        """The half-done move ``action`` the robot stands on: ``(from, to, arc, fraction)``."""
+        half = None
+        if self.motion is None and self.activity is None and self.state.on_arc is not None:
+            arc, frm, to, fraction = self.state.on_arc
+            if action.name == "move" and tuple(str(a) for a in action.args) == (frm, to, arc):
+                half = frm, to, arc, fraction
         if half is None:
-            self._fail(order, f"nothing to roll back for {inner}")
-            return
-        arc, frm, to, fraction = half
-        self._start(order, arc, frm, to, fraction, 0.0)
+            raise ActionFailed(f"nothing to {what} for {action}")
+        return half
 
-    def _half(self, action: Atom) -> tuple[str, str, str, float] | None:
-        if self.motion is not None or self.activity is not None or self.state.on_arc is None:
-            return None
-        arc, frm, to, fraction = self.state.on_arc
-        if action.name != "move" or tuple(str(a) for a in action.args) != (frm, to, arc):
-            return None
-        return arc, frm, to, fraction
+    def can_suspend(self, action: Atom) -> bool:
+        # Any running move or action stops half way: a fresh one, the rest of a resumed one
+        # (named by the action itself), or a rollback (docs/design.md §4).
+        running = self.activity or self.motion
+        return running is not None and running.action == action and not running.alarm.rang
 
-    def _suspend(self, order: Suspend) -> None:
-        if self.activity is not None:
-            self._suspend_activity(order, self.activity)
-            return
-        motion = self.motion
-        # A move stops half way wherever it is: a fresh one, the rest of a resumed one
-        # (a Resume order, whose action is the move), or a rollback (docs/design.md §4).
-        if motion is None or motion.order.seq != order.seq or motion.order.action != order.action:
-            self.reply(Refused(action=order.action, seq=order.seq))
-            return
-        now = self.clock.now()
-        fraction = motion.fraction_at(now)
-        motion.timer.cancel()
-        self.state.distance += abs(fraction - motion.start) * self._length(motion.arc)
-        self.motion = None
-        self.state.on_arc = (motion.arc, motion.frm, motion.to, fraction)
-        self.state.at = None
-        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
-        self.reply(Suspended(action=order.action, seq=motion.order.seq))
+    async def suspend(self, action: Atom) -> None:
+        now = self.context.now()
+        activity = self.activity
+        if activity is not None:
+            activity.alarm.stop()
+            self.activity = None
+            self.kept[activity.action] = activity.fraction_at(now)
+        else:
+            motion = self.motion
+            assert motion is not None  # can_suspend said so
+            fraction = motion.fraction_at(now)
+            motion.alarm.stop()
+            self.state.distance += abs(fraction - motion.start) * self._length(motion.arc)
+            self.motion = None
+            self.state.on_arc = (motion.arc, motion.frm, motion.to, fraction)
+            self.state.at = None
+        self.context.report_progress(action, Phase.STOPPED)
 
-    def _clear(self, order: Clear) -> None:
+    async def clear(self, action: Atom) -> None:
         # Forget the resume context; where the robot physically is does not change.
-        self.kept.pop(order.action, None)
+        self.kept.pop(action, None)
 
     # -- timed actions other than moves ------------------------------------------------
 
-    def _act(self, order: Execute | Resume, action: Atom, done: float = 0.0) -> bool:
-        """Start the timed action (its part after ``done``); False if the robot is busy."""
-        busy = self.motion.order.action if self.motion is not None else None
+    def _begin_act(self, action: Atom, done: float, *, resumed: bool) -> Activity:
+        """Start the timed action (its part after ``done``); a failure if the robot is busy."""
+        busy = self.motion.action if self.motion is not None else None
         busy = self.activity.action if self.activity is not None else busy
         if busy is not None:
-            self._fail(order, f"the robot is busy with {busy}")
-            return False
+            raise ActionFailed(f"the robot is busy with {busy}")
+        context = self.context
         duration = (1.0 - done) * self.durations[action.name]
-        now = self.clock.now()
-        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
-        activity = Activity(order, action, done, now, duration, timer)
+        activity = Activity(action, done, context.now(), duration, context.alarm(duration))
         self.activity = activity
-        self.progress.report(Progress(self.name, action, Phase.STARTED, duration, done))
-        self.trace.emit(
+        context.report_progress(action, Phase.STARTED, duration, done)
+        context.emit(
             RobotActing(
                 agent=self.name,
                 action=str(action),
                 duration=round(duration, 6),
                 done=round(done, 6),
-                resumed=isinstance(order, Resume),
+                resumed=resumed,
             )
         )
-        return True
+        return activity
 
-    def _suspend_activity(self, order: Suspend, activity: Activity) -> None:
-        # As for moves, a fresh action or a resumed rest stops half way.
-        if activity.action != order.action or activity.order.seq != order.seq:
-            self.reply(Refused(action=order.action, seq=order.seq))
-            return
-        activity.timer.cancel()
+    async def _act(self, activity: Activity) -> ActionOutcome:
+        if not await activity.alarm.wait():
+            return ActionOutcome.SUSPENDED
         self.activity = None
-        self.kept[activity.action] = activity.fraction_at(self.clock.now())
-        self.progress.report(Progress(self.name, order.action, Phase.STOPPED))
-        self.reply(Suspended(action=order.action, seq=activity.order.seq))
-
-    def _timer_done(self, seq: int) -> None:
-        # The timer names the order, not the motion: a timer holding the motion that
-        # holds the timer would be a reference cycle, garbage only the collector frees.
-        self.inbox.send(Elapsed(seq=seq))
-
-    def _done(self, activity: Activity) -> None:
-        if self.activity is not activity:
-            return  # a stale timer of a suspended activity
-        self.activity = None
-        self.reply(Success(action=activity.order.action, seq=activity.order.seq))
+        return ActionOutcome.SUCCESS
 
     # -- motion ----------------------------------------------------------------------
 
     def _length(self, arc: str) -> float:
         return self.state.world.arcs[arc].length
 
-    def _start(self, order: Execute | Resume, arc: str, frm: str, to: str, start: float, end: float) -> None:
+    def _start(
+        self, action: Atom, arc: str, frm: str, to: str, start: float, end: float, *, resumed: bool
+    ) -> Motion:
+        context = self.context
         duration = abs(end - start) * self._length(arc) / self.speed
-        now = self.clock.now()
-        timer = self.clock.call_at(now + duration, functools.partial(self._timer_done, order.seq))
-        motion = Motion(order, arc, frm, to, start, end, now, duration, timer)
+        motion = Motion(action, arc, frm, to, start, end, context.now(), duration, context.alarm(duration))
         self.motion = motion
         self.state.on_arc = (arc, frm, to, start)
         self.state.at = None
         # A resumed move has already covered ``start``; a rollback is a motion of its own.
-        resumed = isinstance(order, Resume)
         done = start if resumed else 0.0
-        self.progress.report(Progress(self.name, order.action, Phase.STARTED, duration, done))
-        self.trace.emit(
+        context.report_progress(action, Phase.STARTED, duration, done)
+        context.emit(
             RobotMoving(
                 agent=self.name,
-                action=str(order.action),
+                action=str(action),
                 arc=arc,
                 duration=round(duration, 6),
                 done=round(done, 6),
                 resumed=resumed,
             )
         )
+        return motion
 
-    def _arrive(self, motion: Motion) -> None:
-        if self.motion is not motion:
-            return  # a stale timer of a suspended motion
+    async def _travel(self, motion: Motion) -> ActionOutcome:
+        if not await motion.alarm.wait():
+            return ActionOutcome.SUSPENDED  # suspend has left the robot on the arc
         self.motion = None
         self.state.distance += abs(motion.end - motion.start) * self._length(motion.arc)
         node = motion.to if motion.end >= 1.0 else motion.frm
@@ -349,7 +285,4 @@ class Robot(ExecutorActor):
         self.state.arrivals += 1
         if self.state.keep_path:
             self.state.visited.append(node)
-        self.reply(Success(action=motion.order.action, seq=motion.order.seq))
-
-    def _fail(self, order: Execute | Resume, reason: str) -> None:
-        self.reply(Failure(action=order.action, seq=order.seq, reason=reason))
+        return ActionOutcome.SUCCESS

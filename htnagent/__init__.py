@@ -53,9 +53,11 @@ _EXPORTS: dict[str, str] = {
     "EVENT_KINDS": "runtime.events",
     "Summary": "runtime.events",
     "TraceEvent": "runtime.events",
+    "ActionFailed": "runtime.executor",
     "ActionOutcome": "runtime.executor",
     "Executor": "runtime.executor",
     "ExecutorActor": "runtime.executor",
+    "ExecutorContext": "runtime.executor",
     "EventStream": "runtime.trace",
     "load_scenario": "scenario",
     "Scenario": "scenario",
@@ -161,6 +163,9 @@ if TYPE_CHECKING:
         event_from_dict as event_from_dict,
     )
     from htnagent.runtime.executor import (
+        ActionFailed as ActionFailed,
+    )
+    from htnagent.runtime.executor import (
         ActionOutcome as ActionOutcome,
     )
     from htnagent.runtime.executor import (
@@ -168,6 +173,9 @@ if TYPE_CHECKING:
     )
     from htnagent.runtime.executor import (
         ExecutorActor as ExecutorActor,
+    )
+    from htnagent.runtime.executor import (
+        ExecutorContext as ExecutorContext,
     )
     from htnagent.runtime.trace import (
         EventStream as EventStream,

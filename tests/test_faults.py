@@ -30,7 +30,7 @@ async def test_a_child_agent_that_crashes_becomes_a_failed_action_for_its_parent
             AgentConfig("guide", areas, areas.initial_state("n40")),
             AgentConfig("navigator", nodes, nodes.initial_state("n40")),
         ],
-        lambda clock, trace: ScriptedExecutor("robot", clock, trace),
+        lambda clock, trace: ScriptedExecutor("robot"),
     )
     with anyio.fail_after(5):  # real seconds: a hang fails the test
         async with runtime:

@@ -77,7 +77,7 @@ def run_checked(scenario: Scenario) -> tuple[RunReport, list[TraceEvent], int]:
         nonlocal compared
         events.append(event)
         if isinstance(event, ActionFinished):
-            robot = runtime[0].executor
+            robot = runtime[0].bottom_executor
             assert isinstance(robot, HddlRobot)
             world = robot.world.facts()
             for name, agent in runtime[0].agents.items():

@@ -57,7 +57,7 @@ def test_a_stopped_move_leaves_the_robot_in_no_room_and_the_emergency_rolls_it_b
 
     def world(event: object) -> None:
         if isinstance(event, ActionFinished) and event.result == "suspended":
-            states.append(frozenset(str(f) for f in robot[0].executor.world.facts()))
+            states.append(frozenset(str(f) for f in robot[0].bottom_executor.world.facts()))
 
     robot: list[Any] = []
     report = anyio.run(functools.partial(run_scenario, scenario, observers=[world], on_start=robot.append))

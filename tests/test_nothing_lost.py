@@ -56,7 +56,7 @@ def worker(domain: Domain, **settings: Any) -> AgentConfig:
 
 
 def scripted(**script: Any) -> Any:
-    return lambda clock, trace: ScriptedExecutor("robot", clock, trace, **script)
+    return lambda clock, trace: ScriptedExecutor("robot", **script)
 
 
 # -- a crash fails every goal the agent held ---------------------------------------------------

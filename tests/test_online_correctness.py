@@ -195,7 +195,7 @@ async def _relay_story(parent: Domain, child: Domain, *, emergency_at: float) ->
     ]
 
     def executor(clock: Clock, trace: Trace) -> ScriptedExecutor:
-        return ScriptedExecutor("robot", clock, trace, suspendable=["go(a,b)", "go(b,c)", "go(c,d)"])
+        return ScriptedExecutor("robot", suspendable=["go(a,b)", "go(b,c)", "go(c,d)"])
 
     rt = Runtime(configs, executor)
     rt.subscribe(record(events))

@@ -40,7 +40,7 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.model.domain import Domain, Effect, Suspension
 from htnagent.model.terms import Atom, atom
-from htnagent.runtime.messages import BeliefUpdate, Clear, Execute, Suspend
+from htnagent.runtime.messages import BeliefUpdate
 from htnagent.system.runtime import Runtime
 from htnagent.upkeep import Replanning
 from tests.support import Event, record
@@ -110,9 +110,7 @@ async def story(mode: Replanning, *, report_at: float | None = None) -> tuple[li
         name=WALKER, domain=d, belief=d.initial_state().updated(add=[atom("at(s)")]), replanning=mode
     )
     events: list[Event] = []
-    rt = Runtime(
-        [config], lambda clock, trace: ScriptedExecutor("robot", clock, trace, suspendable=["go(s,m)"])
-    )
+    rt = Runtime([config], lambda clock, trace: ScriptedExecutor("robot", suspendable=["go(s,m)"]))
     rt.subscribe(record(events))
     async with rt:
         with anyio.fail_after(GUARD):
@@ -123,9 +121,9 @@ async def story(mode: Replanning, *, report_at: float | None = None) -> tuple[li
                 rt.clock.call_at(report_at, functools.partial(tell, rt, "closed(t,m)"))
             outcome = await rt.outcome(ticket)
     assert outcome.status is GoalStatus.SUCCESS
-    robot = rt.executor
+    robot = rt.bottom_executor
     assert isinstance(robot, ScriptedExecutor)
-    return events, [f"{o.kind} {o.action}" for o in robot.orders if isinstance(o, Execute | Suspend | Clear)]
+    return events, [f"{kind} {action}" for kind, action in robot.orders if kind != "resume"]
 
 
 def resumed_plan(events: list[Event]) -> tuple[list[str], float]:

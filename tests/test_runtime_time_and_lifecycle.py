@@ -69,7 +69,7 @@ async def test_an_executor_that_cannot_start_makes_entering_the_runtime_fail() -
 
 async def test_pacing_is_not_restarted_by_a_goal_given_meanwhile() -> None:
     d = _one_action_domain()
-    factory = lambda clock, trace: ScriptedExecutor("robot", clock, trace, default_duration=1.0)  # noqa: E731
+    factory = lambda clock, trace: ScriptedExecutor("robot", default_duration=1.0)  # noqa: E731
     async with Runtime([AgentConfig("agent", d, d.initial_state())], factory, speed=1.0) as rt:
         started = time.monotonic()
 
@@ -103,7 +103,7 @@ async def test_the_action_timeout_applies_where_actions_meet_the_executor_not_be
     child = Domain("child")
     child.operator("walk", add=["walked"])
     child.method("errand", "m", do=["walk"])
-    factory = lambda clock, trace: ScriptedExecutor("robot", clock, trace, default_duration=5.0)  # noqa: E731
+    factory = lambda clock, trace: ScriptedExecutor("robot", default_duration=5.0)  # noqa: E731
     configs = [
         AgentConfig("parent", parent, parent.initial_state(), action_timeout=1.0),
         AgentConfig("child", child, child.initial_state(), action_timeout=10.0),

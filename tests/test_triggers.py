@@ -23,6 +23,7 @@ from htnagent.errors import ScenarioError
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.model.terms import Atom, parse
 from htnagent.runtime.clock import Clock, Mailbox
+from htnagent.runtime.executor import AdapterActor
 from htnagent.runtime.messages import Execute, Resume, Suspend, Suspended
 from htnagent.runtime.trace import Trace
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
@@ -319,7 +320,7 @@ async def robot_answers(orders: list[tuple[float, Any]], until: int) -> list[tup
     scenario = load_scenario(SCENARIOS / "museum.yaml")
     clock = Clock()
     trace = Trace(clock)
-    robot = Robot("robot", clock, trace, RobotWorld(scenario.world, at="n40"), 1.0)
+    robot = AdapterActor("robot", clock, trace, Robot(RobotWorld(scenario.world, at="n40"), 1.0))
     up: Mailbox[Any] = Mailbox(clock, "test")
     robot.connect(up)
     answers: list[tuple[float, Any]] = []

@@ -277,6 +277,19 @@ class Mailbox(Generic[T]):
         self._held += 1
         return self._queue.popleft()
 
+    def hand_over(self, wakeup: anyio.Event) -> None:
+        """The receiver steps away; another task will receive next, once ``wakeup`` is set.
+
+        What the receiver holds counts as handled now (it must not wait before its
+        work is done), and ``wakeup`` is set as soon as a message waits — at once if
+        one does — or the mailbox closes.
+        """
+        self.settle()
+        if self._queue or self.closed:
+            wakeup.set()
+        else:
+            self._wakeup = wakeup
+
     def settle(self) -> None:
         """The receiver has finished with what it holds (it will block next)."""
         if self._held:

@@ -7,7 +7,11 @@ reads orders (:class:`~htnagent.runtime.messages.Execute`, ``Suspend``, ``Resume
 parent's mailbox.
 
 Most users need not speak messages: subclass :class:`Executor` (small, like an
-httpx transport) and the runtime wraps it in an :class:`AdapterActor`.
+httpx transport) and the runtime wraps it in an :class:`AdapterActor`.  The
+shipped executors (:mod:`htnagent.executors`) are written so too.  Through its
+:attr:`Executor.context` an executor reads the runtime's clock (and waits in
+simulated time), reports how far its actions have got (what scenario triggers
+follow) and emits trace events.
 """
 
 from __future__ import annotations
@@ -19,12 +23,12 @@ from types import TracebackType
 from typing import Self
 
 import anyio
-from anyio.abc import TaskStatus
+from anyio.abc import TaskGroup, TaskStatus
 
 from htnagent.model.domain import Domain
 from htnagent.model.terms import Atom
-from htnagent.runtime.clock import Clock, Mailbox
-from htnagent.runtime.events import ExecutorError, MessageSent
+from htnagent.runtime.clock import Clock, Mailbox, TimerHandle
+from htnagent.runtime.events import ExecutorError, MessageSent, TraceEvent
 from htnagent.runtime.messages import (
     Clear,
     Execute,
@@ -39,7 +43,7 @@ from htnagent.runtime.messages import (
     Suspend,
     Suspended,
 )
-from htnagent.runtime.progress import ProgressListeners
+from htnagent.runtime.progress import Phase, Progress, ProgressListeners
 from htnagent.runtime.trace import Trace
 
 
@@ -54,13 +58,127 @@ class ActionOutcome(Enum):
     """The action was stopped half way by :meth:`Executor.suspend`."""
 
 
+class ActionFailed(Exception):
+    """Raised by an executor's ``execute`` or ``resume``: the action failed, for the reason given.
+
+    The parent sees a failure with exactly this text as its reason (any other
+    exception is a failure too, named as the executor's error).
+    """
+
+
+class Alarm:
+    """A wait of some simulated seconds, which the executor may end early (:meth:`stop`).
+
+    How it keeps virtual time honest: the clock moves only when no work is in
+    flight.  When the alarm rings (or is stopped) while a task waits on it, that
+    task counts as work until it runs on, so the clock cannot move past the
+    instant before the executor has answered; the code an executor runs between
+    two awaits of its context therefore happens at one instant.  Awaiting
+    anything else (a real sleep, a socket) holds nothing: simulated time may
+    move on meanwhile, as it should while a real robot acts.  An alarm nobody
+    waits on holds no work at all.
+    """
+
+    __slots__ = ("_clock", "_event", "_handle", "_waiters", "rang", "seconds", "started_at")
+
+    def __init__(self, clock: Clock, seconds: float) -> None:
+        self._clock = clock
+        self._event = anyio.Event()
+        self._waiters = 0
+        self.rang = False
+        """Whether the time ran out (False: not yet, or stopped early)."""
+        self.started_at = clock.now()
+        self.seconds = seconds
+        self._handle: TimerHandle = clock.call_later(seconds, self._ring)
+
+    def _ring(self) -> None:
+        self.rang = True
+        self._wake()
+
+    def stop(self) -> None:
+        """End the wait now: :meth:`wait` returns False (no effect once it has rung)."""
+        if not self._event.is_set():
+            self._handle.cancel()
+            self._wake()
+
+    def _wake(self) -> None:
+        if self._waiters:
+            self._clock.add_work(self._waiters)  # released by each waiter as it runs on
+        self._event.set()
+
+    async def wait(self) -> bool:
+        """Wait until the time is up (True) or the alarm is stopped (False)."""
+        if not self._event.is_set():
+            self._waiters += 1
+            try:
+                await self._event.wait()
+            finally:
+                if self._event.is_set():
+                    self._clock.done_work()  # counted when it rang: this waiter runs on now
+                else:
+                    self._waiters -= 1  # cancelled while waiting
+        return self.rang
+
+
+class ExecutorContext:
+    """What the runtime lends an :class:`Executor` it carries: time, progress, the trace."""
+
+    __slots__ = ("_actor", "clock", "name")
+
+    def __init__(self, actor: AdapterActor) -> None:
+        self._actor = actor
+        self.name = actor.name
+        """The executor's name in the trace and in progress reports."""
+        self.clock: Clock = actor.clock
+        """The runtime's clock (simulated time, or paced to the wall clock)."""
+
+    def now(self) -> float:
+        """The runtime's time in seconds."""
+        return self.clock.now()
+
+    def alarm(self, seconds: float) -> Alarm:
+        """An :class:`Alarm` that rings ``seconds`` from now, in the runtime's time."""
+        return Alarm(self.clock, seconds)
+
+    async def sleep(self, seconds: float) -> None:
+        """Wait ``seconds`` of the runtime's time (simulated: no real waiting)."""
+        await Alarm(self.clock, seconds).wait()
+
+    def report_progress(self, action: Atom, phase: Phase, duration: float = 0.0, done: float = 0.0) -> None:
+        """Tell the runtime's progress listeners (what scenario triggers follow) how far
+        ``action`` has got: a motion of ``duration`` seconds starts now with the fraction
+        ``done`` already covered (``Phase.STARTED``), or it was stopped half way."""
+        self._actor.progress.report(Progress(self.name, action, phase, duration, done))
+
+    def emit(self, event: TraceEvent) -> None:
+        """Publish a trace event now (stamped with the time)."""
+        self._actor.trace.emit(event)
+
+
 class Executor(ABC):
     """What carries out actions; subclass it to connect a real robot or service.
 
-    ``execute`` returns when the action is over.  If ``can_suspend`` says yes,
-    ``suspend`` must make the running ``execute`` return ``ActionOutcome.SUSPENDED``;
-    later ``resume`` finishes the action, or ``clear`` forgets it.
+    ``execute`` returns when the action is over (or raises :class:`ActionFailed`).
+    If ``can_suspend`` says yes, ``suspend`` must make the running ``execute``
+    return ``ActionOutcome.SUSPENDED``; later ``resume`` finishes the action, or
+    ``clear`` forgets it.  Once a runtime carries the executor, :attr:`context`
+    gives its clock, progress reports and trace.
     """
+
+    name: str = "executor"
+    """The executor's name in the trace (the sender of its answers)."""
+    _context: ExecutorContext | None = None
+
+    @property
+    def context(self) -> ExecutorContext:
+        """The runtime's clock, progress reports and trace, once a runtime carries the executor."""
+        if self._context is None:
+            raise RuntimeError(f"{type(self).__name__} is not connected to a runtime")
+        return self._context
+
+    def connect(self, context: ExecutorContext) -> None:
+        """Called by the runtime when it takes the executor on."""
+        self._context = context
 
     def can_suspend(self, action: Atom) -> bool:
         """Whether the running ``action`` may be stopped half way."""
@@ -170,7 +288,7 @@ class ExecutorActor(ABC):
 
 
 class AdapterActor(ExecutorActor):
-    """Runs a user's :class:`Executor` behind the message protocol.
+    """Runs an :class:`Executor` behind the message protocol.
 
     An executor that raises becomes a :class:`~htnagent.runtime.messages.Failure` with
     the exception's text; the actor goes on serving.
@@ -180,21 +298,48 @@ class AdapterActor(ExecutorActor):
         super().__init__(name, clock, trace)
         self.executor = executor
         self._running: dict[int, Atom] = {}  # orders being carried out, by seq
+        self._idle: list[anyio.Event] = []  # tasks done with their order, waiting for a turn to read
+        executor.connect(ExecutorContext(self))
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         async with self.executor, anyio.create_task_group() as tg:
             task_status.started()
-            while True:
-                order = await self.inbox.receive()
-                if isinstance(order, Execute | Resume):
+            await self._serve(tg)
+
+    async def _serve(self, tg: TaskGroup, turn: anyio.Event | None = None) -> None:
+        """Read orders (once ``turn`` is set); carry out one that must be awaited, handing
+        the mailbox on to another task meanwhile.
+
+        The task that reads an ``Execute``, ``Resume`` or ``Suspend`` carries it out
+        itself, at once — the executor's code up to its first await runs just when the
+        order arrives, as an actor's would — and another task reads the orders after
+        it (a user's suspend that never returns keeps nothing waiting, nor time from
+        passing: an action timeout then ends the action).  That task wakes only when
+        an order comes; done, a task waits in :attr:`_idle` for its next turn to read,
+        so the robot's orders alternate between two tasks and none is spawned.
+        """
+        while True:
+            if turn is not None:
+                await turn.wait()
+            order = await self.inbox.receive()
+            if isinstance(order, Execute | Resume | Suspend):
+                follower = self._idle.pop() if self._idle else None
+                if follower is None:
+                    follower = anyio.Event()
+                    tg.start_soon(self._serve, tg, follower)
+                # The order counts as handled from now: the executor's code up to its first
+                # await runs before anything else can, so time stands still meanwhile.
+                self.inbox.hand_over(follower)
+                if isinstance(order, Suspend):
+                    await self._suspend(order)
+                else:
                     self._running[order.seq] = order.action
-                    tg.start_soon(self._carry_out, order)
-                elif isinstance(order, Suspend):
-                    # In a task of its own: a user's suspend that never returns must not keep
-                    # the orders after it waiting (nor time from passing: an action timeout
-                    # then ends the action).
-                    tg.start_soon(self._suspend, order)
-                elif isinstance(order, Clear):
+                    await self._carry_out(order)
+                turn = anyio.Event()
+                self._idle.append(turn)
+            else:
+                turn = None
+                if isinstance(order, Clear):
                     try:
                         await self.executor.clear(order.action)
                     except BaseException as exc:  # a faulty executor must not stop the runtime
@@ -216,12 +361,16 @@ class AdapterActor(ExecutorActor):
         self.reply(Refused(action=order.action, seq=order.seq))
 
     async def _carry_out(self, order: Execute | Resume) -> None:
-        # The adapter holds no work while the user's code runs: time may pass meanwhile.
+        # The adapter holds no work while the executor awaits anything but its context's
+        # clock: time may pass meanwhile (see Alarm).
         try:
             if isinstance(order, Resume):
                 outcome = await self.executor.resume(order.action)
             else:
                 outcome = await self.executor.execute(order.action)
+        except ActionFailed as exc:
+            self.reply(Failure(action=order.action, seq=order.seq, reason=str(exc)))
+            return
         except BaseException as exc:
             if must_propagate(exc):
                 raise  # a cancellation (the runtime closing), KeyboardInterrupt, SystemExit

@@ -6,8 +6,9 @@ Embedding API::
         outcome = await rt.achieve("guide", parse("goto(n1)"))
 
 Agents are listed parent first; each agent's executor is the next agent, and
-the last agent's is the given executor: an :class:`~htnagent.runtime.executor.ExecutorActor`
-factory ``(clock, trace) -> actor`` or a plain :class:`~htnagent.runtime.executor.Executor`
+the last agent's is the given executor: a factory ``(clock, trace) ->`` an
+:class:`~htnagent.runtime.executor.Executor` (the simulated robot, say) or an
+:class:`~htnagent.runtime.executor.ExecutorActor`, or a plain ``Executor`` instance
 (which acts in the real world, so its runtime keeps wall-clock time: ``speed``
 defaults to 1 for it, virtual time otherwise).  Nothing outlives the
 ``async with``: leaving it cancels every task.  An actor that crashes is
@@ -41,7 +42,7 @@ from htnagent.runtime.messages import Clear, Execute, Failure, ParentLost, Resum
 from htnagent.runtime.progress import ProgressListener
 from htnagent.runtime.trace import EventStream, Observer, Trace
 
-ExecutorFactory = Callable[[Clock, Trace], ExecutorActor]
+ExecutorFactory = Callable[[Clock, Trace], ExecutorActor | Executor]
 
 CLOSED = "runtime closed"
 """The reason of every goal still open when the runtime is left."""
@@ -105,11 +106,13 @@ class Runtime:
         self._own_clock = clock is None
         self.clock = clock if clock is not None else Clock(speed)
         self.trace = Trace(self.clock)
-        if isinstance(executor, Executor):
-            bottom: ExecutorActor = AdapterActor("executor", self.clock, self.trace, executor)
+        made = executor if isinstance(executor, Executor) else executor(self.clock, self.trace)
+        if isinstance(made, Executor):
+            bottom: ExecutorActor = AdapterActor(made.name, self.clock, self.trace, made)
         else:
-            bottom = executor(self.clock, self.trace)
+            bottom = made
         self.executor = bottom
+        """The actor at the bottom of the chain (for an :class:`Executor`, the one carrying it)."""
         self.agents: dict[str, Agent] = {}
         below: ExecutorActor = bottom
         chain: list[Agent] = []
@@ -285,6 +288,13 @@ class Runtime:
                 self._resolve(ticket, GoalStatus.FAILURE, reason)
 
     # -- observing --------------------------------------------------------------------------
+
+    @property
+    def bottom_executor(self) -> Executor | None:
+        """The :class:`Executor` at the bottom of the chain (the robot), if it is one (None
+        for an actor, such as the link to agents served by another process)."""
+        bottom = self.executor
+        return bottom.executor if isinstance(bottom, AdapterActor) else None
 
     def on_progress(self, listener: ProgressListener) -> Callable[[], None]:
         """Call ``listener`` with every actor's progress reports (see :mod:`htnagent.runtime.progress`);

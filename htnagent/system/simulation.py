@@ -35,7 +35,7 @@ from htnagent.runtime.events import (
     Summary,
     TraceEvent,
 )
-from htnagent.runtime.executor import ExecutorActor
+from htnagent.runtime.executor import Executor, ExecutorActor
 from htnagent.runtime.messages import BeliefUpdate
 from htnagent.runtime.progress import Phase, Progress
 from htnagent.runtime.trace import Observer, Trace
@@ -104,42 +104,38 @@ def build_runtime(
         for spec in local
     ]
 
-    def robot(clock: Clock, trace: Trace) -> Robot:
+    def robot(clock: Clock, trace: Trace) -> Executor:
         return Robot(
-            ROBOT,
-            clock,
-            trace,
             world,
             scenario.robot.metres_per_second,
             scenario.robot.failure_rate,
             scenario.robot.seed,
             scenario.robot.durations,
+            name=ROBOT,
         )
 
-    def hddl_robot(clock: Clock, trace: Trace) -> ExecutorActor:
+    def hddl_robot(clock: Clock, trace: Trace) -> Executor:
         # The simulated world is the robot's own copy of the facts, never a belief (§7.1).
         assert hddl is not None
         facts = FactWorld(hddl.domain, scenario.initial_state(scenario.agents[-1].name))
         return HddlRobot(
-            ROBOT,
-            clock,
-            trace,
             facts,
             scenario.robot.durations,
             markers=MARKERS,
             default_duration=DEFAULT_DURATION,
             failure_rate=scenario.robot.failure_rate,
             seed=scenario.robot.seed,
+            name=ROBOT,
         )
 
-    bottom: Callable[[Clock, Trace], ExecutorActor] = robot if hddl is None else hddl_robot
+    bottom: Callable[[Clock, Trace], ExecutorActor | Executor] = robot if hddl is None else hddl_robot
     if remote is not None:
         from htnagent.remote.proxy import RemoteChild  # only now: zenoh is an optional extra
 
         served, endpoint = remote, remote.remote
         assert endpoint is not None
 
-        def bottom(clock: Clock, trace: Trace) -> ExecutorActor:
+        def bottom(clock: Clock, trace: Trace) -> ExecutorActor | Executor:
             return RemoteChild(
                 served.name,
                 clock,
@@ -207,7 +203,7 @@ async def run_scenario(
         def change_facts(add: tuple[Atom, ...], delete: tuple[Atom, ...]) -> None:
             # The generic world event (docs/design.md §7.1): the simulated world changes, and
             # every agent learns it at once, as a shut door is known (§6).
-            bottom = runtime.executor
+            bottom = runtime.bottom_executor
             assert isinstance(bottom, HddlRobot)  # checked: add/delete only in an HDDL world
             bottom.world.change(add, delete)
             runtime.trace.emit(
@@ -358,10 +354,10 @@ def _fire_in(w: _Watcher, delay: float, clock: Clock) -> None:
 
 def world_changed(runtime: Runtime, arc: str, close: bool) -> None:
     """Tell a process serving agents below this runtime's that a door shut or opened."""
-    bottom = runtime.executor
-    if not isinstance(bottom, Robot):
+    if runtime.bottom_executor is None:
         from htnagent.remote.proxy import RemoteChild
 
+        bottom = runtime.executor
         if isinstance(bottom, RemoteChild):
             bottom.world_changed(arc, close)
 
@@ -369,13 +365,14 @@ def world_changed(runtime: Runtime, arc: str, close: bool) -> None:
 def robot_status(runtime: Runtime, world: RobotWorld) -> tuple[dict[str, str], tuple[str, ...], float]:
     """Where the robot is, the nodes it reached, the metres travelled (counting the part of an
     arc it is on): from the robot here, or as the process serving the agents below last told."""
-    bottom = runtime.executor
-    if isinstance(bottom, Robot):
-        return world.where(), tuple(world.visited), bottom.travelled()
-    if isinstance(bottom, HddlRobot):
+    robot = runtime.bottom_executor
+    if isinstance(robot, Robot):
+        return world.where(), tuple(world.visited), robot.travelled()
+    if isinstance(robot, HddlRobot):
         return {}, (), 0.0  # a world of facts: the robot is at no node and travels no arc
     from htnagent.remote.proxy import RemoteChild
 
+    bottom = runtime.executor
     if isinstance(bottom, RemoteChild) and bottom.status is not None:
         return bottom.status.robot, bottom.status.visited, bottom.status.distance
     return world.where(), tuple(world.visited), world.distance

@@ -72,7 +72,7 @@ class RunChecker:
     @property
     def robot(self) -> Robot:
         assert self.runtime is not None, "attach the runtime first"
-        robot = self.runtime.executor
+        robot = self.runtime.bottom_executor
         assert isinstance(robot, Robot)
         return robot
 
