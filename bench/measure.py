@@ -60,8 +60,10 @@ async def measure_run(
     *,
     observers: Iterable[Observer] = (),
     on_start: Callable[[Runtime], None] | None = None,
+    look_ahead: bool = True,
 ) -> RunFigures:
-    """Run the scenario once in ``mode`` and return its figures.
+    """Run the scenario once in ``mode`` and return its figures (``look_ahead``: the
+    agents' :attr:`~htnagent.agent.AgentConfig.look_ahead`, on by default).
 
     ``observers`` and ``on_start`` are handed to :func:`~htnagent.system.simulation.run_scenario`
     (the IPC interruption benchmark counts actions and compares beliefs with the world).
@@ -95,7 +97,9 @@ async def measure_run(
             else:
                 figures.child_ms = (now - marks.get("parent", marks["ended"])) * 1000
 
-    report = await run_scenario(scenario, replanning=mode, observers=[observe, *observers], on_start=on_start)
+    report = await run_scenario(
+        scenario, replanning=mode, observers=[observe, *observers], on_start=on_start, look_ahead=look_ahead
+    )
     figures.distance = report.summary.distance
     figures.planning_ms = sum(report.summary.planning_ms.values())
     figures.succeeded = report.succeeded

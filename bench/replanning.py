@@ -53,13 +53,23 @@ def _median(values: list[float]) -> float:
 async def run_case(scenario: Scenario, runs: int) -> dict[str, list[RunFigures]]:
     """``runs`` measured runs per mode after one warm-up run each, the modes interleaved
     (so that whatever else the machine does weighs on both alike)."""
-    out: dict[str, list[RunFigures]] = {"online": [], "naive": []}
-    for mode in out:
-        await measure_run(scenario, mode)
+    out: dict[str, list[RunFigures]] = {variant: [] for variant in VARIANTS}
+    for variant in out:
+        mode, look_ahead = VARIANTS[variant]
+        await measure_run(scenario, mode, look_ahead=look_ahead)
     for _ in range(runs):
-        for mode, figures in out.items():
-            figures.append(await measure_run(scenario, mode))
+        for variant, figures in out.items():
+            mode, look_ahead = VARIANTS[variant]
+            figures.append(await measure_run(scenario, mode, look_ahead=look_ahead))
     return out
+
+
+VARIANTS: dict[str, tuple[str, bool]] = {
+    "online": ("online", True),
+    "naive": ("naive", True),
+    "online, look-ahead off": ("online", False),
+}
+"""What is measured: the mode, and the agents' look-ahead (on by default; off reported beside)."""
 
 
 def main(runs: int = 25) -> int:
@@ -73,16 +83,16 @@ def main(runs: int = 25) -> int:
     for i, (case, file, start, goal, arc, emergency, _changes) in enumerate(CASES, 1):
         scenario = load_scenario(ROOT / "scenarios" / file)
         both = anyio.run(run_case, scenario, runs)
-        for mode in ("online", "naive"):
+        for variant, (mode, look_ahead) in VARIANTS.items():
             print(
-                f"[{i}/{len(CASES)}] {case:<12} {mode:<6} {runs} runs ...",
+                f"[{i}/{len(CASES)}] {case:<12} {variant:<6} {runs} runs ...",
                 end=" ",
                 file=sys.stderr,
                 flush=True,
             )
-            figures = both[mode]
+            figures = both[variant]
             if not all(f.succeeded for f in figures):
-                failures.append(f"{case} {mode}")
+                failures.append(f"{case} {variant}")
             levels = {
                 "parent": [f.parent_ms or 0.0 for f in figures],
                 "child": [f.child_ms or 0.0 for f in figures],
@@ -92,7 +102,7 @@ def main(runs: int = 25) -> int:
             planning = _median([f.planning_ms for f in figures])
             for level, values in levels.items():
                 median = _median(values)
-                table[(case, level, mode)] = median
+                table[(case, level, variant)] = median
                 rows.append(
                     {
                         "case": case,
@@ -102,14 +112,16 @@ def main(runs: int = 25) -> int:
                         "emergency": emergency,
                         "level": level,
                         "mode": mode,
+                        "look_ahead": look_ahead,
                         "median_ms": round(median, 4),
                         "runs": len(values),
                         "distance": round(distance, 4),
                         "planning_ms": round(planning, 4),
                     }
                 )
-            extra[(case, mode)] = {"distance": distance, "planning_ms": planning}
-            print(f"total {table[(case, 'total', mode)]:.3f} ms, planning {planning:.2f} ms", file=sys.stderr)
+            extra[(case, variant)] = {"distance": distance, "planning_ms": planning}
+            total = table[(case, "total", variant)]
+            print(f"total {total:.3f} ms, planning {planning:.2f} ms", file=sys.stderr)
     (RESULTS / "replanning.json").write_text(json.dumps(rows, indent=2) + "\n")
     (RESULTS / "replanning.md").write_text(_markdown(table, extra, runs, failures))
     _chart(table)
@@ -150,18 +162,20 @@ def _markdown(
             f"## {level.capitalize()}",
             "",
             "| case | parent plan changes (paper) | on-line ms | naive ms | naive / on-line "
-            "| published on-line ms | published naive ms |",
-            "|---|---|---:|---:|---:|---:|---:|",
+            "| on-line, look-ahead off ms | published on-line ms | published naive ms |",
+            "|---|---|---:|---:|---:|---:|---:|---:|",
         ]
         for case, *_rest, changes in CASES:
             on, nv = table[(case, level, "online")], table[(case, level, "naive")]
+            off = table[(case, level, "online, look-ahead off")]
             pub_on = PUBLISHED_RANGE.get((level, "online"), "—")
             pub_nv = PUBLISHED_RANGE.get((level, "naive"), "—")
             if level == "parent":
                 pub_on = pub_nv = "—"
             changed = "yes" if changes else "no"
             out.append(
-                f"| {case} | {changed} | {on:.4f} | {nv:.4f} | {_ratio(nv, on)} | {pub_on} | {pub_nv} |"
+                f"| {case} | {changed} | {on:.4f} | {nv:.4f} | {_ratio(nv, on)} | {off:.4f} "
+                f"| {pub_on} | {pub_nv} |"
             )
         out.append("")
     out += [

@@ -28,7 +28,7 @@ Key = tuple[object, ...]
 STUDIES: dict[str, tuple[str, Callable[[dict[str, object]], Key], tuple[str, ...]]] = {
     "replanning": (
         "replanning.json",
-        lambda r: (r["case"], r["level"], r["mode"]),
+        lambda r: (r["case"], r["level"], r["mode"], r.get("look_ahead", True)),
         ("median_ms", "replan_ms"),
     ),
     "reaction": ("reaction.json", lambda r: (r["levels"], r["mode"]), ("median_ms", "p99_ms")),
