@@ -97,8 +97,21 @@ def page_data(history: History, scenario: Scenario | None = None, source: str = 
             "nodes": {n.name: [n.x, n.y] for n in w.nodes.values()},
             "arcs": {a_id: [a.a, a.b] for a_id, a in w.arcs.items()},
         }
-    title = scenario.name if scenario is not None else (Path(source).name if source else "htnagent run")
-    return {"title": title, "source": source, "history": history.as_json(), "map": world}
+    return {
+        "title": page_title(history, scenario, source),
+        "source": source,
+        "history": history.as_json(),
+        "map": world,
+    }
+
+
+def page_title(history: History, scenario: Scenario | None = None, source: str = "") -> str:
+    """The scenario's name (given, or from the trace's header), else the trace file's name."""
+    if scenario is not None:
+        return scenario.name
+    if history.scenario_name:
+        return history.scenario_name
+    return Path(source).name if source else "htnagent run"
 
 
 def render(history: History, *, scenario: Scenario | None = None, source: str = "") -> str:
@@ -108,11 +121,12 @@ def render(history: History, *, scenario: Scenario | None = None, source: str = 
     blob = _script_json(data)
     return _PAGE.format(
         title=title,
+        run=_run_line(history, source),
         summary=_summary(history),
         timeline=_timeline_svg(history),
-        map=_map_svg(scenario) if scenario is not None and scenario.map is not None else _NO_MAP,
+        map=_map_svg(scenario, history) if scenario is not None and scenario.map is not None else _NO_MAP,
         agents=_agent_panels(history),
-        end=f"{history.end:.6f}",
+        end=_e(repr(float(history.end))),
         data=blob,
         logic=_LOGIC,
         ui=_UI,
@@ -130,6 +144,31 @@ def _script_json(data: dict[str, JSONValue]) -> str:
 
 def _e(value: object) -> str:
     return html.escape(str(value), quote=True)
+
+
+MODES = {
+    "online": "on-line replanning: a suspended goal keeps its plans and resumes by repairing them",
+    "naive": "naive replanning: a suspended goal is planned again from scratch when it resumes",
+}
+"""What each replanning mode means, in the words the page shows beside it."""
+
+
+def _run_line(history: History, source: str) -> str:
+    """The mode (from the trace's header), the version that ran, the trace's file."""
+    parts = []
+    if history.mode is None:
+        parts.append('mode: <b id="mode">not recorded</b> (the trace has no run_started header)')
+    else:
+        meaning = MODES.get(history.mode, "")
+        parts.append(
+            f'mode: <b id="mode" class="mode-{_e(history.mode)}">{_e(history.mode)}</b>'
+            + (f' <span class="meaning">({_e(meaning)})</span>' if meaning else "")
+        )
+    if history.run is not None and history.run.version:
+        parts.append(f"htnagent {_e(history.run.version)}")
+    if source:
+        parts.append(f"trace {_e(Path(source).name)}")
+    return f'<p class="run" id="run-info">{" · ".join(parts)}</p>'
 
 
 def _summary(history: History) -> str:
@@ -179,8 +218,11 @@ def _timeline_svg(history: History) -> str:
     depth_top = lanes_bottom + 14
     most = max((d for steps in history.depth.values() for _, d in steps), default=0)
     depth_height = 18 * (most + 1)
+    # The label ends left of the depth axis's widest number (6.5 px a digit at 10 px), with a gap.
+    label_end = _TL_LEFT - 4 - 6.5 * len(str(most)) - 6
     out.append(
-        f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{depth_top + depth_height / 2 + 4:.1f}">stack</text>'
+        f'<text class="lane-name depth-name" x="{label_end:.1f}" '
+        f'y="{depth_top + depth_height / 2 + 4:.1f}">stack</text>'
     )
     colours = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e")
     for i, agent in enumerate(history.agents):
@@ -200,7 +242,7 @@ def _timeline_svg(history: History) -> str:
         )
     for k in sorted({0, most // 2, most}):
         out.append(
-            f'<text class="tick" x="{_TL_LEFT - 4}" '
+            f'<text class="tick depth-tick" x="{_TL_LEFT - 4}" '
             f'y="{_depth_y(k, depth_top, depth_height, most, 0) + 3:.1f}" '
             f'text-anchor="end">{k}</text>'
         )
@@ -338,7 +380,7 @@ _NO_MAP = (
 )
 
 
-def _map_svg(scenario: Scenario) -> str:
+def _map_svg(scenario: Scenario, history: History) -> str:
     world = scenario.world
     xs = [n.x for n in world.nodes.values()] or [0.0]
     ys = [n.y for n in world.nodes.values()] or [0.0]
@@ -363,6 +405,8 @@ def _map_svg(scenario: Scenario) -> str:
                 f'<text class="area" x="{sum(ax) / len(ax):g}" y="{sum(ay) / len(ay):g}" '
                 f'font-size="{unit * 3.2:.4g}">{_e(area)}</text>'
             )
+    # The way under the nodes and their names, so that it hides neither.
+    parts.append(f'<g id="trail" stroke-width="{unit * 1.0:.4g}"></g>')
     for node in world.nodes.values():
         parts.append(f'<circle class="node" cx="{node.x:g}" cy="{node.y:g}" r="{unit * 0.7:.4g}"/>')
         if small:
@@ -374,16 +418,68 @@ def _map_svg(scenario: Scenario) -> str:
     if start is not None:
         parts.append(
             f'<rect class="start" x="{start.x - unit * 1.2:g}" y="{start.y - unit * 1.2:g}" '
-            f'width="{unit * 2.4:.4g}" height="{unit * 2.4:.4g}"/>'
+            f'width="{unit * 2.4:.4g}" height="{unit * 2.4:.4g}">'
+            f"<title>start: {_e(start.name)}</title></rect>"
         )
-    parts.append(f'<g id="trail" stroke-width="{unit * 1.0:.4g}"></g>')
+    end = world.nodes.get(_end_node(history) or "")
+    if end is not None:
+        parts.append(
+            f'<circle class="end" cx="{end.x:g}" cy="{end.y:g}" r="{unit * 2.6:.4g}" '
+            f'stroke-width="{unit * 0.6:.4g}"><title>end: {_e(end.name)}</title></circle>'
+        )
     parts.append(f'<circle id="robot" cx="0" cy="0" r="{unit * 1.8:.4g}" stroke-width="{unit * 0.5:.4g}"/>')
     # The longer side gets _MAP_WIDTH pixels.
     width, height = (_MAP_WIDTH, _MAP_WIDTH * h / w) if w >= h else (_MAP_WIDTH * w / h, _MAP_WIDTH)
     return (
         f'<svg id="map" viewBox="{x0:g} {y0:g} {w:g} {h:g}" width="{width:.0f}" height="{height:.0f}" '
         f'role="img" aria-label="map">{"".join(parts)}</svg>'
-        '<p class="where">robot: <b id="robot-text"></b></p>'
+        + _legend(history, start is not None, end is not None, max(width, 300.0))
+        + '<p class="where">robot: <b id="robot-text"></b></p>'
+    )
+
+
+def _end_node(history: History) -> str | None:
+    """Where the robot ends: the summary's node, else where its last motion arrived."""
+    if history.summary is not None and history.summary.robot.get("at"):
+        return history.summary.robot["at"]
+    place = history.robot_at(history.end)
+    node = None if place is None else place.get("node")
+    return node if isinstance(node, str) else None
+
+
+def _swatch(inner: str) -> str:
+    return f'<svg class="swatch" viewBox="0 0 28 14" width="28" height="14" aria-hidden="true">{inner}</svg>'
+
+
+def _legend(history: History, start: bool, end: bool, width: float) -> str:
+    """What the map's colours and marks mean, below the map (never over it)."""
+    items = [
+        ("way", '<line x1="2" y1="7" x2="26" y2="7" class="lg-way"/>', "the robot's way so far"),
+        (
+            "emergency",
+            '<line x1="2" y1="7" x2="26" y2="7" class="lg-emergency"/>',
+            "legs driven while an emergency was under way",
+        ),
+        ("robot", '<circle cx="14" cy="7" r="5" class="lg-robot"/>', "the robot at the slider's time"),
+    ]
+    if start:
+        items.append(("start", '<rect x="9" y="2" width="10" height="10" class="start"/>', "start"))
+    if end:
+        items.append(("end", '<circle cx="14" cy="7" r="5" class="end lg-end"/>', "where the run ends"))
+    if any(m.kind == "arc_closed" for m in history.marks):
+        items.append(
+            (
+                "door",
+                '<line x1="2" y1="7" x2="26" y2="7" class="lg-door"/>',
+                "a door shut at the slider's time",
+            )
+        )
+    rows = "".join(
+        f'<li data-key="{key}">{_swatch(inner)}<span>{_e(text)}</span></li>' for key, inner, text in items
+    )
+    return (
+        f'<ul id="map-legend" class="legend" style="max-width:{width:.0f}px" '
+        f'aria-label="map legend">{rows}</ul>'
     )
 
 
@@ -398,11 +494,16 @@ def _agent_panels(history: History) -> str:
             f"<h3>{_e(agent)}</h3>"
             f'<div class="row"><span class="k">goal</span> '
             f'<span class="goal" id="agent-{i}-goal"></span></div>'
+            f'<div class="row done"><span class="k">done</span> '
+            f'<span class="last" id="agent-{i}-last"></span></div>'
             f'<div class="row"><span class="k">doing</span> '
             f'<span class="action" id="agent-{i}-action"></span></div>'
-            f'<div class="row"><span class="k">stack</span> (top first)'
+            f'<div class="row"><span class="k">stack</span> '
+            f'<span class="hint" id="agent-{i}-stack-hint"></span>'
             f'<ol class="stack" id="agent-{i}-stack"></ol></div>'
-            f'<div class="row"><span class="k">plan</span><ol class="plan" id="agent-{i}-plan"></ol></div>'
+            f'<div class="row"><span class="k">plan</span> '
+            f'<span class="hint" id="agent-{i}-plan-hint"></span>'
+            f'<ol class="plan" id="agent-{i}-plan"></ol></div>'
             "</section>"
         )
     return "".join(out)
@@ -437,16 +538,24 @@ button{font:inherit;padding:3px 12px}
 #map{border:1px solid #ddd;background:#fcfcfc;max-width:100%;height:auto}
 .arc{stroke:#c8c8c8}.arc.closed{stroke:#b00020;stroke-dasharray:1 1}
 .node{fill:#999}.node-name{fill:#666}.area{fill:#bbb;opacity:.45;text-anchor:middle;dominant-baseline:middle;font-weight:bold}
-.start{fill:#222}
+.start{fill:#222}.end{fill:none;stroke:#222}
 #trail line{stroke-linecap:round}#trail .n{stroke:#1f77b4}#trail .e{stroke:#d62728}
 #robot{fill:#ffbf00;stroke:#222}
+.legend{list-style:none;margin:6px 0 0;padding:0;display:flex;flex-wrap:wrap;gap:4px 16px;font-size:12px;
+color:#444}
+.legend li{display:flex;align-items:center;gap:5px}
+.lg-way{stroke:#1f77b4;stroke-width:4;stroke-linecap:round}.lg-emergency{stroke:#d62728;stroke-width:4;
+stroke-linecap:round}.lg-robot{fill:#ffbf00;stroke:#222;stroke-width:1.5}.lg-end{stroke-width:1.5}
+.lg-door{stroke:#b00020;stroke-width:3;stroke-dasharray:2 2}
+.run{color:#444;margin:0 0 4px}.run .meaning{color:#666}
 #agents{flex:1;min-width:320px}
 .agent{border:1px solid #ddd;border-radius:6px;padding:8px 12px;margin-bottom:10px}
 .k{display:inline-block;min-width:46px;color:#666}
 .goal{font-weight:bold}.goal.emergency{color:#c62828}
+.last{color:#555}.last.failure{color:#b00020}
 ol{margin:2px 0 2px 0;padding-left:26px}
 .plan li.now{font-weight:bold;background:#fff3c4}
-.stack li{color:#444}
+.stack li{color:#444}.hint{color:#666}
 .nomap{color:#555}
 """
 
@@ -487,6 +596,14 @@ function agentAt(h, name, t) {
     plan: plan,
     action: action,
   };
+}
+function lastFinished(h, name, t) {
+  // The agent's goal that ended last by t (its status), for an agent with nothing to do.
+  let last = null;
+  for (const g of h.goals) {
+    if (g.agent === name && g.end !== null && g.end <= t && (last === null || g.end >= last.end)) last = g;
+  }
+  return last;
 }
 function round6(x) { return Math.round(x * 1e6) / 1e6; }
 function fractionAt(m, t) {
@@ -537,7 +654,7 @@ function timeFromHash(hash, end) {
   return Number.isFinite(t) ? Math.min(Math.max(t, 0), end) : null;
 }
 if (typeof module !== "undefined") {
-  module.exports = {stateAt, robotXY, depthAt, timeFromHash};
+  module.exports = {stateAt, robotXY, depthAt, timeFromHash, lastFinished};
 }
 """
 
@@ -557,6 +674,7 @@ _UI = r"""
   const left = Number(timeline.dataset.left), scale = Number(timeline.dataset.scale);
   const svgNS = "http://www.w3.org" + "/2000/svg";
   let now = 0;
+  let playing = null;
 
   function fill(list, items, current) {
     while (list.firstChild) list.removeChild(list.firstChild);
@@ -611,8 +729,17 @@ _UI = r"""
       const goal = document.getElementById("agent-" + i + "-goal");
       goal.textContent = a.goal === null ? "—" : a.goal + (a.emergency ? " (emergency)" : "");
       goal.classList.toggle("emergency", a.emergency);
+      const last = lastFinished(h, name, t);
+      const done = document.getElementById("agent-" + i + "-last");
+      done.textContent = last === null ? "—"
+        : last.goal + ": " + last.status + (last.reason ? " (" + last.reason + ")" : "")
+          + " at " + last.end.toFixed(2) + " s";
+      done.className = "last " + (last === null ? "" : last.status);
       document.getElementById("agent-" + i + "-action").textContent = a.action === null ? "—" : a.action;
       fill(document.getElementById("agent-" + i + "-stack"), a.stack.slice().reverse(), null);
+      const hint = a.stack.length ? "(top first)" : "empty";
+      document.getElementById("agent-" + i + "-stack-hint").textContent = hint;
+      document.getElementById("agent-" + i + "-plan-hint").textContent = a.plan === null ? "none" : "";
       fill(document.getElementById("agent-" + i + "-plan"), a.plan === null ? [] : a.plan, a.action);
     });
     const place = state.robot;
@@ -632,6 +759,20 @@ _UI = r"""
     }
     drawTrail(t);
     drawDoors(t);
+    if (playing !== null && robot !== null && xy !== null) keepInView(robot);
+  }
+  function keepInView(el) {
+    // While playing, scroll the page so that the robot stays in sight below the sticky controls.
+    const box = el.getBoundingClientRect();
+    const top = document.getElementById("controls").getBoundingClientRect().bottom + 12;
+    const bottom = window.innerHeight - 12;
+    let dy = 0;
+    if (box.bottom > bottom) dy = box.bottom - bottom + Math.min(120, (bottom - top) / 3);
+    else if (box.top < top) dy = box.top - top - Math.min(120, (bottom - top) / 3);
+    let dx = 0;
+    if (box.right > window.innerWidth - 12) dx = box.right - window.innerWidth + 60;
+    else if (box.left < 12) dx = box.left - 60;
+    if (dx !== 0 || dy !== 0) window.scrollBy(dx, dy);
   }
   function remember(t) {
     try {
@@ -645,7 +786,6 @@ _UI = r"""
     show(Math.min(Math.max((x - left) / scale, 0), end));
     remember(now);
   });
-  let playing = null;
   function stop() {
     if (playing !== null) { cancelAnimationFrame(playing); playing = null; play.textContent = "▶ play"; }
   }
@@ -683,10 +823,11 @@ _PAGE = """<!DOCTYPE html>
 </head>
 <body>
 <h1>{title}</h1>
+{run}
 {summary}
 <div id="controls">
 <button id="play" type="button">▶ play</button>
-<input id="slider" type="range" min="0" max="{end}" step="0.01" value="0" aria-label="simulated time">
+<input id="slider" type="range" min="0" max="{end}" step="any" value="0" aria-label="simulated time">
 <span id="time">0.00 s</span>
 <label>speed <select id="speed"><option value="1">1×</option><option value="2">2×</option>
 <option value="5" selected>5×</option><option value="10">10×</option>
