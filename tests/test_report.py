@@ -364,7 +364,10 @@ def test_the_map_has_a_legend_outside_its_drawing(tmp_path: Path) -> None:
     assert '<circle class="end"' in drawing and '<rect class="start"' in drawing
     door_page, history = report_of("door_shut.yaml", tmp_path)
     assert any(m.kind == "arc_closed" for m in history.marks)
-    assert 'data-key="door"' in door_page
+    door_keys = re.findall(r'data-key="(\w+)"', door_page)
+    assert "door" in door_keys
+    # The red legs are listed only when an emergency came.
+    assert ("emergency" in door_keys) == any(m.kind == "emergency" for m in history.marks)
 
 
 _FRAME_CLOCK = (

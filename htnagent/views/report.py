@@ -225,6 +225,8 @@ def _timeline_svg(history: History) -> str:
         f'y="{depth_top + depth_height / 2 + 4:.1f}">stack</text>'
     )
     colours = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e")
+    keys: list[str] = []  # each agent's name in its line's colour, over the cursor (drawn last)
+    key_end = _TL_WIDTH - _TL_RIGHT - 6.0
     for i, agent in enumerate(history.agents):
         points = []
         last = 0
@@ -236,10 +238,11 @@ def _timeline_svg(history: History) -> str:
         points.append(f"{_TL_LEFT + end * scale:.1f},{_depth_y(last, depth_top, depth_height, most, i):.1f}")
         colour = colours[i % len(colours)]
         out.append(f'<polyline class="depth" stroke="{colour}" points="{" ".join(points)}"/>')
-        out.append(
-            f'<text class="depth-key" fill="{colour}" x="{_TL_WIDTH - _TL_RIGHT - 90 * (i + 1) + 90}" '
+        keys.append(
+            f'<text class="depth-key" fill="{colour}" x="{key_end:.1f}" '
             f'y="{depth_top - 3:.1f}" text-anchor="end">{_e(agent)}</text>'
         )
+        key_end -= 6.5 * len(agent) + 14  # 11 px letters, then a gap
     for k in sorted({0, most // 2, most}):
         out.append(
             f'<text class="tick depth-tick" x="{_TL_LEFT - 4}" '
@@ -267,6 +270,7 @@ def _timeline_svg(history: History) -> str:
     out += on_top
     out += labels
     out.append(f'<line id="tl-cursor" x1="{_TL_LEFT}" x2="{_TL_LEFT}" y1="{first - 12}" y2="{bottom:.1f}"/>')
+    out += keys
     return (
         f'<svg id="timeline" viewBox="0 0 {_TL_WIDTH} {total:.0f}" width="100%" '
         f'data-left="{_TL_LEFT}" data-scale="{scale:.9g}" role="img" '
@@ -430,11 +434,15 @@ def _map_svg(scenario: Scenario, history: History) -> str:
     parts.append(f'<circle id="robot" cx="0" cy="0" r="{unit * 1.8:.4g}" stroke-width="{unit * 0.5:.4g}"/>')
     # The longer side gets _MAP_WIDTH pixels.
     width, height = (_MAP_WIDTH, _MAP_WIDTH * h / w) if w >= h else (_MAP_WIDTH * w / h, _MAP_WIDTH)
+    # One column as wide as the map (or the legend's least): what is written under it wraps
+    # instead of widening the column and moving the agents' panels as the slider moves.
+    column = max(width, 300.0)
     return (
+        f'<div class="mapcol" style="width:{column:.0f}px">'
         f'<svg id="map" viewBox="{x0:g} {y0:g} {w:g} {h:g}" width="{width:.0f}" height="{height:.0f}" '
         f'role="img" aria-label="map">{"".join(parts)}</svg>'
-        + _legend(history, start is not None, end is not None, max(width, 300.0))
-        + '<p class="where">robot: <b id="robot-text"></b></p>'
+        + _legend(history, start is not None, end is not None)
+        + '<p class="where">robot: <b id="robot-text"></b></p></div>'
     )
 
 
@@ -451,17 +459,18 @@ def _swatch(inner: str) -> str:
     return f'<svg class="swatch" viewBox="0 0 28 14" width="28" height="14" aria-hidden="true">{inner}</svg>'
 
 
-def _legend(history: History, start: bool, end: bool, width: float) -> str:
+def _legend(history: History, start: bool, end: bool) -> str:
     """What the map's colours and marks mean, below the map (never over it)."""
-    items = [
-        ("way", '<line x1="2" y1="7" x2="26" y2="7" class="lg-way"/>', "the robot's way so far"),
-        (
-            "emergency",
-            '<line x1="2" y1="7" x2="26" y2="7" class="lg-emergency"/>',
-            "legs driven while an emergency was under way",
-        ),
-        ("robot", '<circle cx="14" cy="7" r="5" class="lg-robot"/>', "the robot at the slider's time"),
-    ]
+    items = [("way", '<line x1="2" y1="7" x2="26" y2="7" class="lg-way"/>', "the robot's way so far")]
+    if any(m.kind == "emergency" for m in history.marks):
+        items.append(
+            (
+                "emergency",
+                '<line x1="2" y1="7" x2="26" y2="7" class="lg-emergency"/>',
+                "legs driven during an emergency",
+            )
+        )
+    items.append(("robot", '<circle cx="14" cy="7" r="5" class="lg-robot"/>', "the robot"))
     if start:
         items.append(("start", '<rect x="9" y="2" width="10" height="10" class="start"/>', "start"))
     if end:
@@ -471,16 +480,13 @@ def _legend(history: History, start: bool, end: bool, width: float) -> str:
             (
                 "door",
                 '<line x1="2" y1="7" x2="26" y2="7" class="lg-door"/>',
-                "a door shut at the slider's time",
+                "a shut door",
             )
         )
     rows = "".join(
         f'<li data-key="{key}">{_swatch(inner)}<span>{_e(text)}</span></li>' for key, inner, text in items
     )
-    return (
-        f'<ul id="map-legend" class="legend" style="max-width:{width:.0f}px" '
-        f'aria-label="map legend">{rows}</ul>'
-    )
+    return f'<ul id="map-legend" class="legend" aria-label="map legend">{rows}</ul>'
 
 
 # -- the agents ------------------------------------------------------------------------------------
@@ -529,14 +535,15 @@ button{font:inherit;padding:3px 12px}
 .fail{stroke:#222;stroke-width:2.2}
 .fail-label{font-size:10px;fill:#222;stroke:#fff3c4;stroke-width:4px;paint-order:stroke}
 .mark-label{font-size:10px}.mark-label.emergency{fill:#c62828}.mark-label.door{fill:#666}
-.depth{fill:none;stroke-width:2}.depth-key{font-size:11px}
+.depth{fill:none;stroke-width:2}.depth-key{font-size:11px;stroke:#fff;stroke-width:3px;paint-order:stroke}
 .tick{font-size:10px;fill:#555}.grid{stroke:#999}
 .mark{stroke-width:1.2}.mark.emergency{stroke:#e45756;stroke-dasharray:5 3}
 .mark.door{stroke:#7f7f7f;stroke-dasharray:2 3}.mark.crash{stroke:#222}
 #tl-cursor{stroke:#111;stroke-width:1.5}
 #main{display:flex;gap:20px;flex-wrap:wrap;align-items:flex-start;margin-top:10px}
 #map{border:1px solid #ddd;background:#fcfcfc;max-width:100%;height:auto}
-.arc{stroke:#c8c8c8}.arc.closed{stroke:#b00020;stroke-dasharray:1 1}
+.arc{stroke:#c8c8c8}
+.arc.closed{stroke:#b00020;stroke-width:3.5px;stroke-dasharray:4 3;vector-effect:non-scaling-stroke}
 .node{fill:#999}.node-name{fill:#666}.area{fill:#bbb;opacity:.45;text-anchor:middle;dominant-baseline:middle;font-weight:bold}
 .start{fill:#222}.end{fill:none;stroke:#222}
 #trail line{stroke-linecap:round}#trail .n{stroke:#1f77b4}#trail .e{stroke:#d62728}
@@ -546,7 +553,7 @@ color:#444}
 .legend li{display:flex;align-items:center;gap:5px}
 .lg-way{stroke:#1f77b4;stroke-width:4;stroke-linecap:round}.lg-emergency{stroke:#d62728;stroke-width:4;
 stroke-linecap:round}.lg-robot{fill:#ffbf00;stroke:#222;stroke-width:1.5}.lg-end{stroke-width:1.5}
-.lg-door{stroke:#b00020;stroke-width:3;stroke-dasharray:2 2}
+.lg-door{stroke:#b00020;stroke-width:3.5;stroke-dasharray:4 3}
 .run{color:#444;margin:0 0 4px}.run .meaning{color:#666}
 #agents{flex:1;min-width:320px}
 .agent{border:1px solid #ddd;border-radius:6px;padding:8px 12px;margin-bottom:10px}
@@ -556,7 +563,7 @@ stroke-linecap:round}.lg-robot{fill:#ffbf00;stroke:#222;stroke-width:1.5}.lg-end
 ol{margin:2px 0 2px 0;padding-left:26px}
 .plan li.now{font-weight:bold;background:#fff3c4}
 .stack li{color:#444}.hint{color:#666}
-.nomap{color:#555}
+.nomap{color:#555;max-width:420px}
 """
 
 _LOGIC = r"""
