@@ -123,6 +123,15 @@ def test_without_the_scenario_the_page_has_no_map_but_the_same_history(tmp_path:
     assert 'id="map"' not in page and "--scenario" in page
 
 
+def test_a_scenario_without_a_map_says_so_and_gives_the_robot_no_place(tmp_path: Path) -> None:
+    page, history = report_of("courier_hddl.yaml", tmp_path)
+    assert history.summary is not None and history.summary.robot == {}
+    assert "world of facts" in page and "--scenario" not in page
+    assert "robot ends ;" not in page and "robot ends" not in page
+    museum, _ = report_of("museum.yaml", tmp_path)
+    assert "robot ends at n1; travelled" in museum
+
+
 def test_text_from_the_trace_cannot_close_the_script(tmp_path: Path) -> None:
     _, events = shipped_run(NESTED)
     hostile = [e.as_dict() for e in events]
@@ -339,7 +348,10 @@ def test_the_sliders_end_is_the_runs_end_and_its_final_state(name: str, tmp_path
 
 
 def _svg_texts(page: str, cls: str) -> list[tuple[float, str]]:
-    found = re.findall(rf'<text class="[^"]*\b{cls}\b[^"]*" x="([-0-9.]+)"[^>]*>([^<]*)</text>', page)
+    found = re.findall(
+        rf'<text class="[^"]*\b{cls}\b[^"]*" x="([-0-9.]+)"[^>]*>(?:<title>[^<]*</title>)?([^<]*)</text>',
+        page,
+    )
     return [(float(x), text) for x, text in found]
 
 
@@ -351,6 +363,19 @@ def test_the_stack_label_ends_before_the_depth_axis_numbers_begin(name: str, tmp
     assert label == "stack" and ticks
     # Both end-anchored; a digit of the 10 px numbers is at most 6.5 px wide.
     assert all(label_end + 3 <= x - 6.5 * len(text) for x, text in ticks)
+
+
+def test_a_long_agent_name_widens_the_timeline_to_its_left(tmp_path: Path) -> None:
+    long = "reception_desk_coordinator"
+    lines = [line.replace('"guide"', json.dumps(long)) for line in _good_lines()]
+    page = _report_lines(lines, tmp_path)
+    m = re.search(r'<svg id="timeline" viewBox="([-0-9.]+) 0 ([0-9.]+) ', page)
+    assert m is not None
+    left_edge = float(m.group(1))
+    [name_end] = [x for x, t in _svg_texts(page, "lane-name") if t == long]
+    assert left_edge <= name_end - 7.5 * len(long)  # the whole name inside the drawing
+    plain = re.search(r'<svg id="timeline" viewBox="([-0-9.]+) ', report_of(NESTED, tmp_path)[0])
+    assert plain is not None and float(plain.group(1)) == 0
 
 
 def test_the_map_has_a_legend_outside_its_drawing(tmp_path: Path) -> None:

@@ -124,7 +124,7 @@ def render(history: History, *, scenario: Scenario | None = None, source: str = 
         run=_run_line(history, source),
         summary=_summary(history),
         timeline=_timeline_svg(history),
-        map=_map_svg(scenario, history) if scenario is not None and scenario.map is not None else _NO_MAP,
+        map=_map_part(scenario, history),
         agents=_agent_panels(history),
         end=_e(repr(float(history.end))),
         data=blob,
@@ -181,10 +181,10 @@ def _summary(history: History) -> str:
         reason = f" — {_e(g.reason)}" if g.reason else ""
         rows.append(f'<li class="{mark}"><b>{_e(g.agent)}</b> {_e(g.goal)}: {_e(g.status)}{reason}</li>')
     where = ", ".join(f"{_e(k)} {_e(v)}" for k, v in summary.robot.items())
+    # An HDDL agent's robot is on no map: no place, no distance.
+    robot = f"robot ends {where}; travelled {summary.distance:.2f} m; " if where else ""
     return (
-        f'<ul class="goals">{"".join(rows)}</ul>'
-        f'<p class="facts">robot ends {where}; travelled {summary.distance:.2f} m; '
-        f"run ends at {history.end:.2f} s</p>"
+        f'<ul class="goals">{"".join(rows)}</ul><p class="facts">{robot}run ends at {history.end:.2f} s</p>'
     )
 
 
@@ -207,7 +207,8 @@ def _timeline_svg(history: History) -> str:
             f'<rect class="lane" x="{_TL_LEFT - 4}" y="{y - 3:.1f}" '
             f'width="{_TL_WIDTH - _TL_LEFT - _TL_RIGHT + 8}" '
             f'height="{height + 6:.1f}"/>'
-            f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{y + height / 2 + 4:.1f}">{_e(agent)}</text>'
+            f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{y + height / 2 + 4:.1f}">'
+            f"<title>{_e(agent)}</title>{_e(_lane_name(agent))}</text>"
         )
         for goal, row in rows:
             bar, failure = _goal_bar(goal, y + row * _ROW, scale, history.end)
@@ -267,15 +268,26 @@ def _timeline_svg(history: History) -> str:
         )
         k += 1
     total = bottom + 22
+    # Long agent names widen the drawing to the left rather than run off its edge.
+    longest = max((len(_lane_name(a)) for a in history.agents), default=0)
+    extra = max(0.0, _NAME_PX * longest + 16 - _TL_LEFT)
     out += on_top
     out += labels
     out.append(f'<line id="tl-cursor" x1="{_TL_LEFT}" x2="{_TL_LEFT}" y1="{first - 12}" y2="{bottom:.1f}"/>')
     out += keys
     return (
-        f'<svg id="timeline" viewBox="0 0 {_TL_WIDTH} {total:.0f}" width="100%" '
+        f'<svg id="timeline" viewBox="{-extra:.0f} 0 {_TL_WIDTH + extra:.0f} {total:.0f}" width="100%" '
         f'data-left="{_TL_LEFT}" data-scale="{scale:.9g}" role="img" '
         f'aria-label="timeline of goals and stacks">{"".join(out)}</svg>'
     )
+
+
+_NAME_PX = 7.5
+"""The width of a letter of a lane's name (12 px, bold), at most."""
+
+
+def _lane_name(agent: str) -> str:
+    return agent if len(agent) <= 32 else agent[:31] + "…"
 
 
 def _mark_labels(history: History, scale: float) -> tuple[list[str], int]:
@@ -377,6 +389,20 @@ def _hatch(x0: float, x1: float, y0: float, y1: float, step: float = 6.0) -> str
 
 
 # -- the map --------------------------------------------------------------------------------------
+
+_NO_MAP_IN_WORLD = (
+    '<p class="nomap">No map: this scenario\'s agent works on a world of facts (HDDL), not on a map. '
+    'The robot is at: <b id="robot-text"></b></p>'
+)
+
+
+def _map_part(scenario: Scenario | None, history: History) -> str:
+    if scenario is None:
+        return _NO_MAP
+    if scenario.map is None:  # an HDDL agent's world has no map (§7.1)
+        return _NO_MAP_IN_WORLD
+    return _map_svg(scenario, history)
+
 
 _NO_MAP = (
     '<p class="nomap">No map: a trace does not carry one. Give <code>--scenario SCENARIO.yaml</code> '
@@ -789,7 +815,8 @@ _UI = r"""
   slider.addEventListener("input", function () { stop(); show(Number(slider.value)); remember(now); });
   timeline.addEventListener("click", function (ev) {
     const box = timeline.getBoundingClientRect();
-    const x = (ev.clientX - box.left) * (timeline.viewBox.baseVal.width / box.width);
+    const view = timeline.viewBox.baseVal;
+    const x = view.x + (ev.clientX - box.left) * (view.width / box.width);
     show(Math.min(Math.max((x - left) / scale, 0), end));
     remember(now);
   });
