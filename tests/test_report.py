@@ -6,6 +6,11 @@
   gives, at several times including the emergencies (skipped without ``node``).
 - Headless Chromium opened at ``#t=<emergency>`` shows the trace's stack
   (skipped without ``/usr/bin/chromium``).
+- The page's parts do not run into each other in a browser: the stack label clear of the
+  depth axis's numbers, the map's legend outside the map.
+- The slider's end is the run's end, reachable, and shows the final state.
+- The run's header gives the mode shown and, without ``--scenario``, the title.
+- While playing, the page scrolls so that the robot stays in view.
 - A bad trace is one line on stderr and exit 2.
 """
 
@@ -116,6 +121,15 @@ def test_without_the_scenario_the_page_has_no_map_but_the_same_history(tmp_path:
     assert data["map"] is None
     assert data["history"] == as_json(history.as_json())
     assert 'id="map"' not in page and "--scenario" in page
+
+
+def test_a_scenario_without_a_map_says_so_and_gives_the_robot_no_place(tmp_path: Path) -> None:
+    page, history = report_of("courier_hddl.yaml", tmp_path)
+    assert history.summary is not None and history.summary.robot == {}
+    assert "world of facts" in page and "--scenario" not in page
+    assert "robot ends ;" not in page and "robot ends" not in page
+    museum, _ = report_of("museum.yaml", tmp_path)
+    assert "robot ends at n1; travelled" in museum
 
 
 def test_text_from_the_trace_cannot_close_the_script(tmp_path: Path) -> None:
@@ -251,6 +265,220 @@ def test_a_browser_draws_the_page(tmp_path: Path) -> None:
     shot = tmp_path / "shot.png"
     _chromium((tmp_path / "nested_emergencies.html").as_uri() + "#t=12", f"--screenshot={shot}")
     assert shot.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+# -- the header: title and mode ---------------------------------------------------------------------------
+
+
+def _h1(page: str) -> str:
+    m = re.search(r"<h1>(.*?)</h1>", page, re.S)
+    assert m is not None
+    return html.unescape(m.group(1))
+
+
+def _report_lines(lines: list[str], tmp_path: Path, *extra: str) -> str:
+    trace = tmp_path / "saved.jsonl"
+    trace.write_text("\n".join(lines) + "\n")
+    assert main(["report", str(trace), "--html", str(tmp_path / "saved.html"), *extra]) == 0
+    return (tmp_path / "saved.html").read_text(encoding="utf-8")
+
+
+def test_without_the_scenario_the_title_is_the_headers_scenario_name(tmp_path: Path) -> None:
+    scenario, _ = shipped_run(NESTED)
+    page = _report_lines(_good_lines(), tmp_path)
+    assert _h1(page) == scenario.name
+    assert f"<title>{html.escape(scenario.name)}</title>" in page
+    assert embedded(page)["title"] == scenario.name
+
+
+def test_a_trace_saved_without_the_header_loads_titled_by_its_file(tmp_path: Path) -> None:
+    lines = [line for line in _good_lines() if json.loads(line)["event"] != "run_started"]
+    assert len(lines) == len(_good_lines()) - 1
+    page = _report_lines(lines, tmp_path)
+    assert _h1(page) == "saved.jsonl"
+    assert re.search(r'id="mode"[^>]*>not recorded<', page)
+    assert embedded(page)["history"]["run"] is None
+
+
+@pytest.mark.parametrize("mode", ["online", "naive"])
+def test_the_page_shows_the_runs_mode(mode: str, tmp_path: Path) -> None:
+    lines = _good_lines()
+    header = json.loads(lines[0])
+    assert header["event"] == "run_started" and header["mode"] == "online"
+    lines[0] = json.dumps({**header, "mode": mode})
+    page = _report_lines(lines, tmp_path, "--scenario", str(SCENARIO_DIR / NESTED))
+    shown = re.search(r'<p class="run" id="run-info">(.*?)</p>', page, re.S)
+    assert shown is not None
+    text = html.unescape(re.sub(r"<[^>]+>", "", shown.group(1)))
+    assert text.startswith(f"mode: {mode} (")
+    assert ("from scratch" in text) == (mode == "naive")
+    assert header["version"] in text and "saved.jsonl" in text
+    assert embedded(page)["history"]["run"] == {
+        "scenario": header["scenario"],
+        "mode": mode,
+        "version": header["version"],
+    }
+
+
+# -- the slider's end, the stack label, the legend ---------------------------------------------------
+
+
+def _slider(page: str) -> dict[str, str]:
+    m = re.search(r'<input id="slider"([^>]*)>', page)
+    assert m is not None
+    return {k: html.unescape(v) for k, v in re.findall(r'(\w+)="([^"]*)"', m.group(1))}
+
+
+@pytest.mark.parametrize("name", [NESTED, FOUR, "museum.yaml"])
+def test_the_sliders_end_is_the_runs_end_and_its_final_state(name: str, tmp_path: Path) -> None:
+    page, history = report_of(name, tmp_path)
+    summary = history.summary
+    assert summary is not None
+    final = history.at(history.end)
+    assert final.robot == {"node": summary.robot["at"]}
+    # Every agent is done: no goal, no stack; each goal ended as the summary says.
+    assert all(a.goal is None and a.stack == () and a.action is None for a in final.agents.values())
+    ended = {(g.agent, g.goal): g.status for g in history.goals if g.end is not None and g.end <= history.end}
+    assert all(ended[(g.agent, g.goal)] == g.status for g in summary.goals)
+    slider = _slider(page)
+    assert float(slider["min"]) == 0.0 and float(slider["max"]) == history.end
+    step = slider["step"]
+    if step != "any":  # the end must be a whole number of steps from the start
+        assert float(slider["max"]) / float(step) == round(float(slider["max"]) / float(step))
+
+
+def _svg_texts(page: str, cls: str) -> list[tuple[float, str]]:
+    found = re.findall(
+        rf'<text class="[^"]*\b{cls}\b[^"]*" x="([-0-9.]+)"[^>]*>(?:<title>[^<]*</title>)?([^<]*)</text>',
+        page,
+    )
+    return [(float(x), text) for x, text in found]
+
+
+@pytest.mark.parametrize("name", [NESTED, FOUR])
+def test_the_stack_label_ends_before_the_depth_axis_numbers_begin(name: str, tmp_path: Path) -> None:
+    page, _ = report_of(name, tmp_path)
+    [(label_end, label)] = _svg_texts(page, "depth-name")
+    ticks = _svg_texts(page, "depth-tick")
+    assert label == "stack" and ticks
+    # Both end-anchored; a digit of the 10 px numbers is at most 6.5 px wide.
+    assert all(label_end + 3 <= x - 6.5 * len(text) for x, text in ticks)
+
+
+def test_a_long_agent_name_widens_the_timeline_to_its_left(tmp_path: Path) -> None:
+    long = "reception_desk_coordinator"
+    lines = [line.replace('"guide"', json.dumps(long)) for line in _good_lines()]
+    page = _report_lines(lines, tmp_path)
+    m = re.search(r'<svg id="timeline" viewBox="([-0-9.]+) 0 ([0-9.]+) ', page)
+    assert m is not None
+    left_edge = float(m.group(1))
+    [name_end] = [x for x, t in _svg_texts(page, "lane-name") if t == long]
+    assert left_edge <= name_end - 7.5 * len(long)  # the whole name inside the drawing
+    plain = re.search(r'<svg id="timeline" viewBox="([-0-9.]+) ', report_of(NESTED, tmp_path)[0])
+    assert plain is not None and float(plain.group(1)) == 0
+
+
+def test_the_map_has_a_legend_outside_its_drawing(tmp_path: Path) -> None:
+    page, _ = report_of(NESTED, tmp_path)
+    drawing = page[page.index('<svg id="map"') : page.index("</svg>", page.index('<svg id="map"'))]
+    assert "map-legend" not in drawing
+    legend = re.search(r'<ul id="map-legend".*?</ul>', page, re.S)
+    assert legend is not None and legend.start() > page.index('<svg id="map"')
+    keys = re.findall(r'data-key="(\w+)"', legend.group(0))
+    assert keys == ["way", "emergency", "robot", "start", "end"]  # no door shuts in this run
+    assert '<circle class="end"' in drawing and '<rect class="start"' in drawing
+    door_page, history = report_of("door_shut.yaml", tmp_path)
+    assert any(m.kind == "arc_closed" for m in history.marks)
+    door_keys = re.findall(r'data-key="(\w+)"', door_page)
+    assert "door" in door_keys
+    # The red legs are listed only when an emergency came.
+    assert ("emergency" in door_keys) == any(m.kind == "emergency" for m in history.marks)
+
+
+_FRAME_CLOCK = (
+    "<script>window.requestAnimationFrame = function (cb) {"
+    " return setTimeout(function () { cb(performance.now()); }, 16); };"
+    " window.cancelAnimationFrame = clearTimeout;</script>"
+)
+"""Headless Chromium's virtual time runs timers but paints no frames: frames as timers."""
+
+
+def _probe(page: Path, script: str, *extra: str) -> Any:
+    """Open a copy of the page in Chromium with ``script`` run after it; what it reported."""
+    text = page.read_text(encoding="utf-8")
+    text = text.replace('<script id="htn-ui">', _FRAME_CLOCK + '<script id="htn-ui">')
+    report = (
+        'function report(x) { const p = document.createElement("pre"); p.id = "probe";'
+        " p.textContent = JSON.stringify(x); document.body.appendChild(p); }\n"
+    )
+    text = text.replace("</body>", f"<script>{report}{script}</script></body>")
+    probe = page.with_name("probe.html")
+    probe.write_text(text, encoding="utf-8")
+    dom = _chromium(probe.as_uri(), "--dump-dom", "--virtual-time-budget=5000", *extra)
+    m = re.search(r'<pre id="probe">(.*?)</pre>', dom, re.S)
+    assert m is not None, "the probe did not report"
+    return json.loads(html.unescape(m.group(1)))
+
+
+_MEASURE = """
+function box(el) { const r = el.getBoundingClientRect(); return [r.left, r.top, r.right, r.bottom]; }
+function bbox(el) { const b = el.getBBox(); return [b.x, b.y, b.x + b.width, b.y + b.height]; }
+const out = {
+  label: bbox(document.querySelector("text.depth-name")),
+  ticks: Array.from(document.querySelectorAll("text.depth-tick")).map(bbox),
+  map: box(document.getElementById("map")),
+  legend: box(document.getElementById("map-legend")),
+};
+const slider = document.getElementById("slider");
+slider.value = slider.max;
+slider.dispatchEvent(new Event("input"));
+out.value = Number(slider.value);
+out.time = document.getElementById("time").textContent;
+out.robot = document.getElementById("robot-text").textContent;
+out.goals = Array.from(document.querySelectorAll("span.goal")).map(e => e.textContent);
+out.last = Array.from(document.querySelectorAll("span.last")).map(e => e.textContent);
+report(out);
+"""
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=NO_CHROMIUM)
+def test_in_a_browser_nothing_overlaps_and_the_sliders_end_shows_the_final_state(tmp_path: Path) -> None:
+    _, history = report_of(NESTED, tmp_path)
+    got = _probe(tmp_path / "nested_emergencies.html", _MEASURE, "--window-size=1300,1100")
+    label_right = got["label"][2]
+    assert all(label_right <= tick[0] - 2 for tick in got["ticks"]), got
+    m, lg = got["map"], got["legend"]
+    assert lg[1] >= m[3] or lg[0] >= m[2] or lg[3] <= m[1] or lg[2] <= m[0], got  # apart
+    assert got["value"] == history.end
+    assert got["time"] == f"{history.end:.2f} s"
+    assert history.summary is not None
+    assert got["robot"] == f"at {history.summary.robot['at']}"
+    assert got["goals"] == ["—"] * len(history.agents)
+    for agent, shown in zip(history.agents, got["last"], strict=True):
+        last = max((g for g in history.goals_of(agent) if g.end is not None), key=lambda g: g.end or 0.0)
+        assert shown == f"{last.goal}: {last.status} at {last.end:.2f} s"
+
+
+_PLAY = """
+document.getElementById("speed").value = "25";
+document.getElementById("play").click();
+setTimeout(function () {
+  const r = document.getElementById("robot").getBoundingClientRect();
+  const controls = document.getElementById("controls").getBoundingClientRect();
+  report({robot: [r.top, r.bottom], view: window.innerHeight, controls: controls.bottom,
+          scrolled: window.scrollY, time: document.getElementById("time").textContent});
+}, 1500);
+"""
+
+
+@pytest.mark.skipif(not Path(CHROMIUM).exists(), reason=NO_CHROMIUM)
+def test_while_playing_the_page_keeps_the_robot_in_view(tmp_path: Path) -> None:
+    report_of("museum.yaml", tmp_path)
+    # A low window: the map starts near the bottom and the robot (at n40, the map's bottom) out of view.
+    got = _probe(tmp_path / "museum.html", _PLAY, "--window-size=1300,600")
+    assert got["time"] != "0.00 s", got
+    assert got["scrolled"] > 0, got
+    assert got["controls"] <= got["robot"][0] and got["robot"][1] <= got["view"], got
 
 
 # -- bad input ----------------------------------------------------------------------------------------------

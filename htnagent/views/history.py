@@ -11,7 +11,10 @@ facts a person asks about afterwards:
 - per agent, the stack depth over time and the actions it ordered;
 - the robot's motions (from, to, which fraction of the arc at the start and at
   the end) and timed activities;
-- marks: emergencies arriving, doors shutting and opening, crashes.
+- marks: emergencies arriving, doors shutting and opening, crashes;
+- the run's header (``run_started``: the scenario's name, the replanning mode,
+  htnagent's version), when the trace has one (traces saved before it existed
+  have none).
 
 :meth:`History.at` answers "what was going on at time t": each agent's current
 goal, its stack (bottom first), the selected plan and the action under way,
@@ -47,6 +50,7 @@ from htnagent.runtime.events import (
     PlanSelected,
     RobotActing,
     RobotMoving,
+    RunStarted,
     Summary,
     TraceEvent,
 )
@@ -241,6 +245,18 @@ class History:
     end: float
     """The time of the last event (the summary's)."""
     summary: Summary | None
+    run: RunStarted | None = None
+    """The trace's header: scenario name, mode (``online``/``naive``), version; None without one."""
+
+    @property
+    def mode(self) -> str | None:
+        """The replanning mode the run used, if the trace says."""
+        return None if self.run is None else self.run.mode
+
+    @property
+    def scenario_name(self) -> str | None:
+        """The name of the scenario the run ran, if the trace says."""
+        return None if self.run is None else self.run.scenario
 
     # -- building ---------------------------------------------------------------------------
 
@@ -381,6 +397,9 @@ class History:
                 for m in self.marks
             ],
             "summary": None if self.summary is None else self.summary.as_dict(),
+            "run": None
+            if self.run is None
+            else {"scenario": self.run.scenario, "mode": self.run.mode, "version": self.run.version},
         }
 
 
@@ -434,6 +453,7 @@ class _Reader:
         self.seen: list[str] = []
         self.parent: dict[str, str] = {}
         self.summary: Summary | None = None
+        self.run: RunStarted | None = None
         self.now = 0.0
         self.moving: Motion | None = None
         self.planned_end = 0.0
@@ -496,6 +516,8 @@ class _Reader:
                 self.marks.append(Mark(t, "crash", event.agent, event.error))
             case Summary():
                 self.summary = event
+            case RunStarted() if self.run is None:
+                self.run = event
             case _:
                 pass
 
@@ -604,6 +626,7 @@ class _Reader:
             start=start,
             end=round(self.now, _DIGITS),
             summary=self.summary,
+            run=self.run,
         )
 
     def _chain(self) -> tuple[str, ...]:

@@ -97,8 +97,21 @@ def page_data(history: History, scenario: Scenario | None = None, source: str = 
             "nodes": {n.name: [n.x, n.y] for n in w.nodes.values()},
             "arcs": {a_id: [a.a, a.b] for a_id, a in w.arcs.items()},
         }
-    title = scenario.name if scenario is not None else (Path(source).name if source else "htnagent run")
-    return {"title": title, "source": source, "history": history.as_json(), "map": world}
+    return {
+        "title": page_title(history, scenario, source),
+        "source": source,
+        "history": history.as_json(),
+        "map": world,
+    }
+
+
+def page_title(history: History, scenario: Scenario | None = None, source: str = "") -> str:
+    """The scenario's name (given, or from the trace's header), else the trace file's name."""
+    if scenario is not None:
+        return scenario.name
+    if history.scenario_name:
+        return history.scenario_name
+    return Path(source).name if source else "htnagent run"
 
 
 def render(history: History, *, scenario: Scenario | None = None, source: str = "") -> str:
@@ -108,11 +121,12 @@ def render(history: History, *, scenario: Scenario | None = None, source: str = 
     blob = _script_json(data)
     return _PAGE.format(
         title=title,
+        run=_run_line(history, source),
         summary=_summary(history),
         timeline=_timeline_svg(history),
-        map=_map_svg(scenario) if scenario is not None and scenario.map is not None else _NO_MAP,
+        map=_map_part(scenario, history),
         agents=_agent_panels(history),
-        end=f"{history.end:.6f}",
+        end=_e(repr(float(history.end))),
         data=blob,
         logic=_LOGIC,
         ui=_UI,
@@ -132,6 +146,31 @@ def _e(value: object) -> str:
     return html.escape(str(value), quote=True)
 
 
+MODES = {
+    "online": "on-line replanning: a suspended goal keeps its plans and resumes by repairing them",
+    "naive": "naive replanning: a suspended goal is planned again from scratch when it resumes",
+}
+"""What each replanning mode means, in the words the page shows beside it."""
+
+
+def _run_line(history: History, source: str) -> str:
+    """The mode (from the trace's header), the version that ran, the trace's file."""
+    parts = []
+    if history.mode is None:
+        parts.append('mode: <b id="mode">not recorded</b> (the trace has no run_started header)')
+    else:
+        meaning = MODES.get(history.mode, "")
+        parts.append(
+            f'mode: <b id="mode" class="mode-{_e(history.mode)}">{_e(history.mode)}</b>'
+            + (f' <span class="meaning">({_e(meaning)})</span>' if meaning else "")
+        )
+    if history.run is not None and history.run.version:
+        parts.append(f"htnagent {_e(history.run.version)}")
+    if source:
+        parts.append(f"trace {_e(Path(source).name)}")
+    return f'<p class="run" id="run-info">{" · ".join(parts)}</p>'
+
+
 def _summary(history: History) -> str:
     summary = history.summary
     if summary is None:
@@ -142,10 +181,10 @@ def _summary(history: History) -> str:
         reason = f" — {_e(g.reason)}" if g.reason else ""
         rows.append(f'<li class="{mark}"><b>{_e(g.agent)}</b> {_e(g.goal)}: {_e(g.status)}{reason}</li>')
     where = ", ".join(f"{_e(k)} {_e(v)}" for k, v in summary.robot.items())
+    # An HDDL agent's robot is on no map: no place, no distance.
+    robot = f"robot ends {where}; travelled {summary.distance:.2f} m; " if where else ""
     return (
-        f'<ul class="goals">{"".join(rows)}</ul>'
-        f'<p class="facts">robot ends {where}; travelled {summary.distance:.2f} m; '
-        f"run ends at {history.end:.2f} s</p>"
+        f'<ul class="goals">{"".join(rows)}</ul><p class="facts">{robot}run ends at {history.end:.2f} s</p>'
     )
 
 
@@ -168,7 +207,8 @@ def _timeline_svg(history: History) -> str:
             f'<rect class="lane" x="{_TL_LEFT - 4}" y="{y - 3:.1f}" '
             f'width="{_TL_WIDTH - _TL_LEFT - _TL_RIGHT + 8}" '
             f'height="{height + 6:.1f}"/>'
-            f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{y + height / 2 + 4:.1f}">{_e(agent)}</text>'
+            f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{y + height / 2 + 4:.1f}">'
+            f"<title>{_e(agent)}</title>{_e(_lane_name(agent))}</text>"
         )
         for goal, row in rows:
             bar, failure = _goal_bar(goal, y + row * _ROW, scale, history.end)
@@ -179,10 +219,15 @@ def _timeline_svg(history: History) -> str:
     depth_top = lanes_bottom + 14
     most = max((d for steps in history.depth.values() for _, d in steps), default=0)
     depth_height = 18 * (most + 1)
+    # The label ends left of the depth axis's widest number (6.5 px a digit at 10 px), with a gap.
+    label_end = _TL_LEFT - 4 - 6.5 * len(str(most)) - 6
     out.append(
-        f'<text class="lane-name" x="{_TL_LEFT - 10}" y="{depth_top + depth_height / 2 + 4:.1f}">stack</text>'
+        f'<text class="lane-name depth-name" x="{label_end:.1f}" '
+        f'y="{depth_top + depth_height / 2 + 4:.1f}">stack</text>'
     )
     colours = ("#1b9e77", "#d95f02", "#7570b3", "#e7298a", "#66a61e")
+    keys: list[str] = []  # each agent's name in its line's colour, over the cursor (drawn last)
+    key_end = _TL_WIDTH - _TL_RIGHT - 6.0
     for i, agent in enumerate(history.agents):
         points = []
         last = 0
@@ -194,13 +239,14 @@ def _timeline_svg(history: History) -> str:
         points.append(f"{_TL_LEFT + end * scale:.1f},{_depth_y(last, depth_top, depth_height, most, i):.1f}")
         colour = colours[i % len(colours)]
         out.append(f'<polyline class="depth" stroke="{colour}" points="{" ".join(points)}"/>')
-        out.append(
-            f'<text class="depth-key" fill="{colour}" x="{_TL_WIDTH - _TL_RIGHT - 90 * (i + 1) + 90}" '
+        keys.append(
+            f'<text class="depth-key" fill="{colour}" x="{key_end:.1f}" '
             f'y="{depth_top - 3:.1f}" text-anchor="end">{_e(agent)}</text>'
         )
+        key_end -= 6.5 * len(agent) + 14  # 11 px letters, then a gap
     for k in sorted({0, most // 2, most}):
         out.append(
-            f'<text class="tick" x="{_TL_LEFT - 4}" '
+            f'<text class="tick depth-tick" x="{_TL_LEFT - 4}" '
             f'y="{_depth_y(k, depth_top, depth_height, most, 0) + 3:.1f}" '
             f'text-anchor="end">{k}</text>'
         )
@@ -222,14 +268,26 @@ def _timeline_svg(history: History) -> str:
         )
         k += 1
     total = bottom + 22
+    # Long agent names widen the drawing to the left rather than run off its edge.
+    longest = max((len(_lane_name(a)) for a in history.agents), default=0)
+    extra = max(0.0, _NAME_PX * longest + 16 - _TL_LEFT)
     out += on_top
     out += labels
     out.append(f'<line id="tl-cursor" x1="{_TL_LEFT}" x2="{_TL_LEFT}" y1="{first - 12}" y2="{bottom:.1f}"/>')
+    out += keys
     return (
-        f'<svg id="timeline" viewBox="0 0 {_TL_WIDTH} {total:.0f}" width="100%" '
+        f'<svg id="timeline" viewBox="{-extra:.0f} 0 {_TL_WIDTH + extra:.0f} {total:.0f}" width="100%" '
         f'data-left="{_TL_LEFT}" data-scale="{scale:.9g}" role="img" '
         f'aria-label="timeline of goals and stacks">{"".join(out)}</svg>'
     )
+
+
+_NAME_PX = 7.5
+"""The width of a letter of a lane's name (12 px, bold), at most."""
+
+
+def _lane_name(agent: str) -> str:
+    return agent if len(agent) <= 32 else agent[:31] + "…"
 
 
 def _mark_labels(history: History, scale: float) -> tuple[list[str], int]:
@@ -332,13 +390,27 @@ def _hatch(x0: float, x1: float, y0: float, y1: float, step: float = 6.0) -> str
 
 # -- the map --------------------------------------------------------------------------------------
 
+_NO_MAP_IN_WORLD = (
+    '<p class="nomap">No map: this scenario\'s agent works on a world of facts (HDDL), not on a map. '
+    'The robot is at: <b id="robot-text"></b></p>'
+)
+
+
+def _map_part(scenario: Scenario | None, history: History) -> str:
+    if scenario is None:
+        return _NO_MAP
+    if scenario.map is None:  # an HDDL agent's world has no map (§7.1)
+        return _NO_MAP_IN_WORLD
+    return _map_svg(scenario, history)
+
+
 _NO_MAP = (
     '<p class="nomap">No map: a trace does not carry one. Give <code>--scenario SCENARIO.yaml</code> '
     'to draw it. The robot is at: <b id="robot-text"></b></p>'
 )
 
 
-def _map_svg(scenario: Scenario) -> str:
+def _map_svg(scenario: Scenario, history: History) -> str:
     world = scenario.world
     xs = [n.x for n in world.nodes.values()] or [0.0]
     ys = [n.y for n in world.nodes.values()] or [0.0]
@@ -363,6 +435,8 @@ def _map_svg(scenario: Scenario) -> str:
                 f'<text class="area" x="{sum(ax) / len(ax):g}" y="{sum(ay) / len(ay):g}" '
                 f'font-size="{unit * 3.2:.4g}">{_e(area)}</text>'
             )
+    # The way under the nodes and their names, so that it hides neither.
+    parts.append(f'<g id="trail" stroke-width="{unit * 1.0:.4g}"></g>')
     for node in world.nodes.values():
         parts.append(f'<circle class="node" cx="{node.x:g}" cy="{node.y:g}" r="{unit * 0.7:.4g}"/>')
         if small:
@@ -374,17 +448,71 @@ def _map_svg(scenario: Scenario) -> str:
     if start is not None:
         parts.append(
             f'<rect class="start" x="{start.x - unit * 1.2:g}" y="{start.y - unit * 1.2:g}" '
-            f'width="{unit * 2.4:.4g}" height="{unit * 2.4:.4g}"/>'
+            f'width="{unit * 2.4:.4g}" height="{unit * 2.4:.4g}">'
+            f"<title>start: {_e(start.name)}</title></rect>"
         )
-    parts.append(f'<g id="trail" stroke-width="{unit * 1.0:.4g}"></g>')
+    end = world.nodes.get(_end_node(history) or "")
+    if end is not None:
+        parts.append(
+            f'<circle class="end" cx="{end.x:g}" cy="{end.y:g}" r="{unit * 2.6:.4g}" '
+            f'stroke-width="{unit * 0.6:.4g}"><title>end: {_e(end.name)}</title></circle>'
+        )
     parts.append(f'<circle id="robot" cx="0" cy="0" r="{unit * 1.8:.4g}" stroke-width="{unit * 0.5:.4g}"/>')
     # The longer side gets _MAP_WIDTH pixels.
     width, height = (_MAP_WIDTH, _MAP_WIDTH * h / w) if w >= h else (_MAP_WIDTH * w / h, _MAP_WIDTH)
+    # One column as wide as the map (or the legend's least): what is written under it wraps
+    # instead of widening the column and moving the agents' panels as the slider moves.
+    column = max(width, 300.0)
     return (
+        f'<div class="mapcol" style="width:{column:.0f}px">'
         f'<svg id="map" viewBox="{x0:g} {y0:g} {w:g} {h:g}" width="{width:.0f}" height="{height:.0f}" '
         f'role="img" aria-label="map">{"".join(parts)}</svg>'
-        '<p class="where">robot: <b id="robot-text"></b></p>'
+        + _legend(history, start is not None, end is not None)
+        + '<p class="where">robot: <b id="robot-text"></b></p></div>'
     )
+
+
+def _end_node(history: History) -> str | None:
+    """Where the robot ends: the summary's node, else where its last motion arrived."""
+    if history.summary is not None and history.summary.robot.get("at"):
+        return history.summary.robot["at"]
+    place = history.robot_at(history.end)
+    node = None if place is None else place.get("node")
+    return node if isinstance(node, str) else None
+
+
+def _swatch(inner: str) -> str:
+    return f'<svg class="swatch" viewBox="0 0 28 14" width="28" height="14" aria-hidden="true">{inner}</svg>'
+
+
+def _legend(history: History, start: bool, end: bool) -> str:
+    """What the map's colours and marks mean, below the map (never over it)."""
+    items = [("way", '<line x1="2" y1="7" x2="26" y2="7" class="lg-way"/>', "the robot's way so far")]
+    if any(m.kind == "emergency" for m in history.marks):
+        items.append(
+            (
+                "emergency",
+                '<line x1="2" y1="7" x2="26" y2="7" class="lg-emergency"/>',
+                "legs driven during an emergency",
+            )
+        )
+    items.append(("robot", '<circle cx="14" cy="7" r="5" class="lg-robot"/>', "the robot"))
+    if start:
+        items.append(("start", '<rect x="9" y="2" width="10" height="10" class="start"/>', "start"))
+    if end:
+        items.append(("end", '<circle cx="14" cy="7" r="5" class="end lg-end"/>', "where the run ends"))
+    if any(m.kind == "arc_closed" for m in history.marks):
+        items.append(
+            (
+                "door",
+                '<line x1="2" y1="7" x2="26" y2="7" class="lg-door"/>',
+                "a shut door",
+            )
+        )
+    rows = "".join(
+        f'<li data-key="{key}">{_swatch(inner)}<span>{_e(text)}</span></li>' for key, inner, text in items
+    )
+    return f'<ul id="map-legend" class="legend" aria-label="map legend">{rows}</ul>'
 
 
 # -- the agents ------------------------------------------------------------------------------------
@@ -398,11 +526,16 @@ def _agent_panels(history: History) -> str:
             f"<h3>{_e(agent)}</h3>"
             f'<div class="row"><span class="k">goal</span> '
             f'<span class="goal" id="agent-{i}-goal"></span></div>'
+            f'<div class="row done"><span class="k">done</span> '
+            f'<span class="last" id="agent-{i}-last"></span></div>'
             f'<div class="row"><span class="k">doing</span> '
             f'<span class="action" id="agent-{i}-action"></span></div>'
-            f'<div class="row"><span class="k">stack</span> (top first)'
+            f'<div class="row"><span class="k">stack</span> '
+            f'<span class="hint" id="agent-{i}-stack-hint"></span>'
             f'<ol class="stack" id="agent-{i}-stack"></ol></div>'
-            f'<div class="row"><span class="k">plan</span><ol class="plan" id="agent-{i}-plan"></ol></div>'
+            f'<div class="row"><span class="k">plan</span> '
+            f'<span class="hint" id="agent-{i}-plan-hint"></span>'
+            f'<ol class="plan" id="agent-{i}-plan"></ol></div>'
             "</section>"
         )
     return "".join(out)
@@ -428,26 +561,35 @@ button{font:inherit;padding:3px 12px}
 .fail{stroke:#222;stroke-width:2.2}
 .fail-label{font-size:10px;fill:#222;stroke:#fff3c4;stroke-width:4px;paint-order:stroke}
 .mark-label{font-size:10px}.mark-label.emergency{fill:#c62828}.mark-label.door{fill:#666}
-.depth{fill:none;stroke-width:2}.depth-key{font-size:11px}
+.depth{fill:none;stroke-width:2}.depth-key{font-size:11px;stroke:#fff;stroke-width:3px;paint-order:stroke}
 .tick{font-size:10px;fill:#555}.grid{stroke:#999}
 .mark{stroke-width:1.2}.mark.emergency{stroke:#e45756;stroke-dasharray:5 3}
 .mark.door{stroke:#7f7f7f;stroke-dasharray:2 3}.mark.crash{stroke:#222}
 #tl-cursor{stroke:#111;stroke-width:1.5}
 #main{display:flex;gap:20px;flex-wrap:wrap;align-items:flex-start;margin-top:10px}
 #map{border:1px solid #ddd;background:#fcfcfc;max-width:100%;height:auto}
-.arc{stroke:#c8c8c8}.arc.closed{stroke:#b00020;stroke-dasharray:1 1}
+.arc{stroke:#c8c8c8}
+.arc.closed{stroke:#b00020;stroke-width:3.5px;stroke-dasharray:4 3;vector-effect:non-scaling-stroke}
 .node{fill:#999}.node-name{fill:#666}.area{fill:#bbb;opacity:.45;text-anchor:middle;dominant-baseline:middle;font-weight:bold}
-.start{fill:#222}
+.start{fill:#222}.end{fill:none;stroke:#222}
 #trail line{stroke-linecap:round}#trail .n{stroke:#1f77b4}#trail .e{stroke:#d62728}
 #robot{fill:#ffbf00;stroke:#222}
+.legend{list-style:none;margin:6px 0 0;padding:0;display:flex;flex-wrap:wrap;gap:4px 16px;font-size:12px;
+color:#444}
+.legend li{display:flex;align-items:center;gap:5px}
+.lg-way{stroke:#1f77b4;stroke-width:4;stroke-linecap:round}.lg-emergency{stroke:#d62728;stroke-width:4;
+stroke-linecap:round}.lg-robot{fill:#ffbf00;stroke:#222;stroke-width:1.5}.lg-end{stroke-width:1.5}
+.lg-door{stroke:#b00020;stroke-width:3.5;stroke-dasharray:4 3}
+.run{color:#444;margin:0 0 4px}.run .meaning{color:#666}
 #agents{flex:1;min-width:320px}
 .agent{border:1px solid #ddd;border-radius:6px;padding:8px 12px;margin-bottom:10px}
 .k{display:inline-block;min-width:46px;color:#666}
 .goal{font-weight:bold}.goal.emergency{color:#c62828}
+.last{color:#555}.last.failure{color:#b00020}
 ol{margin:2px 0 2px 0;padding-left:26px}
 .plan li.now{font-weight:bold;background:#fff3c4}
-.stack li{color:#444}
-.nomap{color:#555}
+.stack li{color:#444}.hint{color:#666}
+.nomap{color:#555;max-width:420px}
 """
 
 _LOGIC = r"""
@@ -487,6 +629,14 @@ function agentAt(h, name, t) {
     plan: plan,
     action: action,
   };
+}
+function lastFinished(h, name, t) {
+  // The agent's goal that ended last by t (its status), for an agent with nothing to do.
+  let last = null;
+  for (const g of h.goals) {
+    if (g.agent === name && g.end !== null && g.end <= t && (last === null || g.end >= last.end)) last = g;
+  }
+  return last;
 }
 function round6(x) { return Math.round(x * 1e6) / 1e6; }
 function fractionAt(m, t) {
@@ -537,7 +687,7 @@ function timeFromHash(hash, end) {
   return Number.isFinite(t) ? Math.min(Math.max(t, 0), end) : null;
 }
 if (typeof module !== "undefined") {
-  module.exports = {stateAt, robotXY, depthAt, timeFromHash};
+  module.exports = {stateAt, robotXY, depthAt, timeFromHash, lastFinished};
 }
 """
 
@@ -557,6 +707,7 @@ _UI = r"""
   const left = Number(timeline.dataset.left), scale = Number(timeline.dataset.scale);
   const svgNS = "http://www.w3.org" + "/2000/svg";
   let now = 0;
+  let playing = null;
 
   function fill(list, items, current) {
     while (list.firstChild) list.removeChild(list.firstChild);
@@ -611,8 +762,17 @@ _UI = r"""
       const goal = document.getElementById("agent-" + i + "-goal");
       goal.textContent = a.goal === null ? "—" : a.goal + (a.emergency ? " (emergency)" : "");
       goal.classList.toggle("emergency", a.emergency);
+      const last = lastFinished(h, name, t);
+      const done = document.getElementById("agent-" + i + "-last");
+      done.textContent = last === null ? "—"
+        : last.goal + ": " + last.status + (last.reason ? " (" + last.reason + ")" : "")
+          + " at " + last.end.toFixed(2) + " s";
+      done.className = "last " + (last === null ? "" : last.status);
       document.getElementById("agent-" + i + "-action").textContent = a.action === null ? "—" : a.action;
       fill(document.getElementById("agent-" + i + "-stack"), a.stack.slice().reverse(), null);
+      const hint = a.stack.length ? "(top first)" : "empty";
+      document.getElementById("agent-" + i + "-stack-hint").textContent = hint;
+      document.getElementById("agent-" + i + "-plan-hint").textContent = a.plan === null ? "none" : "";
       fill(document.getElementById("agent-" + i + "-plan"), a.plan === null ? [] : a.plan, a.action);
     });
     const place = state.robot;
@@ -632,6 +792,20 @@ _UI = r"""
     }
     drawTrail(t);
     drawDoors(t);
+    if (playing !== null && robot !== null && xy !== null) keepInView(robot);
+  }
+  function keepInView(el) {
+    // While playing, scroll the page so that the robot stays in sight below the sticky controls.
+    const box = el.getBoundingClientRect();
+    const top = document.getElementById("controls").getBoundingClientRect().bottom + 12;
+    const bottom = window.innerHeight - 12;
+    let dy = 0;
+    if (box.bottom > bottom) dy = box.bottom - bottom + Math.min(120, (bottom - top) / 3);
+    else if (box.top < top) dy = box.top - top - Math.min(120, (bottom - top) / 3);
+    let dx = 0;
+    if (box.right > window.innerWidth - 12) dx = box.right - window.innerWidth + 60;
+    else if (box.left < 12) dx = box.left - 60;
+    if (dx !== 0 || dy !== 0) window.scrollBy(dx, dy);
   }
   function remember(t) {
     try {
@@ -641,11 +815,11 @@ _UI = r"""
   slider.addEventListener("input", function () { stop(); show(Number(slider.value)); remember(now); });
   timeline.addEventListener("click", function (ev) {
     const box = timeline.getBoundingClientRect();
-    const x = (ev.clientX - box.left) * (timeline.viewBox.baseVal.width / box.width);
+    const view = timeline.viewBox.baseVal;
+    const x = view.x + (ev.clientX - box.left) * (view.width / box.width);
     show(Math.min(Math.max((x - left) / scale, 0), end));
     remember(now);
   });
-  let playing = null;
   function stop() {
     if (playing !== null) { cancelAnimationFrame(playing); playing = null; play.textContent = "▶ play"; }
   }
@@ -683,10 +857,11 @@ _PAGE = """<!DOCTYPE html>
 </head>
 <body>
 <h1>{title}</h1>
+{run}
 {summary}
 <div id="controls">
 <button id="play" type="button">▶ play</button>
-<input id="slider" type="range" min="0" max="{end}" step="0.01" value="0" aria-label="simulated time">
+<input id="slider" type="range" min="0" max="{end}" step="any" value="0" aria-label="simulated time">
 <span id="time">0.00 s</span>
 <label>speed <select id="speed"><option value="1">1×</option><option value="2">2×</option>
 <option value="5" selected>5×</option><option value="10">10×</option>
