@@ -13,7 +13,7 @@ from rich.console import Console
 from htnagent.cli.commands import main
 from htnagent.runtime.events import GoalReceived
 from htnagent.views.console import LiveTrace
-from htnagent.views.plot import run_figure
+from htnagent.views.plot import check_plot_target, draw_run, run_figure
 from tests.support import SCENARIO_DIR, shipped_run
 
 
@@ -83,7 +83,9 @@ def test_a_door_shut_during_the_run_is_drawn(figure: Figure) -> None:
 @pytest.mark.parametrize(("ending", "starts"), [(".svg", b"<?xml"), (".pdf", b"%PDF")])
 def test_the_picture_format_follows_the_file_name(tmp_path: Path, ending: str, starts: bytes) -> None:
     picture = tmp_path / f"run{ending}"
-    assert main(["run", str(SCENARIO_DIR / "museum.yaml"), "--json", "--plot", str(picture)]) == 0
+    check_plot_target(str(picture))  # accepted before the run
+    scenario, events = shipped_run("museum.yaml")
+    draw_run(scenario, list(events), str(picture))
     assert picture.read_bytes().startswith(starts)
 
 
