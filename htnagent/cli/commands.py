@@ -27,14 +27,17 @@ import os
 import re
 import signal
 import sys
+import textwrap
 import threading
 from collections.abc import Awaitable, Callable, Sequence
 from types import FrameType, TracebackType
-from typing import NoReturn, Self, TextIO
+from typing import Any, NoReturn, Self, TextIO
 
 import anyio
 from rich.console import Console
+from rich.markup import escape as rich_escape
 from rich.text import Text
+from rich_argparse import RawDescriptionRichHelpFormatter
 
 from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
@@ -51,9 +54,11 @@ from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
+from htnagent.scenario.builtin import builtin_scenarios, scenario_file
 from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
-from htnagent.views.console import KEY, JsonLines, LiveTrace, print_summary, printable
+from htnagent.version import VERSION
+from htnagent.views.console import KEY, JsonLines, LiveTrace, OutputConsole, print_summary, printable
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
@@ -73,7 +78,12 @@ class _UsageError(Exception):
 
 
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line and leaves the exiting to :func:`main`."""
+    """argparse, but a usage error is one line and leaves the exiting to :func:`main`; the help
+    is rich's, its epilog (examples, exit codes) printed as written."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", RawDescriptionRichHelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         raise _UsageError(f"{message} (see {self.prog} --help)")
@@ -104,16 +114,21 @@ def _seconds(text: str) -> float:
     return value
 
 
+_SCENARIO_HELP = "the scenario file (YAML), or a built-in scenario's name (museum)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``htnagent`` command."""
     parser = _Parser(
         prog=PROG,
         description="On-line HTN planning agents that handle emergency goals.",
+        epilog=_epilog(),
     )
+    parser.add_argument("--version", action="version", version=f"{PROG} {VERSION}")
     sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report,serve}", required=True)
 
     run = sub.add_parser("run", help="execute the scenario to the end")
-    run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    run.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
     run.add_argument(
         "--replanning", choices=("online", "naive"), help="override the scenario's replanning mode"
     )
@@ -188,6 +203,43 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+EXAMPLES = (
+    ("htnagent run museum", "run a built-in scenario, its trace live"),
+    ("htnagent run museum --json > trace.jsonl", "the trace as JSON Lines, the summary last"),
+    ("htnagent run my.yaml --replanning naive", "your own scenario, in the naive mode"),
+    ("htnagent report trace.jsonl --html run.html --scenario museum", "a saved run as an HTML page"),
+    ('htnagent plan museum --agent guide --task "goto(n28)" --tree', "a plan and its decomposition"),
+    ("htnagent plan --hddl domain.hddl problem.hddl --format ipc", "solve an HDDL problem"),
+    ("htnagent check my.yaml", "validate a scenario"),
+)
+"""The examples ``htnagent --help`` shows."""
+
+EXIT_CODES = (
+    (EXIT_OK, "success"),
+    (EXIT_FAILED, "no plan, or a goal did not succeed"),
+    (EXIT_INVALID, "invalid input or usage: one line on stderr, htnagent: error: FILE: place: reason"),
+    (EXIT_INTERRUPTED, "interrupted (Ctrl-C, SIGTERM); a run still prints its summary"),
+)
+"""The exit codes ``htnagent --help`` lists."""
+
+
+def _epilog() -> str:
+    """Examples, the built-in scenarios and the exit codes, for ``--help`` (rich markup)."""
+
+    def heading(text: str) -> str:
+        return f"[argparse.groups]{text}[/]"
+
+    lines = [heading("Examples:")]
+    for command, what in EXAMPLES:
+        lines += [f"  [dim]# {rich_escape(what)}[/]", f"  {rich_escape(command)}"]
+    lines += ["", heading("Built-in scenarios") + " (a SCENARIO that is no file):"]
+    names = ", ".join(builtin_scenarios()) or "none installed"
+    lines += textwrap.wrap(names, 76, initial_indent="  ", subsequent_indent="  ")
+    lines += ["", heading("Exit codes:")]
+    lines += [f"  {code:<3}  {rich_escape(what)}" for code, what in EXIT_CODES]
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv[1:]``); return the exit code.
 
@@ -206,6 +258,9 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
         code = _main(argv, owns_process)
         try:
             sys.stdout.flush()  # what is still buffered: a full disk is said, not ignored
+        except BrokenPipeError:
+            _reader_gone()
+            return code  # the reader took what it wanted (| head): the command's result stands
         except OSError as e:
             failed = _output_failed(e)
             return failed if code == EXIT_OK else code
@@ -213,12 +268,22 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     return _main(argv, owns_process)
 
 
-def _output_failed(error: OSError) -> int:
-    if isinstance(error, BrokenPipeError):
-        # The reader of our output went away (| head): stop quietly.
+def _reader_gone() -> None:
+    """The reader of standard output went away (``| head``): what is still to be printed goes
+    nowhere, quietly (Python would otherwise complain again when it flushes at exit)."""
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return EXIT_FAILED
+        os.close(devnull)
+    except (OSError, ValueError):  # not a file descriptor (in-process): nothing to redirect
+        pass
+
+
+def _output_failed(error: OSError) -> int:
+    if isinstance(error, BrokenPipeError):
+        # A command's answer was being printed, its work done: it stands.
+        _reader_gone()
+        return EXIT_OK
     if error.filename is not None:
         return _fail(f"{error.filename}: {error.strerror or error}")
     return _fail(f"cannot write the output: {error.strerror or error}")
@@ -284,7 +349,7 @@ def _check(args: argparse.Namespace) -> int:
         return EXIT_OK
     if len(files) != 1:
         return _fail(f"check takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} check --help)")
-    load_scenario(files[0])
+    load_scenario(scenario_file(files[0]))
     print("ok")
     return EXIT_OK
 
@@ -341,7 +406,7 @@ def _plan(args: argparse.Namespace) -> int:
     for option in ("agent", "task"):
         if getattr(args, option) is None:
             return _fail(f"plan SCENARIO needs --{option} (see {PROG} plan --help)")
-    scenario = load_scenario(files[0])
+    scenario = load_scenario(scenario_file(files[0]))
     file = scenario.file
     if args.agent not in scenario.agent_names:
         raise ScenarioError(
@@ -439,7 +504,7 @@ def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) ->
 def _report(args: argparse.Namespace) -> int:
     check_report_target(args.html, args.trace)
     events = read_trace(args.trace)
-    scenario = load_scenario(args.scenario) if args.scenario else None
+    scenario = load_scenario(scenario_file(args.scenario)) if args.scenario else None
     agents = scenario.agent_names if scenario is not None else ()
     if scenario is not None:
         # The map and the lanes come from the scenario: it must be the one the trace ran.
@@ -479,7 +544,7 @@ def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: S
 
 
 def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(scenario_file(args.scenario))
     if scenario.remote:
         import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     if args.plot is not None:
@@ -490,14 +555,15 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     if args.plot and args.timeline and _same_file(args.plot, args.timeline):
         raise PlotError(f"{args.plot}: --plot and --timeline name the same file; give each its own")
     with _RunSignals(restore=restore_signals) as signals:
-        console = Console(highlight=False)
+        console = OutputConsole(highlight=False)
         if args.json:
             printer = _Printer(JsonLines(sys.stdout))
         else:
             mode = args.replanning or scenario.replanning
-            console.print(Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)"))
-            console.print(Text(KEY, style="dim"))
             printer = _Printer(LiveTrace(console, scenario.agent_names))
+            title = Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)")
+            printer.write(console.print, title)
+            printer.write(console.print, Text(KEY, style="dim"))
         run = functools.partial(
             run_scenario,
             scenario,
@@ -507,10 +573,15 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             keep_events=bool(args.plot or args.timeline),
         )
         report = anyio.run(_until_interrupted, run, signals)
-        if printer.error is not None:
+        if isinstance(printer.error, BrokenPipeError):
+            _reader_gone()  # the run went on without a reader: its exit code stands
+        elif printer.error is not None:
             raise printer.error  # the run went on without its trace: say so (main)
         if not args.json:
-            print_summary(console, report.summary)
+            try:
+                print_summary(console, report.summary)
+            except BrokenPipeError:
+                _reader_gone()
         if args.plot:
             _save(
                 "picture", args.plot, lambda: draw_run(scenario, report.events, args.plot), console, args.json
@@ -542,9 +613,13 @@ class _Printer:
         self.error: OSError | None = None
 
     def __call__(self, event: TraceEvent) -> None:
+        self.write(self.printer, event)
+
+    def write(self, write: Callable[..., object], *what: object) -> None:
+        """``write(*what)``, unless the output has failed already; a failure is kept."""
         if self.error is None:
             try:
-                self.printer(event)
+                write(*what)
             except OSError as e:
                 self.error = e
 
@@ -645,7 +720,7 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
     serve = sub.add_parser(
         "serve", help="serve one agent (and the agents below it) to its parent in another process"
     )
-    serve.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    serve.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
     serve.add_argument("--agent", required=True, metavar="NAME", help="the agent to serve")
     serve.add_argument(
         "--listen",
@@ -660,7 +735,7 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
 
 
 def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(scenario_file(args.scenario))
     import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     from htnagent.system.serving import check_served, serve
 

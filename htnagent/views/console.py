@@ -49,6 +49,15 @@ def printable(text: str) -> str:
     return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
+class OutputConsole(Console):
+    """A rich console whose closed pipe (``| head``) is a :class:`BrokenPipeError` for the
+    command to handle, as any write error is: rich's own ends the process with exit 1."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True  # what is still to be printed goes nowhere
+        raise BrokenPipeError(32, "Broken pipe")
+
+
 class JsonLines:
     """Writes each event as one JSON line, the ``summary`` last (docs/contracts.md ``run --json``).
 
