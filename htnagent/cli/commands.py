@@ -59,6 +59,7 @@ from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.version import VERSION
 from htnagent.views.console import KEY, JsonLines, LiveTrace, OutputConsole, print_summary, printable
+from htnagent.views.decomposition import hddl_tree, plan_tree, tree_json, tree_lines
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
@@ -148,8 +149,9 @@ def build_parser() -> argparse.ArgumentParser:
         "plan",
         help="print the plan an agent would make (or solve an HDDL problem), without executing it",
         usage=(
-            f"{PROG} plan SCENARIO --agent NAME --task TASK [--json] [--search NAME] | "
-            f"{PROG} plan --hddl DOMAIN PROBLEM [--format text|json|ipc] [--timeout S] [--search NAME]"
+            f"{PROG} plan SCENARIO --agent NAME --task TASK [--json] [--tree] [--search NAME] | "
+            f"{PROG} plan --hddl DOMAIN PROBLEM [--format text|json|ipc] [--tree] [--timeout S] "
+            "[--search NAME]"
         ),
     )
     pl.add_argument("files", nargs="+", metavar="FILE", help="SCENARIO, or with --hddl DOMAIN PROBLEM")
@@ -157,6 +159,12 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--agent", metavar="NAME", help="the agent that plans (a scenario)")
     pl.add_argument("--task", metavar="TASK", help='the task, e.g. "goto(n1)" (a scenario)')
     pl.add_argument("--json", action="store_true", help='one JSON line: {"plan", "cost", "alternatives"}')
+    pl.add_argument(
+        "--tree",
+        action="store_true",
+        help="the decomposition tree: each compound task, its method, its subtasks indented, the actions "
+        'as leaves (with --json: a "tree" key)',
+    )
     pl.add_argument(
         "--format",
         choices=("text", "json", "ipc"),
@@ -445,10 +453,12 @@ def _plan(args: argparse.Namespace) -> int:
         )
         return EXIT_FAILED
     if args.json:
-        line = {"plan": best.text(), "cost": best.cost, "alternatives": len(result.plans)}
+        line: dict[str, object] = {"plan": best.text(), "cost": best.cost, "alternatives": len(result.plans)}
+        if args.tree:
+            line["tree"] = tree_json(plan_tree(best))
         print(json.dumps(line))
         return EXIT_OK
-    _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans)
+    _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans, tree=args.tree)
     return EXIT_OK
 
 
@@ -456,6 +466,8 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
     if args.json and args.format not in (None, "json"):
         return _fail(f"--json and --format {args.format} disagree (see {PROG} plan --help)")
     form = "json" if args.json else args.format or "text"
+    if args.tree and form == "ipc":
+        return _fail("--tree is for --format text or json: the ipc format lists the decomposition already")
     search = Search(args.search) if args.search not in (None, "auto") else None
     domain, problem = _read_hddl(domain_file, problem_file)
     solved = solve(domain, problem, search=search, timeout=args.timeout)
@@ -478,8 +490,11 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
         sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
         return EXIT_OK
     actions = [_spelled(a, spelling, objects) for a in actions_of(best)]
+    tree = (
+        hddl_tree(ipc_plan(best), functools.partial(_spelled_words, spelling, objects)) if args.tree else ()
+    )
     if form == "json":
-        line = {
+        line: dict[str, object] = {
             "plan": actions,
             "cost": best.cost,
             "alternatives": len(result.plans),
@@ -487,17 +502,25 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
             "expansions": result.expansions,
             "seconds": round(result.seconds, 3),
         }
+        if args.tree:
+            line["tree"] = tree_json(tree)
         print(json.dumps(line))
         return EXIT_OK
-    for action in actions:
+    for action in tree_lines(tree) if args.tree else actions:
         print(action)
     return EXIT_OK
 
 
 def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:
     """``name(arg,...)``, each name as the HDDL files spell it."""
-    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in action.args]
-    name = spelling.get(action.name, action.name)
+    return _spelled_words(spelling, objects, action.name, action.args)
+
+
+def _spelled_words(
+    spelling: dict[str, str], objects: dict[str, str], name: str, args: Sequence[object]
+) -> str:
+    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in args]
+    name = spelling.get(name, name)
     return f"{name}({','.join(words)})" if words else name
 
 
@@ -530,13 +553,19 @@ def _start_of(scenario: Scenario) -> str:
     return str(scenario.robot.start)
 
 
-def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan]) -> None:
+def _print_plan(
+    out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan], *, tree: bool = False
+) -> None:
     best = found[0]
     domain = scenario.domain_for(agent).name
     print(f"{agent} ({domain}) plans {task} from {_start_of(scenario)}:", file=out)
-    width = len(str(len(best)))
-    for i, action in enumerate(best.text(), start=1):
-        print(f"  {i:>{width}}. {action}", file=out)
+    if tree:
+        for line in tree_lines(plan_tree(best)):
+            print(f"  {line}", file=out)
+    else:
+        width = len(str(len(best)))
+        for i, action in enumerate(best.text(), start=1):
+            print(f"  {i:>{width}}. {action}", file=out)
     print(f"cost {best.cost:.2f}", file=out)
     costs = ", ".join(f"{p.cost:.2f}" for p in found)
     noun = "plan" if len(found) == 1 else "plans"

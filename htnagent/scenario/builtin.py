@@ -47,4 +47,6 @@ def scenario_file(text: str) -> str:
     if name in names:
         return str(BUILTIN_DIR / f"{name}.yaml")
     listed = ", ".join(names) if names else "none (they were not installed)"
-    raise ScenarioError(text, "", f"no such file, nor a built-in scenario; the built-in scenarios are {listed}")
+    raise ScenarioError(
+        text, "", f"no such file, nor a built-in scenario; the built-in scenarios are {listed}"
+    )
