@@ -47,7 +47,7 @@ from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom, parse
-from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_solving import Solved, solve
 from htnagent.planning.hddl_translation import translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
@@ -58,7 +58,15 @@ from htnagent.scenario.builtin import builtin_scenarios, scenario_file
 from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.version import VERSION
-from htnagent.views.console import KEY, JsonLines, LiveTrace, OutputConsole, print_summary, printable
+from htnagent.views.console import (
+    KEY,
+    JsonLines,
+    LiveTrace,
+    OutputConsole,
+    SearchProgress,
+    print_summary,
+    printable,
+)
 from htnagent.views.decomposition import hddl_tree, plan_tree, tree_json, tree_lines
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
@@ -470,7 +478,7 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
         return _fail("--tree is for --format text or json: the ipc format lists the decomposition already")
     search = Search(args.search) if args.search not in (None, "auto") else None
     domain, problem = _read_hddl(domain_file, problem_file)
-    solved = solve(domain, problem, search=search, timeout=args.timeout)
+    solved = _solve_showing_progress(domain, problem, search=search, timeout=args.timeout)
     result = solved.result
     best = result.best
     if best is None:
@@ -509,6 +517,25 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
     for action in tree_lines(tree) if args.tree else actions:
         print(action)
     return EXIT_OK
+
+
+def _solve_showing_progress(
+    domain: Domain, problem: Problem, *, search: Search | None, timeout: float | None
+) -> Solved:
+    """:func:`solve`, its progress shown on stderr when stderr is a terminal (nothing otherwise)."""
+    shown = SearchProgress(sys.stderr) if _is_terminal(sys.stderr) else None
+    try:
+        return solve(domain, problem, search=search, timeout=timeout, progress=shown)
+    finally:
+        if shown is not None:
+            shown.close()
+
+
+def _is_terminal(stream: TextIO) -> bool:
+    try:
+        return stream.isatty()
+    except (OSError, ValueError):  # closed, or no file behind it
+        return False
 
 
 def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:

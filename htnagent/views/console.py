@@ -58,6 +58,32 @@ class OutputConsole(Console):
         raise BrokenPipeError(32, "Broken pipe")
 
 
+def search_progress(search: str, expansions: int, seconds: float) -> str:
+    """How far a search has got, in one line: ``searching (gbfs): 1,234,567 expansions, 12.3 s``."""
+    return f"searching ({search}): {expansions:,} expansions, {seconds:.1f} s"
+
+
+class SearchProgress:
+    """Shows a long search's progress on one line of a terminal, rewritten in place
+    (``plan --hddl``); :meth:`close` wipes it, so that the answer stands alone."""
+
+    def __init__(self, out: IO[str]) -> None:
+        self.out = out
+        self.shown = False
+
+    def __call__(self, search: object, expansions: int, seconds: float) -> None:
+        name = getattr(search, "value", search)
+        self.out.write(f"\r{search_progress(str(name), expansions, seconds)}\x1b[K")
+        self.out.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.out.write("\r\x1b[K")
+            self.out.flush()
+            self.shown = False
+
+
 class JsonLines:
     """Writes each event as one JSON line, the ``summary`` last (docs/contracts.md ``run --json``).
 
