@@ -86,12 +86,25 @@ class _UsageError(Exception):
     """A command line that argparse refused."""
 
 
+class _HelpFormatter(RawDescriptionRichHelpFormatter):
+    """rich-argparse's help, its epilog kept as written, made on a console of its own: the
+    default one writes to standard output even while only building the parser, and a full
+    disk or a closed standard output would then fail every command.  Colour when standard
+    output is a terminal (or as NO_COLOR and FORCE_COLOR say)."""
+
+    def __init__(self, prog: str, **kwargs: Any) -> None:
+        kwargs.setdefault(
+            "console", Console(file=io.StringIO(), force_terminal=_is_terminal(sys.stdout) or None)
+        )
+        super().__init__(prog, **kwargs)
+
+
 class _Parser(argparse.ArgumentParser):
     """argparse, but a usage error is one line and leaves the exiting to :func:`main`; the help
     is rich's, its epilog (examples, exit codes) printed as written."""
 
     def __init__(self, *args: Any, **kwargs: Any) -> None:
-        kwargs.setdefault("formatter_class", RawDescriptionRichHelpFormatter)
+        kwargs.setdefault("formatter_class", _HelpFormatter)
         super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
