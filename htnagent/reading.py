@@ -306,6 +306,12 @@ def load_yaml_text(text: str, file: str) -> Any:
             # libyaml (PyYAML >= 6.0.3) refuses flow nesting past 1,000 levels in its own
             # words before our builder sees level MAX_YAML_DEPTH; the refusal is the same.
             raise ScenarioError(file, where, f"nested more than {MAX_YAML_DEPTH} levels deep") from None
+        if mark is not None and (tab := _tab_indenting(text, mark.line)) is not None:
+            raise ScenarioError(
+                file,
+                f"line {mark.line + 1}, column {tab + 1}",
+                "a tab character is not allowed for indentation in YAML; use spaces",
+            ) from None
         reason = e.problem or e.context or "invalid YAML"
         if e.context and e.context_mark is not None and e.problem:
             reason += f" ({e.context} at line {e.context_mark.line + 1})"
@@ -322,6 +328,22 @@ def load_yaml_text(text: str, file: str) -> Any:
         raise ScenarioError(file, "", "ran out of memory reading it; the file is too big") from None
     except RecursionError:  # cannot be (the loop keeps its own stack); said plainly all the same
         raise ScenarioError(file, "", "too deeply nested to read") from None
+
+
+_YAML_LINE_BREAK = re.compile("\r\n|[\r\n\x85\u2028\u2029]")
+"""What YAML 1.1 counts as a line break (not str.splitlines's form feeds and the like)."""
+
+
+def _tab_indenting(text: str, line: int) -> int | None:
+    """The column of a tab in the indentation of ``line`` (0-based), if there is one: YAML
+    refuses tabs there in the parser's words ("cannot start any token", "violates
+    indentation"), and a person needs to hear the cause."""
+    lines = _YAML_LINE_BREAK.split(text)
+    if not 0 <= line < len(lines):
+        return None
+    row = lines[line]
+    indent = row[: len(row) - len(row.lstrip(" \t"))]
+    return indent.index("\t") if "\t" in indent else None
 
 
 @contextlib.contextmanager

@@ -69,7 +69,11 @@ def test_names_written_as_numbers_are_their_text() -> None:
         (small(areas={True: None}), "map.areas", "True is not a valid name (expected text)"),
         (small(areas={1: None, "1": None}), "map.areas.1", "a second area named 1"),
         (small(areas={"a1": {"col": 1, "row": 2.5}}), "map.areas.a1.row", "expected a whole number"),
-        (small(areas={"a1": {"colour": 1}}), "map.areas.a1.colour", "unknown key; expected one of col, row"),
+        (
+            small(areas={"a1": {"colour": 1}}),
+            "map.areas.a1.colour",
+            "unknown key; did you mean col? expected one of col, row",
+        ),
         (
             small(nodes={"n1": {"area": "a1", "x": 0, "y": 0, "z": 1}}),
             "map.nodes.n1.z",

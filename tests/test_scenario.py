@@ -255,8 +255,14 @@ BROKEN: list[tuple[str, Callable[[], Any], str, str]] = [
     (
         "yaml-tab",
         raw(GOOD_TEXT + "events:\n\t- {when: {time: 1}, close: arc1}\n"),
-        "line 9",
-        "invalid YAML",
+        "line 9, column 1",
+        "a tab character is not allowed for indentation in YAML; use spaces",
+    ),
+    (
+        "yaml-tab-after-spaces",
+        raw(GOOD_TEXT.replace("robot: {start: n40, speed: 1.0}", "robot:\n  start: n40\n  \tspeed: 1.0")),
+        "line 5, column 3",
+        "a tab character is not allowed for indentation in YAML; use spaces",
     ),
     ("duplicate-key", raw(GOOD_TEXT + "robot: {start: n1, speed: 2}\n"), "line 8", "duplicate key 'robot'"),
     ("empty-file", raw(""), "", "empty"),
@@ -264,7 +270,20 @@ BROKEN: list[tuple[str, Callable[[], Any], str, str]] = [
     ("top-level-list", raw("- name: x\n"), "", "must be a mapping"),
     ("top-level-text", raw("just words\n"), "", "must be a mapping"),
     ("a-map-not-a-scenario", raw((SCENARIOS / "museum_map.yaml").read_text()), "", "this is a map"),
-    ("unknown-top-key", edited(lambda d: d.update(colour="red")), "colour", "unknown key"),
+    ("unknown-top-key", edited(lambda d: d.update(colour="red")), "colour", "unknown key; expected one of"),
+    (
+        "misspelt-key",
+        edited(lambda d: d["robot"].update(sped=2)),
+        "robot.sped",
+        "unknown key; did you mean speed? expected one of start, speed,",
+    ),
+    (
+        # The required key it replaces is missing too: the typo is what is told.
+        "misspelt-required-key",
+        edited(lambda d: d.update(agentz=d.pop("agents"))),
+        "agentz",
+        "unknown key; did you mean agents?",
+    ),
     ("missing-name", edited(lambda d: d.pop("name")), "name", "required"),
     ("missing-robot", edited(lambda d: d.pop("robot")), "robot", "required"),
     ("robot-not-a-mapping", edited(lambda d: d.update(robot="n40")), "robot", "expected a mapping"),

@@ -27,14 +27,17 @@ import os
 import re
 import signal
 import sys
+import textwrap
 import threading
 from collections.abc import Awaitable, Callable, Sequence
 from types import FrameType, TracebackType
-from typing import NoReturn, Self, TextIO
+from typing import Any, NoReturn, Self, TextIO
 
 import anyio
 from rich.console import Console
+from rich.markup import escape as rich_escape
 from rich.text import Text
+from rich_argparse import RawDescriptionRichHelpFormatter
 
 from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
 from htnagent.hddl.check import check_plan
@@ -44,16 +47,27 @@ from htnagent.hddl.reader import read_domain, read_problem
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom, parse
-from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_solving import Solved, solve
 from htnagent.planning.hddl_translation import translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
+from htnagent.scenario.builtin import builtin_scenarios, scenario_file
 from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
-from htnagent.views.console import KEY, JsonLines, LiveTrace, print_summary, printable
+from htnagent.version import VERSION
+from htnagent.views.console import (
+    KEY,
+    JsonLines,
+    LiveTrace,
+    OutputConsole,
+    SearchProgress,
+    print_summary,
+    printable,
+)
+from htnagent.views.decomposition import hddl_tree, plan_tree, tree_json, tree_lines
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
@@ -72,8 +86,26 @@ class _UsageError(Exception):
     """A command line that argparse refused."""
 
 
+class _HelpFormatter(RawDescriptionRichHelpFormatter):
+    """rich-argparse's help, its epilog kept as written, made on a console of its own: the
+    default one writes to standard output even while only building the parser, and a full
+    disk or a closed standard output would then fail every command.  Colour when standard
+    output is a terminal (or as NO_COLOR and FORCE_COLOR say)."""
+
+    def __init__(self, prog: str, **kwargs: Any) -> None:
+        kwargs.setdefault(
+            "console", Console(file=io.StringIO(), force_terminal=_is_terminal(sys.stdout) or None)
+        )
+        super().__init__(prog, **kwargs)
+
+
 class _Parser(argparse.ArgumentParser):
-    """argparse, but a usage error is one line and leaves the exiting to :func:`main`."""
+    """argparse, but a usage error is one line and leaves the exiting to :func:`main`; the help
+    is rich's, its epilog (examples, exit codes) printed as written."""
+
+    def __init__(self, *args: Any, **kwargs: Any) -> None:
+        kwargs.setdefault("formatter_class", _HelpFormatter)
+        super().__init__(*args, **kwargs)
 
     def error(self, message: str) -> NoReturn:
         raise _UsageError(f"{message} (see {self.prog} --help)")
@@ -104,16 +136,21 @@ def _seconds(text: str) -> float:
     return value
 
 
+_SCENARIO_HELP = "the scenario file (YAML), or a built-in scenario's name (museum)"
+
+
 def build_parser() -> argparse.ArgumentParser:
     """The argument parser of the ``htnagent`` command."""
     parser = _Parser(
         prog=PROG,
         description="On-line HTN planning agents that handle emergency goals.",
+        epilog=_epilog(),
     )
+    parser.add_argument("--version", action="version", version=f"{PROG} {VERSION}")
     sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report,serve}", required=True)
 
     run = sub.add_parser("run", help="execute the scenario to the end")
-    run.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    run.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
     run.add_argument(
         "--replanning", choices=("online", "naive"), help="override the scenario's replanning mode"
     )
@@ -133,8 +170,9 @@ def build_parser() -> argparse.ArgumentParser:
         "plan",
         help="print the plan an agent would make (or solve an HDDL problem), without executing it",
         usage=(
-            f"{PROG} plan SCENARIO --agent NAME --task TASK [--json] [--search NAME] | "
-            f"{PROG} plan --hddl DOMAIN PROBLEM [--format text|json|ipc] [--timeout S] [--search NAME]"
+            f"{PROG} plan SCENARIO --agent NAME --task TASK [--json] [--tree] [--search NAME] | "
+            f"{PROG} plan --hddl DOMAIN PROBLEM [--format text|json|ipc] [--tree] [--timeout S] "
+            "[--search NAME]"
         ),
     )
     pl.add_argument("files", nargs="+", metavar="FILE", help="SCENARIO, or with --hddl DOMAIN PROBLEM")
@@ -142,6 +180,12 @@ def build_parser() -> argparse.ArgumentParser:
     pl.add_argument("--agent", metavar="NAME", help="the agent that plans (a scenario)")
     pl.add_argument("--task", metavar="TASK", help='the task, e.g. "goto(n1)" (a scenario)')
     pl.add_argument("--json", action="store_true", help='one JSON line: {"plan", "cost", "alternatives"}')
+    pl.add_argument(
+        "--tree",
+        action="store_true",
+        help="the decomposition tree: each compound task, its method, its subtasks indented, the actions "
+        'as leaves (with --json: a "tree" key)',
+    )
     pl.add_argument(
         "--format",
         choices=("text", "json", "ipc"),
@@ -188,6 +232,43 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+EXAMPLES = (
+    ("htnagent run museum", "run a built-in scenario, its trace live"),
+    ("htnagent run museum --json > trace.jsonl", "the trace as JSON Lines, the summary last"),
+    ("htnagent run my.yaml --replanning naive", "your own scenario, in the naive mode"),
+    ("htnagent report trace.jsonl --html run.html --scenario museum", "a saved run as an HTML page"),
+    ('htnagent plan museum --agent guide --task "goto(n28)" --tree', "a plan and its decomposition"),
+    ("htnagent plan --hddl domain.hddl problem.hddl --format ipc", "solve an HDDL problem"),
+    ("htnagent check my.yaml", "validate a scenario"),
+)
+"""The examples ``htnagent --help`` shows."""
+
+EXIT_CODES = (
+    (EXIT_OK, "success"),
+    (EXIT_FAILED, "no plan, or a goal did not succeed"),
+    (EXIT_INVALID, "invalid input or usage: one line on stderr, htnagent: error: FILE: place: reason"),
+    (EXIT_INTERRUPTED, "interrupted (Ctrl-C, SIGTERM); a run still prints its summary"),
+)
+"""The exit codes ``htnagent --help`` lists."""
+
+
+def _epilog() -> str:
+    """Examples, the built-in scenarios and the exit codes, for ``--help`` (rich markup)."""
+
+    def heading(text: str) -> str:
+        return f"[argparse.groups]{text}[/]"
+
+    lines = [heading("Examples:")]
+    for command, what in EXAMPLES:
+        lines += [f"  [dim]# {rich_escape(what)}[/]", f"  {rich_escape(command)}"]
+    lines += ["", heading("Built-in scenarios") + " (a SCENARIO that is no file):"]
+    names = ", ".join(builtin_scenarios()) or "none installed"
+    lines += textwrap.wrap(names, 76, initial_indent="  ", subsequent_indent="  ")
+    lines += ["", heading("Exit codes:")]
+    lines += [f"  {code:<3}  {rich_escape(what)}" for code, what in EXIT_CODES]
+    return "\n".join(lines)
+
+
 def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> int:
     """Run the command line with ``argv`` (default: ``sys.argv[1:]``); return the exit code.
 
@@ -206,6 +287,9 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
         code = _main(argv, owns_process)
         try:
             sys.stdout.flush()  # what is still buffered: a full disk is said, not ignored
+        except BrokenPipeError:
+            _reader_gone()
+            return code  # the reader took what it wanted (| head): the command's result stands
         except OSError as e:
             failed = _output_failed(e)
             return failed if code == EXIT_OK else code
@@ -213,12 +297,22 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     return _main(argv, owns_process)
 
 
-def _output_failed(error: OSError) -> int:
-    if isinstance(error, BrokenPipeError):
-        # The reader of our output went away (| head): stop quietly.
+def _reader_gone() -> None:
+    """The reader of standard output went away (``| head``): what is still to be printed goes
+    nowhere, quietly (Python would otherwise complain again when it flushes at exit)."""
+    try:
         devnull = os.open(os.devnull, os.O_WRONLY)
         os.dup2(devnull, sys.stdout.fileno())
-        return EXIT_FAILED
+        os.close(devnull)
+    except (OSError, ValueError):  # not a file descriptor (in-process): nothing to redirect
+        pass
+
+
+def _output_failed(error: OSError) -> int:
+    if isinstance(error, BrokenPipeError):
+        # A command's answer was being printed, its work done: it stands.
+        _reader_gone()
+        return EXIT_OK
     if error.filename is not None:
         return _fail(f"{error.filename}: {error.strerror or error}")
     return _fail(f"cannot write the output: {error.strerror or error}")
@@ -284,7 +378,7 @@ def _check(args: argparse.Namespace) -> int:
         return EXIT_OK
     if len(files) != 1:
         return _fail(f"check takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} check --help)")
-    load_scenario(files[0])
+    load_scenario(scenario_file(files[0]))
     print("ok")
     return EXIT_OK
 
@@ -341,7 +435,7 @@ def _plan(args: argparse.Namespace) -> int:
     for option in ("agent", "task"):
         if getattr(args, option) is None:
             return _fail(f"plan SCENARIO needs --{option} (see {PROG} plan --help)")
-    scenario = load_scenario(files[0])
+    scenario = load_scenario(scenario_file(files[0]))
     file = scenario.file
     if args.agent not in scenario.agent_names:
         raise ScenarioError(
@@ -380,10 +474,12 @@ def _plan(args: argparse.Namespace) -> int:
         )
         return EXIT_FAILED
     if args.json:
-        line = {"plan": best.text(), "cost": best.cost, "alternatives": len(result.plans)}
+        line: dict[str, object] = {"plan": best.text(), "cost": best.cost, "alternatives": len(result.plans)}
+        if args.tree:
+            line["tree"] = tree_json(plan_tree(best))
         print(json.dumps(line))
         return EXIT_OK
-    _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans)
+    _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans, tree=args.tree)
     return EXIT_OK
 
 
@@ -391,9 +487,11 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
     if args.json and args.format not in (None, "json"):
         return _fail(f"--json and --format {args.format} disagree (see {PROG} plan --help)")
     form = "json" if args.json else args.format or "text"
+    if args.tree and form == "ipc":
+        return _fail("--tree is for --format text or json: the ipc format lists the decomposition already")
     search = Search(args.search) if args.search not in (None, "auto") else None
     domain, problem = _read_hddl(domain_file, problem_file)
-    solved = solve(domain, problem, search=search, timeout=args.timeout)
+    solved = _solve_showing_progress(domain, problem, search=search, timeout=args.timeout)
     result = solved.result
     best = result.best
     if best is None:
@@ -413,8 +511,11 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
         sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
         return EXIT_OK
     actions = [_spelled(a, spelling, objects) for a in actions_of(best)]
+    tree = (
+        hddl_tree(ipc_plan(best), functools.partial(_spelled_words, spelling, objects)) if args.tree else ()
+    )
     if form == "json":
-        line = {
+        line: dict[str, object] = {
             "plan": actions,
             "cost": best.cost,
             "alternatives": len(result.plans),
@@ -422,24 +523,51 @@ def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) ->
             "expansions": result.expansions,
             "seconds": round(result.seconds, 3),
         }
+        if args.tree:
+            line["tree"] = tree_json(tree)
         print(json.dumps(line))
         return EXIT_OK
-    for action in actions:
+    for action in tree_lines(tree) if args.tree else actions:
         print(action)
     return EXIT_OK
 
 
+def _solve_showing_progress(
+    domain: Domain, problem: Problem, *, search: Search | None, timeout: float | None
+) -> Solved:
+    """:func:`solve`, its progress shown on stderr when stderr is a terminal (nothing otherwise)."""
+    shown = SearchProgress(sys.stderr) if _is_terminal(sys.stderr) else None
+    try:
+        return solve(domain, problem, search=search, timeout=timeout, progress=shown)
+    finally:
+        if shown is not None:
+            shown.close()
+
+
+def _is_terminal(stream: TextIO) -> bool:
+    try:
+        return stream.isatty()
+    except (OSError, ValueError):  # closed, or no file behind it
+        return False
+
+
 def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:
     """``name(arg,...)``, each name as the HDDL files spell it."""
-    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in action.args]
-    name = spelling.get(action.name, action.name)
+    return _spelled_words(spelling, objects, action.name, action.args)
+
+
+def _spelled_words(
+    spelling: dict[str, str], objects: dict[str, str], name: str, args: Sequence[object]
+) -> str:
+    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in args]
+    name = spelling.get(name, name)
     return f"{name}({','.join(words)})" if words else name
 
 
 def _report(args: argparse.Namespace) -> int:
     check_report_target(args.html, args.trace)
     events = read_trace(args.trace)
-    scenario = load_scenario(args.scenario) if args.scenario else None
+    scenario = load_scenario(scenario_file(args.scenario)) if args.scenario else None
     agents = scenario.agent_names if scenario is not None else ()
     if scenario is not None:
         # The map and the lanes come from the scenario: it must be the one the trace ran.
@@ -465,13 +593,19 @@ def _start_of(scenario: Scenario) -> str:
     return str(scenario.robot.start)
 
 
-def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan]) -> None:
+def _print_plan(
+    out: TextIO, scenario: Scenario, agent: str, task: str, found: Sequence[Plan], *, tree: bool = False
+) -> None:
     best = found[0]
     domain = scenario.domain_for(agent).name
     print(f"{agent} ({domain}) plans {task} from {_start_of(scenario)}:", file=out)
-    width = len(str(len(best)))
-    for i, action in enumerate(best.text(), start=1):
-        print(f"  {i:>{width}}. {action}", file=out)
+    if tree:
+        for line in tree_lines(plan_tree(best)):
+            print(f"  {line}", file=out)
+    else:
+        width = len(str(len(best)))
+        for i, action in enumerate(best.text(), start=1):
+            print(f"  {i:>{width}}. {action}", file=out)
     print(f"cost {best.cost:.2f}", file=out)
     costs = ", ".join(f"{p.cost:.2f}" for p in found)
     noun = "plan" if len(found) == 1 else "plans"
@@ -479,7 +613,7 @@ def _print_plan(out: TextIO, scenario: Scenario, agent: str, task: str, found: S
 
 
 def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(scenario_file(args.scenario))
     if scenario.remote:
         import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     if args.plot is not None:
@@ -490,14 +624,15 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
     if args.plot and args.timeline and _same_file(args.plot, args.timeline):
         raise PlotError(f"{args.plot}: --plot and --timeline name the same file; give each its own")
     with _RunSignals(restore=restore_signals) as signals:
-        console = Console(highlight=False)
+        console = OutputConsole(highlight=False)
         if args.json:
             printer = _Printer(JsonLines(sys.stdout))
         else:
             mode = args.replanning or scenario.replanning
-            console.print(Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)"))
-            console.print(Text(KEY, style="dim"))
             printer = _Printer(LiveTrace(console, scenario.agent_names))
+            title = Text.assemble((printable(scenario.name), "bold"), f"  ({mode} replanning)")
+            printer.write(console.print, title)
+            printer.write(console.print, Text(KEY, style="dim"))
         run = functools.partial(
             run_scenario,
             scenario,
@@ -507,10 +642,15 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
             keep_events=bool(args.plot or args.timeline),
         )
         report = anyio.run(_until_interrupted, run, signals)
-        if printer.error is not None:
+        if isinstance(printer.error, BrokenPipeError):
+            _reader_gone()  # the run went on without a reader: its exit code stands
+        elif printer.error is not None:
             raise printer.error  # the run went on without its trace: say so (main)
         if not args.json:
-            print_summary(console, report.summary)
+            try:
+                print_summary(console, report.summary)
+            except BrokenPipeError:
+                _reader_gone()
         if args.plot:
             _save(
                 "picture", args.plot, lambda: draw_run(scenario, report.events, args.plot), console, args.json
@@ -542,9 +682,13 @@ class _Printer:
         self.error: OSError | None = None
 
     def __call__(self, event: TraceEvent) -> None:
+        self.write(self.printer, event)
+
+    def write(self, write: Callable[..., object], *what: object) -> None:
+        """``write(*what)``, unless the output has failed already; a failure is kept."""
         if self.error is None:
             try:
-                self.printer(event)
+                write(*what)
             except OSError as e:
                 self.error = e
 
@@ -645,7 +789,7 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
     serve = sub.add_parser(
         "serve", help="serve one agent (and the agents below it) to its parent in another process"
     )
-    serve.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    serve.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
     serve.add_argument("--agent", required=True, metavar="NAME", help="the agent to serve")
     serve.add_argument(
         "--listen",
@@ -660,7 +804,7 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
 
 
 def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
-    scenario = load_scenario(args.scenario)
+    scenario = load_scenario(scenario_file(args.scenario))
     import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
     from htnagent.system.serving import check_served, serve
 

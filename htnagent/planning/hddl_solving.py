@@ -11,11 +11,12 @@ from __future__ import annotations
 import dataclasses
 import functools
 import time
+from collections.abc import Callable
 from dataclasses import dataclass
 
 from htnagent.hddl import model as m
 from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
-from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
 
 HDDL_BUDGET = 20_000_000
 """The expansions :func:`solve` allows by default: a limit on memory more than on time."""
@@ -28,6 +29,10 @@ DFS_SECONDS = 2.0
 """The most seconds the portfolio's depth-first search may take.  Where it wins, it wins
 at once (Barman's and Depots's largest problems take it under 0.2 s); past that, the
 time is better spent on the greedy search."""
+
+
+SolveProgress = Callable[[Search, int, float], None]
+"""Told how far :func:`solve` has got: ``(search, expansions, seconds)``."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -52,6 +57,7 @@ def solve(
     search: Search | None = None,
     timeout: float | None = None,
     budget: int = HDDL_BUDGET,
+    progress: SolveProgress | None = None,
 ) -> Solved:
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
@@ -68,6 +74,10 @@ def solve(
     is never far from the better of the two.  Depth-first search that ends without a plan
     has explored every node (there are no cycles: each state and task list is expanded
     once), so that answer is final.
+
+    ``progress(search, expansions, seconds)``, if given, hears how far the solve has got:
+    the search under way, the expansions of every search so far and the seconds since the
+    solve began, at most every :data:`~htnagent.planning.planner.PROGRESS_EVERY` seconds.
     """
     started = time.perf_counter()
     deadline = None if timeout is None else started + timeout
@@ -81,6 +91,12 @@ def solve(
         return Solved(None, settings.search, settings, out_of_time)
     run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
 
+    def told(search: Search, before: int) -> Progress | None:
+        """The planner's progress for ``search`` as the solve's: its expansions after ``before``."""
+        if progress is None:
+            return None
+        return lambda n, _: progress(search, before + n, time.perf_counter() - started)
+
     def time_left() -> float | None:
         # The planner takes a positive limit: a search started at the deadline reads the clock
         # after its first few hundred nodes, as any search past its time does.
@@ -88,7 +104,7 @@ def solve(
 
     if search is not None:
         settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
-        return Solved(planning, search, settings, run(settings))
+        return Solved(planning, search, settings, run(settings, progress=told(search, 0)))
     left = time_left()
     first = PlannerSettings(
         alternatives=1,
@@ -96,18 +112,18 @@ def solve(
         search=Search.DFS,
         time_limit=min(left * DFS_SHARE, DFS_SECONDS) if left is not None else DFS_SECONDS,
     )
-    tried = run(first)
+    tried = run(first, progress=told(Search.DFS, 0))
     if tried.status in (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE) or tried.expansions >= budget:
         return Solved(planning, Search.DFS, first, tried)
     left = time_left()
     then = PlannerSettings(
         alternatives=1, budget=budget - tried.expansions, search=Search.GBFS, time_limit=left
     )
-    found = run(then)
+    found = run(then, progress=told(Search.GBFS, tried.expansions))
     total = dataclasses.replace(
         found, expansions=found.expansions + tried.expansions, seconds=found.seconds + tried.seconds
     )
     return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
 
 
-__all__ = ["DFS_SECONDS", "DFS_SHARE", "HDDL_BUDGET", "Solved", "solve"]
+__all__ = ["DFS_SECONDS", "DFS_SHARE", "HDDL_BUDGET", "SolveProgress", "Solved", "solve"]

@@ -22,7 +22,7 @@ import gc
 import heapq
 import itertools
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from enum import Enum
 from typing import NamedTuple
@@ -60,6 +60,13 @@ class PlanStatus(Enum):
     """The time limit (:attr:`PlannerSettings.time_limit`) ran out before any plan was found."""
     INTERRUPTED = "interrupted"
     """The process was asked to stop (:func:`stop_searches`) before any plan was found."""
+
+
+Progress = Callable[[int, float], None]
+"""Told how far a search has got: ``(expansions, seconds)`` so far (see :func:`plan`)."""
+
+PROGRESS_EVERY = 0.25
+"""The fewest seconds between two calls of a search's ``progress``."""
 
 
 class _StopRequest:
@@ -259,8 +266,13 @@ def plan(
     *,
     recover: bool = True,
     avoid: frozenset[Atom] = frozenset(),
+    progress: Progress | None = None,
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``progress(expansions, seconds)``, if given, hears how far the search has got, at most
+    every :data:`PROGRESS_EVERY` seconds (it is called where the search reads its clock,
+    every 256 nodes, so the search is no slower for it).
 
     ``avoid``: actions not to take in the state itself (its executor has just said it
     cannot do them from there); elsewhere in the plan they are allowed.
@@ -276,10 +288,10 @@ def plan(
     with it).  The nodes form no cycles: reference counting frees them.
     """
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid)
+        return _search(domain, state, tasks, settings, recover, avoid, progress)
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid)
+        return _search(domain, state, tasks, settings, recover, avoid, progress)
     finally:
         gc.enable()
 
@@ -291,6 +303,7 @@ def _search(
     settings: PlannerSettings | None,
     recover: bool,
     avoid: frozenset[Atom],
+    progress: Progress | None = None,
 ) -> PlanResult:
     settings = settings or PlannerSettings()
     started = time.perf_counter()
@@ -438,13 +451,16 @@ def _search(
     # The clock is read every 256 nodes taken off the open list -- not expansions: a long
     # run of nodes already expanded (or of lazy ways) expands nothing.
     ticks = 0
+    next_report = started + PROGRESS_EVERY
     while heap and len(found) < k:
         ticks += 1
-        if not ticks & every and (
-            stop.requested or (deadline is not None and time.perf_counter() > deadline)
-        ):
-            limit = expansions  # out of time: end as when the budget runs out
-            timed_out = True
+        if not ticks & every:
+            if progress is not None and (now := time.perf_counter()) >= next_report:
+                next_report = now + PROGRESS_EVERY
+                progress(expansions, now - started)
+            if stop.requested or (deadline is not None and time.perf_counter() > deadline):
+                limit = expansions  # out of time: end as when the budget runs out
+                timed_out = True
         if expansions >= limit:
             if found and limit < settings.budget:
                 break  # the alternatives' share of the search is spent

@@ -18,6 +18,7 @@ model or a ``TypedDict``) that the location leads to.  A schema's own error
 
 from __future__ import annotations
 
+import difflib
 import types
 from collections.abc import Mapping, Sequence
 from typing import (  # typing_extensions' TypedDicts too
@@ -59,11 +60,32 @@ def scenario_error(error: ValidationError, file: str, schema: object, prefix: st
     it tells which keys are allowed where a key is unknown.  ``prefix`` is where
     the validated data sits in the file (``map`` for a map written inline).
     """
-    detail = error.errors(include_url=False)[0]
+    details = error.errors(include_url=False)
+    detail = _misspelt(details) or details[0]
     loc, at = _walk(schema, tuple(detail["loc"]))
     if loc[-1:] == ("[key]",):
         return _refused_key(detail, file, loc[:-2], prefix)
     return ScenarioError(file, key_path(loc, prefix), _reason(detail, at))
+
+
+def _misspelt(details: list[ErrorDetails]) -> ErrorDetails | None:
+    """The unknown key that is a required key misspelt (``agentz`` for ``agents``), when the
+    first error is that key missing: the typo is what to tell, not the key it left out."""
+    first = details[0]
+    if first["type"] != "missing" or not first["loc"]:
+        return None
+    missing = first["loc"][-1]
+    for d in details[1:]:
+        key = d["loc"][-1] if d["loc"] else None
+        if (
+            d["type"] == "extra_forbidden"
+            and d["loc"][:-1] == first["loc"][:-1]
+            and isinstance(key, str)
+            and isinstance(missing, str)
+            and difflib.get_close_matches(key, [missing], n=1)
+        ):
+            return d
+    return None
 
 
 def _refused_key(
@@ -88,7 +110,12 @@ def _reason(detail: ErrorDetails, at: list[object]) -> str:
         return "required, but missing"
     if kind == "extra_forbidden":
         keys = _keys_in(at)
-        return f"unknown key; expected one of {', '.join(keys)}" if keys else "unknown key"
+        if not keys:
+            return "unknown key"
+        key = detail["loc"][-1] if detail["loc"] else None
+        close = difflib.get_close_matches(key, keys, n=1) if isinstance(key, str) else []
+        guess = f"did you mean {close[0]}? " if close else ""
+        return f"unknown key; {guess}expected one of {', '.join(keys)}"
     if kind in ("model_type", "dict_type", "model_attributes_type"):
         return f"expected a mapping, got {kind_of(got)}"
     if kind in ("tuple_type", "list_type"):

@@ -49,6 +49,41 @@ def printable(text: str) -> str:
     return "".join(c if c.isprintable() else c.encode("unicode_escape").decode("ascii") for c in text)
 
 
+class OutputConsole(Console):
+    """A rich console whose closed pipe (``| head``) is a :class:`BrokenPipeError` for the
+    command to handle, as any write error is: rich's own ends the process with exit 1."""
+
+    def on_broken_pipe(self) -> None:
+        self.quiet = True  # what is still to be printed goes nowhere
+        raise BrokenPipeError(32, "Broken pipe")
+
+
+def search_progress(search: str, expansions: int, seconds: float) -> str:
+    """How far a search has got, in one line: ``searching (gbfs): 1,234,567 expansions, 12.3 s``."""
+    return f"searching ({search}): {expansions:,} expansions, {seconds:.1f} s"
+
+
+class SearchProgress:
+    """Shows a long search's progress on one line of a terminal, rewritten in place
+    (``plan --hddl``); :meth:`close` wipes it, so that the answer stands alone."""
+
+    def __init__(self, out: IO[str]) -> None:
+        self.out = out
+        self.shown = False
+
+    def __call__(self, search: object, expansions: int, seconds: float) -> None:
+        name = getattr(search, "value", search)
+        self.out.write(f"\r{search_progress(str(name), expansions, seconds)}\x1b[K")
+        self.out.flush()
+        self.shown = True
+
+    def close(self) -> None:
+        if self.shown:
+            self.out.write("\r\x1b[K")
+            self.out.flush()
+            self.shown = False
+
+
 class JsonLines:
     """Writes each event as one JSON line, the ``summary`` last (docs/contracts.md ``run --json``).
 
