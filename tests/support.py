@@ -71,3 +71,12 @@ def write_trace(events: Iterable[TraceEvent], path: Path) -> Path:
     """``events`` as ``run --json`` writes them, into ``path``."""
     path.write_text("".join(json.dumps(e.as_dict(), separators=(",", ":")) + "\n" for e in events))
     return path
+
+
+def one_error_line(err: str) -> str:
+    """The one line a refused command printed on stderr (no traceback)."""
+    assert "Traceback" not in err
+    lines = err.splitlines()
+    assert len(lines) == 1, err
+    assert lines[0].startswith("htnagent: error: ")
+    return lines[0]

@@ -15,6 +15,7 @@ import pytest
 import yaml
 
 from htnagent.cli.commands import main
+from tests.support import one_error_line
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -27,14 +28,6 @@ GUIDE_TO_N40 = [
     "move_area(area7,area8)",
     "goto_node(n40)",
 ]
-
-
-def one_error_line(err: str) -> str:
-    assert "Traceback" not in err
-    lines = err.splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("htnagent: error: ")
-    return lines[0]
 
 
 # -- check ----------------------------------------------------------------------------------

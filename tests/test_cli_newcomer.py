@@ -22,7 +22,7 @@ from htnagent.planning.planner import PlanStatus, Search
 from htnagent.scenario.builtin import BUILTIN_DIR, builtin_scenarios, scenario_file
 from htnagent.version import VERSION
 from htnagent.views.console import SearchProgress, search_progress
-from tests.support import SCENARIO_DIR, SHIPPED
+from tests.support import SCENARIO_DIR, SHIPPED, one_error_line
 
 HDDL = Path(__file__).resolve().parent / "hddl"
 
@@ -35,14 +35,6 @@ FOREVER_DOMAIN = (
     " (:action a :parameters () :effect (p)))"
 )
 FOREVER_PROBLEM = "(define (problem p) (:domain forever) (:htn :ordered-subtasks (t)) (:init))"
-
-
-def one_error_line(err: str) -> str:
-    assert "Traceback" not in err
-    lines = err.splitlines()
-    assert len(lines) == 1, err
-    assert lines[0].startswith("htnagent: error: ")
-    return lines[0]
 
 
 # -- --version and --help ---------------------------------------------------------------------
