@@ -54,15 +54,19 @@ _EXPORTS: dict[str, str] = {
     "Summary": "runtime.events",
     "TraceEvent": "runtime.events",
     "ActionFailed": "runtime.executor",
+    "Alarm": "runtime.executor",
     "ActionOutcome": "runtime.executor",
     "Executor": "runtime.executor",
     "ExecutorActor": "runtime.executor",
     "ExecutorContext": "runtime.executor",
+    "Phase": "runtime.progress",
+    "Progress": "runtime.progress",
     "EventStream": "runtime.trace",
     "load_scenario": "scenario",
     "Scenario": "scenario",
     "GoalOutcome": "system.runtime",
     "Runtime": "system.runtime",
+    "build_runtime": "system.simulation",
     "run_scenario": "system.simulation",
     "RunReport": "system.simulation",
 }
@@ -169,6 +173,9 @@ if TYPE_CHECKING:
         ActionOutcome as ActionOutcome,
     )
     from htnagent.runtime.executor import (
+        Alarm as Alarm,
+    )
+    from htnagent.runtime.executor import (
         Executor as Executor,
     )
     from htnagent.runtime.executor import (
@@ -176,6 +183,12 @@ if TYPE_CHECKING:
     )
     from htnagent.runtime.executor import (
         ExecutorContext as ExecutorContext,
+    )
+    from htnagent.runtime.progress import (
+        Phase as Phase,
+    )
+    from htnagent.runtime.progress import (
+        Progress as Progress,
     )
     from htnagent.runtime.trace import (
         EventStream as EventStream,
@@ -194,6 +207,9 @@ if TYPE_CHECKING:
     )
     from htnagent.system.simulation import (
         RunReport as RunReport,
+    )
+    from htnagent.system.simulation import (
+        build_runtime as build_runtime,
     )
     from htnagent.system.simulation import (
         run_scenario as run_scenario,

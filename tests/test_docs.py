@@ -47,12 +47,13 @@ ENVELOPE = frozenset({"t", "agent", "event"})
 
 
 def cited_files() -> list[Path]:
-    """Code, tests, scenarios and the README: the files whose references must resolve."""
+    """Code, tests, scenarios, examples and the README: the files whose references must resolve."""
     found: list[Path] = []
-    for folder in ("htnagent", "executors", "bench", "tests"):
+    for folder in ("htnagent", "executors", "bench", "tests", "examples"):
         found += sorted((ROOT / folder).rglob("*.py"))
     found += sorted((ROOT / "bench" / "results").glob("*.md"))
     found += sorted((ROOT / "scenarios").glob("*.yaml"))
+    found += sorted((ROOT / "examples").rglob("*.yaml")) + sorted((ROOT / "examples").rglob("*.md"))
     found.append(ROOT / "README.md")
     return [p for p in found if p.is_file() and p.resolve() != THIS and ".venv" not in p.parts]
 

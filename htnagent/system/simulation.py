@@ -81,7 +81,12 @@ def build_runtime(
     first: str | None = None,
     look_ahead: bool = True,
 ) -> tuple[Runtime, RobotWorld]:
-    """The scenario's agents over a simulated robot, ready to enter.
+    """The scenario's agents over a simulated robot, ready to enter (``async with``).
+
+    Returns the runtime and, on a map, the simulated world (where the robot is:
+    ``where()``; the nodes it reached: ``visited``).  The scenario's goals and events are
+    not given: :func:`run_scenario` does that; a program embedding the agents gives its
+    own with :meth:`~htnagent.system.runtime.Runtime.submit` (``examples/embed_asyncio.py``).
 
     ``first``: the agents from this one down (a process serving it); by default from
     the first.  The chain stops above an agent served elsewhere (``remote``).
