@@ -55,7 +55,15 @@ from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.scenario.checks import check_task
 from htnagent.system.simulation import RunReport, run_scenario
-from htnagent.views.console import KEY, RESUME_KEY, JsonLines, LiveTrace, print_summary, printable
+from htnagent.views.console import (
+    KEY,
+    RESUME_KEY,
+    JsonLines,
+    LiveTrace,
+    print_summary,
+    print_whole,
+    printable,
+)
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
@@ -807,13 +815,15 @@ def _print_comparison(
     figures("planning ms (whole run)", *planning)
     table.add_row("run ends at s (simulated)", f"{online.t:.2f}", f"{naive.t:.2f}", "")
     table.add_row("wall time s", f"{walls['online']:.3f}", f"{walls['naive']:.3f}", "")
-    console.print(table)
+    print_whole(console, table)
     for mode, summary in summaries.items():
         for g in summary.goals:
             if g.reason:
-                console.print(Text(printable(f"{mode}: {g.goal} failed: {g.reason}"), style="red"))
+                console.print(
+                    Text(printable(f"{mode}: {g.goal} failed: {g.reason}"), style="red"), soft_wrap=True
+                )
     if any(g.resumes for summary in summaries.values() for g in summary.goals):
-        console.print(Text(RESUME_KEY, style="dim"))
+        console.print(Text(RESUME_KEY, style="dim"), soft_wrap=True)
 
 
 def _status(status: str) -> Text:
