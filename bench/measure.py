@@ -1,37 +1,38 @@
 """Measuring one run: resume time at the parent and the child, and whole-run planning.
 
-Resume time is measured the same way in both modes, on the wall clock, from
-outside the agents (trace observers run inside ``emit``, at the very moment of
-the event):
+The figures come from :class:`htnagent.system.goal_times.GoalClock`, the observer whose
+figures the run's summary gives too (``resumes: [{t, replan_ms, window_ms}]``), so the
+benchmarks and ``htnagent run`` always agree.  At the top agent's first resumption:
 
-- it starts when the emergency goal ends at the top agent (its ``goal_finished``);
-- **parent**: until the top agent's first order to its child after that (the
-  resumed goal's first action, sent down);
-- **child**: from there until the first order the bottom agent sends to the
-  robot — the resumed goal's first move;
-- **total**: parent plus child.  With one agent, the parent's time runs to the
-  first order to the robot and the child's is 0.
+- the window starts when the goal run before it (the emergency) ends at the top agent
+  (its ``goal_finished``);
+- **parent**: until the top agent's first order to its child after that (the resumed
+  goal's first action, sent down);
+- **child**: from there until the first order the bottom agent sends to the robot — the
+  resumed goal's first move;
+- **total**: parent plus child, the summary's ``window_ms``.  With one agent, the parent's
+  time runs to the first order to the robot and the child's is 0.
 
-Everything done between those instants counts: re-using or re-making plans, the
-clear of a suspended action that will not be resumed, message passing.  Work
-done earlier (while the emergency's last action ran) does not.  Simulated time
-does not move meanwhile: nothing else runs.  ``planning_ms`` is the agents' own
-count of wall-clock time spent planning and keeping plans, over the whole run.
+Everything done between those instants counts: re-using or re-making plans, the clear of
+a suspended action that will not be resumed, message passing.  Work done earlier (while
+the emergency's last action ran) does not.  Simulated time does not move meanwhile:
+nothing else runs.  Beside the window, the agents' own replanning at that resumption (the
+paper's measure, the summary's ``replan_ms``): the top agent's ``goal_resumed`` replan_ms
+(**parent**) and the child's planning of its first order after it (**child**).
+``planning_ms`` is the agents' own count of wall-clock time spent planning and keeping
+plans, over the whole run.
 """
 
 from __future__ import annotations
 
-import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 
-from htnagent.runtime.events import GoalFinished, GoalResumed, MessageSent, TraceEvent
+from htnagent.runtime.events import GoalResumed, TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import run_scenario
-
-_ORDERS = ("execute", "resume")
 
 
 @dataclass
@@ -40,6 +41,10 @@ class RunFigures:
 
     parent_ms: float | None = None
     child_ms: float | None = None
+    parent_replan_ms: float | None = None
+    """The top agent's own replanning at the resumption (its ``goal_resumed`` replan_ms)."""
+    child_replan_ms: float | None = None
+    """The agents' below it: each one's planning of its first order after the resumption."""
     distance: float = 0.0
     planning_ms: float = 0.0
     succeeded: bool = False
@@ -48,10 +53,17 @@ class RunFigures:
 
     @property
     def total_ms(self) -> float | None:
-        """Parent plus child resume time."""
+        """Parent plus child resume time (the window)."""
         if self.parent_ms is None:
             return None
         return self.parent_ms + (self.child_ms or 0.0)
+
+    @property
+    def replan_ms(self) -> float | None:
+        """Parent plus child replanning at the resumption (the summary's ``replan_ms``)."""
+        if self.parent_replan_ms is None:
+            return None
+        return self.parent_replan_ms + (self.child_replan_ms or 0.0)
 
 
 async def measure_run(
@@ -70,36 +82,22 @@ async def measure_run(
     """
     figures = RunFigures()
     names = scenario.agent_names
-    top, bottom = names[0], names[-1]
-    emergency = next(str(g.task) for g in scenario.goals if g.emergency)
-    marks: dict[str, float] = {}
+    top = names[0]
 
     def observe(event: TraceEvent) -> None:
-        now = time.perf_counter()
-        agent = event.agent
-        if isinstance(event, GoalResumed) and agent == top:
+        if isinstance(event, GoalResumed) and event.agent == top:
             figures.resumes.append(event.replan_ms)
-        if figures.total_ms is not None and "child" in marks:
-            return
-        if "ended" not in marks:
-            if isinstance(event, GoalFinished) and agent == top and event.goal == emergency:
-                marks["ended"] = now
-            return
-        if not isinstance(event, MessageSent) or event.kind not in _ORDERS:
-            return
-        if agent == top and "parent" not in marks:
-            marks["parent"] = now
-            figures.parent_ms = (now - marks["ended"]) * 1000
-        if agent == bottom and event.to == "robot" and "child" not in marks:
-            marks["child"] = now
-            if top == bottom:
-                figures.parent_ms, figures.child_ms = (now - marks["ended"]) * 1000, 0.0
-            else:
-                figures.child_ms = (now - marks.get("parent", marks["ended"])) * 1000
 
     report = await run_scenario(
         scenario, replanning=mode, observers=[observe, *observers], on_start=on_start, look_ahead=look_ahead
     )
+    first = next(iter(report.resumptions(top)), None)
+    if first is not None and first.order_ms is not None:
+        window = first.window_ms if first.window_ms is not None else first.order_ms
+        figures.parent_ms = window if len(names) == 1 else first.order_ms
+        figures.child_ms = 0.0 if len(names) == 1 else window - first.order_ms
+        figures.parent_replan_ms = first.replan_ms.get(top, 0.0)
+        figures.child_replan_ms = first.total_ms - figures.parent_replan_ms
     figures.distance = report.summary.distance
     figures.planning_ms = sum(report.summary.planning_ms.values())
     figures.succeeded = report.succeeded

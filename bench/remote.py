@@ -216,9 +216,8 @@ def _museum() -> dict[str, Any]:
         finally:
             host.kill()
             host.wait()
-    same = (local.goals, local.visited, local.robot) == (remote.goals, remote.visited, remote.robot) and abs(
-        local.distance - remote.distance
-    ) < 1e-6
+    same = (local.outcomes, local.visited, local.robot) == (remote.outcomes, remote.visited, remote.robot)
+    same = same and abs(local.distance - remote.distance) < 1e-6
     return {
         "speed": SPEED,
         "same_goals_visited_distance": same,
@@ -299,7 +298,7 @@ def _fleet(robots: int) -> dict[str, Any]:
                 host.wait()
     summaries = [run.summary for run in report.runs]
     same = [
-        (s.goals, s.visited, s.robot) == (alone.goals, alone.visited, alone.robot)
+        (s.outcomes, s.visited, s.robot) == (alone.outcomes, alone.visited, alone.robot)
         and abs(s.distance - alone.distance) < 1e-6
         for s in summaries
     ]

@@ -16,6 +16,7 @@ from typing import Any
 import anyio
 
 from htnagent.runtime.events import TraceEvent
+from htnagent.runtime.trace import WALL_CLOCK_FIELDS
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.simulation import RunReport, run_scenario
 
@@ -65,6 +66,16 @@ def shipped_run(name: str) -> tuple[Scenario, tuple[TraceEvent, ...]]:
     scenario = load_scenario(SCENARIO_DIR / name)
     report = anyio.run(functools.partial(run_scenario, scenario, keep_events=True))
     return scenario, tuple(report.events)
+
+
+def without_wall_clock(value: Any) -> Any:
+    """An event's JSON object (or any part of it) with every wall-clock field left out, at any
+    depth (the summary's resumptions too): what must be the same from run to run."""
+    if isinstance(value, dict):
+        return {k: without_wall_clock(v) for k, v in value.items() if k not in WALL_CLOCK_FIELDS}
+    if isinstance(value, list):
+        return [without_wall_clock(v) for v in value]
+    return value
 
 
 def write_trace(events: Iterable[TraceEvent], path: Path) -> Path:

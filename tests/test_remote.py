@@ -63,7 +63,10 @@ def test_the_museum_with_a_served_navigator_ends_as_in_one_process(tmp_path: Pat
     with serving(path, port, SPEED):
         report = anyio.run(parent, backend=backend)
     got, expected = summary_of(report), in_one_process("museum.yaml")
-    assert got["goals"] == expected["goals"]
+    # The same outcomes (the times of a run at the wall clock's pace may differ a little).
+    assert report.summary.outcomes == tuple(
+        (g["agent"], g["goal"], g["status"], g.get("reason", "")) for g in expected["goals"]
+    )
     assert got["visited"] == expected["visited"]
     assert got["distance"] == pytest.approx(expected["distance"], abs=1e-6)
     assert got["robot"] == expected["robot"]

@@ -55,7 +55,7 @@ def alone() -> Summary:
 
 
 def assert_as_alone(summary: Summary, expected: Summary) -> None:
-    assert summary.goals == expected.goals
+    assert summary.outcomes == expected.outcomes
     assert summary.visited == expected.visited
     assert summary.distance == pytest.approx(expected.distance, abs=1e-6)
     assert summary.robot == expected.robot

@@ -10,7 +10,7 @@ import anyio
 import pytest
 
 from htnagent.errors import TraceFormatError
-from htnagent.runtime.events import EVENT_KINDS, GoalRow, Summary, event_from_dict, fields_of
+from htnagent.runtime.events import EVENT_KINDS, GoalRow, ResumeRow, Summary, event_from_dict, fields_of
 from htnagent.scenario import load_scenario
 from htnagent.system.simulation import run_scenario
 
@@ -42,9 +42,56 @@ def test_the_json_form_has_time_agent_and_kind_first_and_leaves_unset_optionals_
     )
     data = summary.as_dict()
     assert list(data)[:3] == ["t", "agent", "event"]
+    never: dict[str, object] = {"emergency": False, "given": None, "started": None, "ended": None}
+    never |= {"waited_s": 0.0, "resumes": []}
     assert data["goals"] == [
-        {"agent": "guide", "goal": "goto(n1)", "status": "success"},
-        {"agent": "guide", "goal": "goto(n9)", "status": "failure", "reason": "no plan"},
+        {"agent": "guide", "goal": "goto(n1)", "status": "success", **never},
+        {"agent": "guide", "goal": "goto(n9)", "status": "failure", "reason": "no plan", **never},
+    ]
+    assert event_from_dict(data) == summary
+
+
+def test_a_summary_saved_before_the_goals_had_times_reads_back_with_their_defaults() -> None:
+    old = {
+        "t": 64.8,
+        "agent": "runtime",
+        "event": "summary",
+        "goals": [{"agent": "guide", "goal": "goto(n1)", "status": "success"}],
+        "robot": {"at": "n1"},
+        "visited": ["n40", "n1"],
+        "distance": 64.8,
+        "planning_ms": {"guide": 1.5},
+    }
+    summary = event_from_dict(old)
+    assert isinstance(summary, Summary)
+    assert summary.goals == (GoalRow("guide", "goto(n1)", "success"),)
+    row = summary.goals[0]
+    assert (row.emergency, row.given, row.started, row.ended, row.waited_s, row.resumes) == (
+        False,
+        None,
+        None,
+        None,
+        0.0,
+        (),
+    )
+
+
+def test_a_summary_with_resumptions_reads_back_as_itself() -> None:
+    row = GoalRow(
+        "guide",
+        "goto(n1)",
+        "success",
+        given=0.0,
+        started=0.0,
+        ended=64.8,
+        waited_s=35.5,
+        resumes=(ResumeRow(t=37.5, replan_ms=0.08, window_ms=0.45), ResumeRow(t=50.0, replan_ms=0.1)),
+    )
+    summary = Summary(agent="runtime", goals=(row,), robot={}, visited=(), distance=0.0, planning_ms={})
+    data = json.loads(json.dumps(summary.as_dict()))
+    assert data["goals"][0]["resumes"] == [
+        {"t": 37.5, "replan_ms": 0.08, "window_ms": 0.45},
+        {"t": 50.0, "replan_ms": 0.1, "window_ms": None},
     ]
     assert event_from_dict(data) == summary
 

@@ -29,6 +29,7 @@ import signal
 import sys
 import textwrap
 import threading
+import time
 from collections.abc import Awaitable, Callable, Sequence
 from types import FrameType, TracebackType
 from typing import Any, NoReturn, Self, TextIO
@@ -36,6 +37,7 @@ from typing import Any, NoReturn, Self, TextIO
 import anyio
 from rich.console import Console
 from rich.markup import escape as rich_escape
+from rich.table import Table
 from rich.text import Text
 from rich_argparse import RawDescriptionRichHelpFormatter
 
@@ -51,7 +53,7 @@ from htnagent.planning.hddl_solving import Solved, solve
 from htnagent.planning.hddl_translation import translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
-from htnagent.runtime.events import TraceEvent
+from htnagent.runtime.events import Summary, TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario, load_scenario
 from htnagent.scenario.builtin import builtin_scenarios, scenario_file
@@ -60,11 +62,13 @@ from htnagent.system.simulation import RunReport, run_scenario
 from htnagent.version import VERSION
 from htnagent.views.console import (
     KEY,
+    RESUME_KEY,
     JsonLines,
     LiveTrace,
     OutputConsole,
     SearchProgress,
     print_summary,
+    print_whole,
     printable,
 )
 from htnagent.views.decomposition import hddl_tree, plan_tree, tree_json, tree_lines
@@ -147,7 +151,9 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=_epilog(),
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {VERSION}")
-    sub = parser.add_subparsers(dest="command", metavar="{run,plan,check,verify,report,serve}", required=True)
+    sub = parser.add_subparsers(
+        dest="command", metavar="{run,compare,plan,check,verify,report,serve}", required=True
+    )
 
     run = sub.add_parser("run", help="execute the scenario to the end")
     run.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
@@ -229,6 +235,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the scenario the trace ran (for the map and the agents' order)",
     )
     _add_serve(sub)
+    _add_compare(sub)
     return parser
 
 
@@ -236,6 +243,7 @@ EXAMPLES = (
     ("htnagent run museum", "run a built-in scenario, its trace live"),
     ("htnagent run museum --json > trace.jsonl", "the trace as JSON Lines, the summary last"),
     ("htnagent run my.yaml --replanning naive", "your own scenario, in the naive mode"),
+    ("htnagent compare museum", "on-line against naive, side by side (replanning at each resumption)"),
     ("htnagent report trace.jsonl --html run.html --scenario museum", "a saved run as an HTML page"),
     ('htnagent plan museum --agent guide --task "goto(n28)" --tree', "a plan and its decomposition"),
     ("htnagent plan --hddl domain.hddl problem.hddl --format ipc", "solve an HDDL problem"),
@@ -337,6 +345,8 @@ def _main(argv: Sequence[str] | None, owns_process: bool) -> int:
             return _report(args)
         if args.command == "serve":
             return _serve(args, restore_signals=not owns_process)
+        if args.command == "compare":
+            return _compare(args, restore_signals=not owns_process)
         return _run(args, restore_signals=not owns_process)
     except HtnAgentError as e:
         return _fail(str(e))
@@ -841,3 +851,123 @@ def _first_error(group: BaseExceptionGroup[BaseException]) -> BaseException:
     while isinstance(first, BaseExceptionGroup):
         first = first.exceptions[0]
     return first
+
+
+# -- compare: the scenario on-line and naive, side by side (docs/contracts.md "Command line")
+
+_MODES = ("online", "naive")
+
+
+def _add_compare(sub: argparse._SubParsersAction[_Parser]) -> None:
+    compare = sub.add_parser(
+        "compare",
+        help="run the scenario in both replanning modes and print them side by side",
+        description="Run the scenario on-line, then naive, and print per mode the goals' outcomes, "
+        "the distance, the whole-run planning time, the agents' replanning and the window at "
+        "each resumption, and the wall time. Exit 0 if every goal succeeded in both modes, 1 if not.",
+    )
+    compare.add_argument("scenario", metavar="SCENARIO", help="the scenario file (YAML)")
+    compare.add_argument(
+        "--json", action="store_true", help='one JSON object: {"online": {...}, "naive": {...}}'
+    )
+
+
+def _compare(args: argparse.Namespace, restore_signals: bool = True) -> int:
+    scenario = load_scenario(scenario_file(args.scenario))
+    for i, agent in enumerate(scenario.agents):
+        if agent.remote:
+            raise ScenarioError(
+                scenario.file,
+                f"agents[{i}].remote",
+                "compare runs every agent in this process, in each mode; "
+                "run each mode with run --replanning instead",
+            )
+    summaries: dict[str, Summary] = {}
+    walls: dict[str, float] = {}
+    with _RunSignals(restore=restore_signals) as signals:
+        # One run first, unmeasured: neither mode pays the process's start-up (imports, caches).
+        warm_up = anyio.run(_until_interrupted, functools.partial(run_scenario, scenario), signals)
+        if warm_up.interrupted or signals.received:
+            print(f"{PROG}: interrupted", file=sys.stderr)
+            return EXIT_INTERRUPTED
+        for mode in _MODES:
+            started = time.perf_counter()
+            report = anyio.run(
+                _until_interrupted, functools.partial(run_scenario, scenario, replanning=mode), signals
+            )
+            walls[mode] = time.perf_counter() - started
+            if report.interrupted or signals.received:
+                print(f"{PROG}: interrupted", file=sys.stderr)
+                return EXIT_INTERRUPTED
+            summaries[mode] = report.summary
+    if args.json:
+        both = {mode: _compared(summary, walls[mode]) for mode, summary in summaries.items()}
+        print(json.dumps(both, separators=(",", ":")))
+    else:
+        _print_comparison(Console(highlight=False), scenario, summaries, walls)
+    return EXIT_OK if all(s.succeeded for s in summaries.values()) else EXIT_FAILED
+
+
+def _compared(summary: Summary, wall_s: float) -> dict[str, object]:
+    """One mode's object of ``compare --json``: the summary's fields, whether every goal
+    succeeded, and the run's wall time."""
+    data = summary.as_dict()
+    return {
+        "succeeded": summary.succeeded,
+        **{k: v for k, v in data.items() if k not in ("t", "agent", "event")},
+        "wall_s": round(wall_s, 4),
+    }
+
+
+def _print_comparison(
+    console: Console, scenario: Scenario, summaries: dict[str, Summary], walls: dict[str, float]
+) -> None:
+    online, naive = summaries["online"], summaries["naive"]
+    table = Table(title=Text(printable(scenario.name), style="bold"), show_edge=False)
+    for name in ("", "on-line", "naive", "naive/on-line"):
+        table.add_column(name, justify="right" if name else "left")
+
+    def ratio(a: float | None, b: float | None) -> str:
+        return f"{b / a:.1f}×" if a and b is not None else ""
+
+    def figures(label: str, a: float | None = None, b: float | None = None) -> None:
+        table.add_row(label, _ms(a), _ms(b), ratio(a, b))
+
+    for i, (on, na) in enumerate(zip(online.goals, naive.goals, strict=True)):
+        mark = Text(" emergency", style="bold red") if on.emergency else ""
+        table.add_row(
+            Text.assemble(printable(f"{i + 1}. {on.goal} ({on.agent})"), mark),
+            _status(on.status),
+            _status(na.status),
+            "",
+        )
+        for k in range(max(len(on.resumes), len(na.resumes))):
+            a = on.resumes[k] if k < len(on.resumes) else None
+            b = na.resumes[k] if k < len(na.resumes) else None
+            when = a.t if a is not None else b.t if b is not None else 0.0
+            replans = [None if r is None else r.replan_ms for r in (a, b)]
+            windows = [None if r is None else r.window_ms for r in (a, b)]
+            figures(f"   resumed at {when:.2f} s: replanning ms", *replans)
+            figures("   window ms", *windows)
+    planning = sum(online.planning_ms.values()), sum(naive.planning_ms.values())
+    table.add_row("distance m", f"{online.distance:.2f}", f"{naive.distance:.2f}", "")
+    figures("planning ms (whole run)", *planning)
+    table.add_row("run ends at s (simulated)", f"{online.t:.2f}", f"{naive.t:.2f}", "")
+    table.add_row("wall time s", f"{walls['online']:.3f}", f"{walls['naive']:.3f}", "")
+    print_whole(console, table)
+    for mode, summary in summaries.items():
+        for g in summary.goals:
+            if g.reason:
+                console.print(
+                    Text(printable(f"{mode}: {g.goal} failed: {g.reason}"), style="red"), soft_wrap=True
+                )
+    if any(g.resumes for summary in summaries.values() for g in summary.goals):
+        console.print(Text(RESUME_KEY, style="dim"), soft_wrap=True)
+
+
+def _status(status: str) -> Text:
+    return Text(status, style="green" if status == "success" else "red")
+
+
+def _ms(value: float | None) -> str:
+    return "" if value is None else f"{value:.3f}"

@@ -307,15 +307,43 @@ class RunStarted(TraceEvent):
     version: str
 
 
+@dataclass(frozen=True, slots=True)
+class ResumeRow:
+    """One resumption of a goal in the summary: when (``t``, simulated seconds); the agents'
+    own replanning then (``replan_ms``) and the window from the emergency's end to the
+    resumed goal's first order at the robot (``window_ms``, None if no order followed),
+    both on the wall clock (see :mod:`htnagent.system.goal_times`)."""
+
+    t: float
+    replan_ms: float
+    window_ms: float | None = None
+
 
 @dataclass(frozen=True, slots=True)
 class GoalRow:
-    """A scenario goal's line in the summary: ``reason`` only when it did not succeed."""
+    """A scenario goal's line in the summary: ``reason`` only when it did not succeed.
+
+    ``given``, ``started``, ``ended`` (simulated seconds; None when it never was) and
+    ``waited_s`` (seconds suspended on its agent's stack) are the same at any speed;
+    ``resumes`` holds wall-clock figures.  A trace saved before these fields existed reads
+    back with their defaults.
+    """
 
     agent: str
     goal: str
     status: Literal["success", "failure"]
     reason: str = dataclasses.field(default="", metadata={"optional": True})
+    emergency: bool = False
+    given: float | None = None
+    started: float | None = None
+    ended: float | None = None
+    waited_s: float = 0.0
+    resumes: tuple[ResumeRow, ...] = ()
+
+    @property
+    def outcome(self) -> tuple[str, str, str, str]:
+        """Agent, goal, status and reason: what another run of the scenario must repeat."""
+        return (self.agent, self.goal, self.status, self.reason)
 
 
 @dataclass(slots=True, kw_only=True)
@@ -334,6 +362,11 @@ class Summary(TraceEvent):
     def succeeded(self) -> bool:
         """Every goal succeeded."""
         return all(g.status == "success" for g in self.goals)
+
+    @property
+    def outcomes(self) -> tuple[tuple[str, str, str, str], ...]:
+        """Each goal's :attr:`GoalRow.outcome`, in the scenario's order (no times, no wall clock)."""
+        return tuple(g.outcome for g in self.goals)
 
 
 EVENT_KINDS: dict[str, type[TraceEvent]] = {

@@ -23,7 +23,7 @@ Observer = Callable[[TraceEvent], None]
 
 log = logging.getLogger("htnagent")
 
-WALL_CLOCK_FIELDS = frozenset({"replan_ms", "planning_ms", "ms"})
+WALL_CLOCK_FIELDS = frozenset({"replan_ms", "planning_ms", "window_ms", "ms"})
 """Fields measured on the wall clock: they differ from run to run."""
 
 

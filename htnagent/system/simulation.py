@@ -41,6 +41,7 @@ from htnagent.runtime.progress import Phase, Progress
 from htnagent.runtime.trace import Observer, Trace
 from htnagent.scenario import ROBOT, GoalSpec, Scenario, Trigger
 from htnagent.scenario.hddl_agent import DEFAULT_DURATION
+from htnagent.system.goal_times import GoalClock, Resumption
 from htnagent.system.runtime import Runtime
 from htnagent.upkeep import Replanning
 from htnagent.version import VERSION
@@ -66,6 +67,13 @@ class RunReport:
     events: list[TraceEvent] = field(default_factory=list)
     interrupted: bool = False
     """The run was stopped (``stop`` was set) before every goal ended."""
+    goal_times: GoalClock | None = None
+    """Each goal's times and resumptions, as measured (:mod:`htnagent.system.goal_times`)."""
+
+    def resumptions(self, agent: str | None = None) -> list[Resumption]:
+        """Every resumption of a scenario goal (by ``agent`` only, if given), in time order,
+        with each agent's share of the replanning."""
+        return [] if self.goal_times is None else self.goal_times.resumptions(agent)
 
     @property
     def succeeded(self) -> bool:
@@ -186,6 +194,10 @@ async def run_scenario(
     """
     interrupted = False
     runtime, world = build_runtime(scenario, replanning=replanning, speed=speed, look_ahead=look_ahead)
+    # The goal clock reads the wall clock before the other observers (an interval ends at
+    # the event) and after them (one starts once the event is seen): printing is not timed.
+    goal_clock = GoalClock.of(scenario)
+    runtime.subscribe(goal_clock)
     if on_start is not None:
         on_start(runtime)
     events: list[TraceEvent] = []
@@ -193,6 +205,7 @@ async def run_scenario(
         runtime.subscribe(events.append)
     for observer in observers:
         runtime.subscribe(observer)
+    runtime.subscribe(goal_clock.seen)
     tickets: list[int | None] = [None] * len(scenario.goals)
     settled = anyio.Event()
 
@@ -203,7 +216,8 @@ async def run_scenario(
         runtime.trace.emit(header)
 
         def give(index: int, goal: GoalSpec) -> None:
-            tickets[index] = runtime.submit(goal.agent, goal.task, emergency=goal.emergency)
+            ticket = tickets[index] = runtime.submit(goal.agent, goal.task, emergency=goal.emergency)
+            goal_clock.given(index, ticket)
 
         def change_facts(add: tuple[Atom, ...], delete: tuple[Atom, ...]) -> None:
             # The generic world event (docs/design.md §7.1): the simulated world changes, and
@@ -285,10 +299,11 @@ async def run_scenario(
             with anyio.move_on_after(_QUIET_WITHIN):
                 await clock.stop()
         runtime.fail_unfinished(INTERRUPTED if interrupted else STALLED)
-        summary = _summary(scenario, runtime, world, tickets)
+        goal_clock.close(clock.now())
+        summary = _summary(scenario, runtime, world, tickets, goal_clock)
         runtime.trace.emit(summary)
         runtime.trace.close()  # the summary is the run's last event, whatever stopping it does
-    return RunReport(summary=summary, events=events, interrupted=interrupted)
+    return RunReport(summary=summary, events=events, interrupted=interrupted, goal_times=goal_clock)
 
 
 @dataclass
@@ -383,9 +398,11 @@ def robot_status(runtime: Runtime, world: RobotWorld) -> tuple[dict[str, str], t
     return world.where(), tuple(world.visited), world.distance
 
 
-def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None]) -> Summary:
+def _summary(
+    scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None], times: GoalClock
+) -> Summary:
     goals = []
-    for goal, ticket in zip(scenario.goals, tickets, strict=True):
+    for goal, ticket, noted in zip(scenario.goals, tickets, times.goals, strict=True):
         status: GoalStatus = GoalStatus.FAILURE
         reason = NEVER_TRIGGERED
         if ticket is not None:
@@ -399,6 +416,12 @@ def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: l
                 goal=str(goal.task),
                 status="success" if success else "failure",
                 reason="" if success else reason,
+                emergency=goal.emergency,
+                given=_at(noted.given),
+                started=_at(noted.started),
+                ended=_at(noted.ended),
+                waited_s=round(noted.waited_s, 6),
+                resumes=tuple(r.row() for r in noted.resumes),
             )
         )
     robot, visited, distance = robot_status(runtime, world)
@@ -410,3 +433,7 @@ def _summary(scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: l
         distance=round(distance, 6),
         planning_ms={name: round(a.stats.seconds * 1000, 3) for name, a in runtime.agents.items()},
     )
+
+
+def _at(t: float | None) -> float | None:
+    return None if t is None else round(t, 6)

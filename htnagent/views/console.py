@@ -178,16 +178,37 @@ def _describe(e: TraceEvent) -> Text | None:
 
 
 def print_summary(console: Console, summary: Summary) -> None:
-    """The summary as a small table and a few lines."""
-    table = Table(title="goals", show_edge=False)
-    table.add_column("agent")
-    table.add_column("goal")
-    table.add_column("status")
+    """The summary as a small table and a few lines: each goal's times (simulated seconds),
+    then each resumption with the agents' replanning and the window (wall clock)."""
+    table = Table(title="goals (times in simulated seconds)", show_edge=False)
+    # On a narrow terminal a cell is folded, never cut short.
+    table.add_column("agent", overflow="fold")
+    table.add_column("goal", overflow="fold")
+    table.add_column("", overflow="fold")  # the emergency mark
+    for name in ("given", "started", "ended", "waited"):
+        table.add_column(name, justify="right", overflow="fold")
+    table.add_column("status", overflow="fold")
     for g in summary.goals:
         status = g.status + (f" ({g.reason})" if g.reason else "")
         style = "green" if g.status == "success" else "red"
-        table.add_row(Text(printable(g.agent)), Text(printable(g.goal)), Text(printable(status), style=style))
-    console.print(table)
+        table.add_row(
+            Text(printable(g.agent)),
+            Text(printable(g.goal)),
+            Text("emergency" if g.emergency else "", style="bold red"),
+            _seconds(g.given),
+            _seconds(g.started),
+            _seconds(g.ended),
+            _seconds(g.waited_s) if g.waited_s else "",
+            Text(printable(status), style=style),
+        )
+    print_whole(console, table)
+    resumes = sorted(((r, g) for g in summary.goals for r in g.resumes), key=lambda rg: rg[0].t)
+    for r, g in resumes:
+        window = "" if r.window_ms is None else f", window {r.window_ms:.3f} ms"
+        line = f"⏵ {g.goal} resumed at {r.t:.2f} s: replanning {r.replan_ms:.3f} ms{window}"
+        console.print(Text(printable(line)))
+    if resumes:
+        console.print(Text(RESUME_KEY, style="dim"), soft_wrap=True)
     where = summary.robot
     if where:  # a robot on a map (an HDDL agent's robot is on none)
         place = f"at {where['at']}" if "at" in where else f"on {where.get('on')}"
@@ -195,3 +216,29 @@ def print_summary(console: Console, summary: Summary) -> None:
         console.print(Text(printable(travelled)))
     planning = ", ".join(f"{k} {v:.1f} ms" for k, v in summary.planning_ms.items())
     console.print(Text(printable(f"planning time: {planning}")))
+
+
+RESUME_KEY = (
+    "  replanning: the agents' own work as the goal resumed; window: from the emergency's end "
+    "to the resumed goal's first order at the robot (wall clock: they differ from run to run)"
+)
+"""What the summary's resumption figures mean, printed under them."""
+
+
+def print_whole(console: Console, table: Table) -> None:
+    """Print the table; into a file or a pipe no screen is in the way, so it keeps its
+    natural width rather than the 80 columns rich assumes there."""
+    if console.is_terminal:
+        console.print(table)
+        return
+    narrow = console.width
+    whole = console.measure(table, options=console.options.update(max_width=10_000)).maximum
+    console.width = max(narrow, whole)
+    try:
+        console.print(table)
+    finally:
+        console.width = narrow
+
+
+def _seconds(t: float | None) -> str:
+    return "" if t is None else f"{t:.2f}"
