@@ -631,3 +631,15 @@ def test_sphinx_roles_in_the_docstrings_show_as_plain_code() -> None:
     assert plain(":class:<code>~htnagent.runtime.messages.Execute</code>") == "<code>Execute</code>"
     assert plain(":func:<code>htnagent.plan</code>") == "<code>htnagent.plan</code>"
     assert plain("<code>x</code>") == "<code>x</code>"
+
+
+def test_no_page_dates_itself() -> None:
+    # History goes to CHANGELOG.md; a page describes the current version.
+    dated = re.compile(r"\b(this|last|next) (week|month)\b|\byesterday\b|\bissue #?\d+", re.I)
+    found = [
+        f"{where(page, n)}: {m.group(0)!r}"
+        for page in doc_pages()
+        for n, line in lines_of(page)
+        for m in dated.finditer(line)
+    ]
+    assert not found, "pages that date themselves:\n" + "\n".join(found)
