@@ -8,19 +8,31 @@
   (``tools/rewrite_doc_refs.py`` rewrites such references).
 - The trace event table of ``docs/contracts.md`` lists exactly the event kinds
   the code emits, each with the fields the code gives it.
+- The documentation site (``mkdocs.yml``): every page is in its navigation, the pages
+  link to each other (never to the README) and every link resolves; every
+  ``examples/...`` file the README or a page names exists; the benchmark page's
+  figures are made from ``bench/results/``, each with its file, commit and machine;
+  the Python examples on the pages run and print what the pages say.
 
-Pure file reading (and, if it exists, importing the event registry): fast.
+Pure file reading (and, if it exists, importing the event registry), and a few
+examples run in simulated time: fast. ``mkdocs build --strict`` itself runs in
+``.ci/run``.
 """
 
 from __future__ import annotations
 
 import ast
+import contextlib
 import dataclasses
 import functools
 import importlib
+import importlib.util
+import io
 import re
+import sys
 from collections.abc import Iterator, Mapping
 from pathlib import Path
+from types import ModuleType
 
 import pytest
 
@@ -53,13 +65,15 @@ def cited_files() -> list[Path]:
         found += sorted((ROOT / folder).rglob("*.py"))
     found += sorted((ROOT / "bench" / "results").glob("*.md"))
     found += sorted((ROOT / "scenarios").glob("*.yaml"))
+    found += sorted((ROOT / "examples").rglob("*.py"))
     found += sorted((ROOT / "examples").rglob("*.yaml")) + sorted((ROOT / "examples").rglob("*.md"))
     found.append(ROOT / "README.md")
     return [p for p in found if p.is_file() and p.resolve() != THIS and ".venv" not in p.parts]
 
 
 def doc_pages() -> list[Path]:
-    return sorted(DOCS.glob("*.md"))
+    """Every page of the documentation site, the how-to guides included."""
+    return sorted(DOCS.rglob("*.md"))
 
 
 def lines_of(path: Path) -> Iterator[tuple[int, str]]:
@@ -151,11 +165,6 @@ def test_nothing_cites_the_old_design_notes() -> None:
         for m in OLD_NOTES.finditer(line)
     ]
     assert not old, "references to notes outside the repository:\n" + "\n".join(old)
-
-
-def test_each_page_points_to_the_readme_as_quick_start() -> None:
-    lacking = [p.name for p in doc_pages() if "quick start" not in p.read_text(encoding="utf-8")]
-    assert not lacking, f"pages that do not say the README stays the quick start: {lacking}"
 
 
 # -- 3. trace events ---------------------------------------------------------------------------------
@@ -414,3 +423,224 @@ def test_every_function_the_design_table_names_exists() -> None:
         for part in qualname.split("."):
             assert hasattr(value, part), f"{module}:{qualname}"
             value = getattr(value, part)
+
+
+# -- 4. the documentation site ----------------------------------------------------------------------
+
+LINK = re.compile(r"\]\(([^)\s]+)\)")
+"""A Markdown link's target."""
+
+
+def nav_pages() -> list[str]:
+    """The pages ``mkdocs.yml``'s navigation lists, as paths under docs/."""
+    text = (ROOT / "mkdocs.yml").read_text(encoding="utf-8")
+    return re.findall(r":\s+([\w/.-]+\.md)\s*$", text[text.index("\nnav:") :], re.M)
+
+
+def test_every_page_is_in_the_navigation_and_every_entry_is_a_page() -> None:
+    listed = nav_pages()
+    pages = [str(p.relative_to(DOCS)) for p in doc_pages()]
+    assert sorted(listed) == sorted(pages), (
+        f"pages not in mkdocs.yml's nav: {sorted(set(pages) - set(listed))}; "
+        f"nav entries without a page: {sorted(set(listed) - set(pages))}"
+    )
+    assert len(listed) == len(set(listed))
+
+
+def test_the_pages_link_to_each_other_and_every_link_resolves() -> None:
+    broken: list[str] = []
+    for page in doc_pages():
+        for n, line in lines_of(page):
+            for target in LINK.findall(line):
+                if "://" in target or target.startswith(("#", "mailto:")):
+                    continue
+                path = target.split("#", 1)[0]
+                resolved = (page.parent / path).resolve()
+                if "README" in path:
+                    broken.append(f"{where(page, n)}: {target} (pages link to each other, not to the README)")
+                elif not resolved.is_file() or DOCS.resolve() not in resolved.parents:
+                    broken.append(f"{where(page, n)}: {target} is not a page or picture of the site")
+    assert not broken, "links that do not resolve on the site:\n" + "\n".join(broken)
+
+
+EXAMPLE = re.compile(r"(?<![\w/.-])examples/[\w./-]*[\w/]")
+"""A path under examples/ as the README and the pages cite it."""
+
+EXPECTED_EXAMPLES = {
+    "examples/embed_asyncio.py",
+    "examples/embed_trio.py",
+    "examples/own_domain.py",
+    "examples/own_map/",
+    "examples/hddl_agent.py",
+}
+"""The example programs the README and the how-to guides send users to."""
+
+
+def cited_examples() -> dict[str, list[str]]:
+    found: dict[str, list[str]] = {}
+    for path in [ROOT / "README.md", *doc_pages()]:
+        for n, line in lines_of(path):
+            for m in EXAMPLE.finditer(line):
+                found.setdefault(m.group(0), []).append(where(path, n))
+    return found
+
+
+def test_the_docs_send_users_to_the_five_examples() -> None:
+    assert set(cited_examples()) == EXPECTED_EXAMPLES
+
+
+def test_every_example_the_docs_name_exists() -> None:
+    if not (ROOT / "examples").is_dir():
+        pytest.skip("examples/ is not in this checkout yet: the names are checked by the test above")
+    missing = [f"{name} (cited at {', '.join(at)})" for name, at in cited_examples().items()]
+    missing = [m for m in missing if not (ROOT / m.split(" ", 1)[0]).exists()]
+    assert not missing, "examples cited but not in examples/:\n" + "\n".join(missing)
+
+
+# -- the benchmark page -------------------------------------------------------------------------------
+
+
+@functools.cache
+def bench_hook() -> ModuleType:
+    """``tools/docs_hooks.py``, the MkDocs hooks (the benchmark page; roles), loaded by path."""
+    spec = importlib.util.spec_from_file_location("docs_hooks", ROOT / "tools" / "docs_hooks.py")
+    assert spec is not None and spec.loader is not None
+    module = importlib.util.module_from_spec(spec)
+    sys.modules.setdefault("docs_hooks", module)
+    spec.loader.exec_module(module)
+    return module
+
+
+def bench_markers() -> list[str]:
+    found: list[str] = bench_hook().MARKER.findall((DOCS / "benchmarks.md").read_text(encoding="utf-8"))
+    return found
+
+
+def test_the_benchmark_page_shows_each_main_result_once() -> None:
+    markers = bench_markers()
+    assert len(markers) == len(set(markers))
+    assert set(markers) == set(bench_hook().RENDERERS)
+    # Every result a bench writes under its own name is shown (the others are one-off re-runs).
+    benches = {p.stem for p in (ROOT / "bench" / "results").glob("*.json")}
+    assert set(markers) <= benches
+    assert {"replanning", "scaling", "reaction", "fleet", "differential", "reliability"} <= set(markers)
+
+
+@pytest.mark.parametrize("name", bench_markers() if (DOCS / "benchmarks.md").is_file() else [])
+def test_each_benchmark_figure_names_its_file_commit_and_machine(name: str) -> None:
+    text = bench_hook().render(name)
+    assert f"`bench/results/{name}." in text
+    source = text.strip().splitlines()[-1]
+    assert re.search(r"commit `([0-9a-f]{4,40}|not committed)`", source), source
+    assert "machine: " in source
+    assert "|" in text, f"{name}: no table"
+
+
+def test_the_benchmark_page_is_filled_and_its_pictures_added() -> None:
+    page = bench_hook().fill((DOCS / "benchmarks.md").read_text(encoding="utf-8"))
+    assert "<!-- bench:" not in page
+    for picture in re.findall(r"\]\(images/bench/([\w.-]+\.png)\)", page):
+        assert (ROOT / "bench" / "results" / picture).is_file(), picture
+
+
+def test_a_machine_line_is_read_from_the_results_md() -> None:
+    # replanning.json has no machine of its own; the .md the bench wrote beside it does.
+    assert "cores, Python" in bench_hook().machine_of("replanning")
+
+
+# -- the examples on the pages run ---------------------------------------------------------------------
+
+
+def python_blocks(page: Path) -> list[str]:
+    return re.findall(r"```python\n(.*?)```", page.read_text(encoding="utf-8"), re.S)
+
+
+def run_block(code: str, name: str) -> str:
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out):
+        exec(compile(code, name, "exec"), {"__name__": "__docs__"})
+    return out.getvalue()
+
+
+@pytest.mark.parametrize("page", ["tutorial.md", "howto/own-domain.md"])
+def test_the_planning_example_prints_what_the_page_says(page: str) -> None:
+    start = "from htnagent import Domain, parse, plan\n"
+    blocks = [b for b in python_blocks(DOCS / page) if b.startswith(start)]
+    assert blocks, f"{page} has no planning example"
+    promised = re.search(r"# (PlanStatus\.SOLVED .*)", blocks[0])
+    assert promised is not None
+    assert run_block(blocks[0], page).strip() == promised.group(1).strip()
+
+
+def test_the_embedding_example_sends_an_emergency_while_a_goal_runs() -> None:
+    page = DOCS / "howto" / "embedding.md"
+    code = next(b for b in python_blocks(page) if "emergency=True" in b and "anyio.run(main)" in b)
+    text = page.read_text(encoding="utf-8")
+    promised = text[text.index("It prints:") :].split("```")[1].strip()
+    assert run_block(code, "embedding.md").strip() == promised
+    assert "goal_suspended" in promised and "goal_resumed" in promised
+
+
+def test_the_executor_example_is_suspended_half_way_and_resumed() -> None:
+    import anyio
+
+    from htnagent import AgentConfig, Domain, Effect, GoalStatus, Runtime, Suspension, parse
+    from htnagent.runtime.events import ActionStarted
+
+    namespace: dict[str, object] = {"__name__": "__docs__"}
+    exec(python_blocks(DOCS / "howto" / "executor.md")[0], namespace)
+    walker = namespace["Walker"]
+    d = Domain("line")
+    back = Effect(pre=("between(?f,?t)",), add=("at(?f)",), delete=("between(?f,?t)",), cost=1.0)
+    on = Effect(pre=("between(?f,?t)",), add=("at(?t)",), delete=("between(?f,?t)",), cost=1.0)
+    d.operator(
+        "move(?f,?t)",
+        pre=["at(?f)", "link(?f,?t)"],
+        add=["at(?t)"],
+        delete=["at(?f)"],
+        cost=2.0,
+        suspend=Suspension(add=("between(?f,?t)",), delete=("at(?f)",), resume=on, rollback=back),
+    )
+    d.method("reach(?n)", "here", when=["at(?n)"], do=[])
+    step = ["move(?x,?y)", "reach(?n)"]
+    d.method("reach(?n)", "step", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=step)
+    d.facts = tuple(parse(f) for f in ["link(a,b)", "link(b,a)", "link(b,c)", "link(c,b)"])
+    belief = d.initial_state().updated(add=[parse("at(a)")])
+    kinds: list[str] = []
+
+    async def main() -> None:
+        async with Runtime([AgentConfig("agent", d, belief)], lambda clock, trace: walker()) as rt:  # type: ignore[operator]
+            rt.subscribe(lambda e: kinds.append(f"{e.event} {getattr(e, 'result', '')}".strip()))
+            events = rt.events()
+            goal = rt.submit("agent", parse("reach(b)"))
+            async for event in events:
+                if isinstance(event, ActionStarted):
+                    break
+            urgent = rt.submit("agent", parse("reach(c)"), emergency=True)
+            assert (await rt.outcome(urgent)).status is GoalStatus.SUCCESS
+            assert (await rt.outcome(goal)).status is GoalStatus.SUCCESS
+            await events.aclose()
+
+    anyio.run(main)
+    assert "action_finished suspended" in kinds
+    assert "goal_resumed" in kinds
+
+
+def test_sphinx_roles_in_the_docstrings_show_as_plain_code() -> None:
+    plain = bench_hook().plain_roles
+    assert plain("see :meth:<code>operator</code>.") == "see <code>operator</code>."
+    assert plain(":class:<code>~htnagent.runtime.messages.Execute</code>") == "<code>Execute</code>"
+    assert plain(":func:<code>htnagent.plan</code>") == "<code>htnagent.plan</code>"
+    assert plain("<code>x</code>") == "<code>x</code>"
+
+
+def test_no_page_dates_itself() -> None:
+    # History goes to CHANGELOG.md; a page describes the current version.
+    dated = re.compile(r"\b(this|last|next) (week|month)\b|\byesterday\b|\bissue #?\d+", re.I)
+    found = [
+        f"{where(page, n)}: {m.group(0)!r}"
+        for page in doc_pages()
+        for n, line in lines_of(page)
+        for m in dated.finditer(line)
+    ]
+    assert not found, "pages that date themselves:\n" + "\n".join(found)

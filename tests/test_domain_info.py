@@ -126,7 +126,8 @@ def greeter(world):
 
 
 def test_an_undeclared_user_domain_keeps_the_robots_move(tmp_path: Path) -> None:
-    # The README's greeter declares nothing: the robot still travels on its move, part way included.
+    # The greeter of docs/howto/own-domain.md declares nothing: the robot still travels on its move,
+    # part way included.
     (tmp_path / "my_greeter.py").write_text(GREETER)
     data = museum(map=str(SCENARIOS / "museum_map.yaml"))
     data["agents"] = [{"name": "guide", "domain": "my_greeter:greeter", "executor": "robot"}]

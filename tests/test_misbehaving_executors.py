@@ -1,6 +1,6 @@
 """A user's executor that misbehaves becomes failed actions, never a hang or a dead agent.
 
-Found by an outside check of the embedding API (README "Using the library"):
+Found by an outside check of the embedding API (docs/howto/embedding.md, docs/howto/executor.md):
 
 | the user's executor                               | was                     | is                      |
 |---------------------------------------------------|-------------------------|-------------------------|
