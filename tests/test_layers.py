@@ -121,3 +121,16 @@ def test_the_agent_and_plan_upkeep_have_no_function_over_80_lines() -> None:
                     if lines > 80:
                         long.append(f"{path.name}:{node.lineno} {node.name} ({lines} lines)")
     assert not long, long
+
+
+def test_the_mode_is_compared_in_one_module_at_most() -> None:
+    # The on-line and naive behaviours are objects chosen once (htnagent/agent/modes.py):
+    # nothing else asks which mode it is in.
+    root = Path(__file__).resolve().parent.parent / "htnagent"
+    modes = ("Replanning", "'online'", "'naive'", '"online"', '"naive"')
+    asking = set()
+    for path in root.rglob("*.py"):
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.Compare) and any(m in ast.unparse(node) for m in modes):
+                asking.add(str(path.relative_to(root)))
+    assert len(asking) <= 1, sorted(asking)
