@@ -35,6 +35,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import Any
 
 from htnagent.runtime.events import (
     GoalFinished,
@@ -118,6 +119,15 @@ class GoalClock:
         self._running: dict[str, GoalTimes] = {}
         self._last_end: dict[str, float] = {}
         self._open: list[Resumption] = []
+        self._noted: list[tuple[TraceEvent, float, bool]] = []
+        self._handlers: dict[type[TraceEvent], Callable[[Any, float], None]] = {
+            GoalReceived: self._received,
+            PlanSelected: self._plan_selected,
+            GoalSuspended: self._suspended,
+            GoalResumed: self._resumed,
+            GoalFinished: self._finished,
+            MessageSent: self._ordered,
+        }
 
     @classmethod
     def of(cls, scenario: Scenario) -> GoalClock:
@@ -130,46 +140,56 @@ class GoalClock:
 
     def resumptions(self, agent: str | None = None) -> list[Resumption]:
         """Every resumption of a scenario goal (by ``agent`` only, if given), in time order."""
+        self._catch_up()
         found = [r for g in self.goals for r in g.resumes if agent is None or r.agent == agent]
         return sorted(found, key=lambda r: r.t)
 
     def close(self, now: float) -> None:
         """The run is over at ``now``: a goal still suspended waited until then."""
+        self._catch_up()
         for g in self.goals:
             if g.suspended_at is not None:
                 g.waited_s += now - g.suspended_at
                 g.suspended_at = None
 
     def __call__(self, event: TraceEvent) -> None:
-        """Subscribe first: an event's own time, read before the other observers."""
-        now = time.perf_counter()
-        match event:
-            case GoalReceived():
-                self._received(event)
-            case PlanSelected():
-                self._plan_selected(event, now)
-            case GoalSuspended():
-                self._suspended(event)
-            case GoalResumed():
-                self._resumed(event, now)
-            case GoalFinished():
-                self._finished(event, now)
-            case MessageSent() if event.kind in ORDERS:
-                self._ordered(event, now)
+        """Subscribe first: an event's own time, read before the other observers.
+
+        This runs on the agents' own path, at every event of the run (the windows it
+        measures include it): it only notes the event and the time; the bookkeeping is
+        done once the run is over (:meth:`close`).
+        """
+        if event.__class__ in self._handlers:
+            if isinstance(event, MessageSent) and event.kind not in ORDERS:
+                return  # a result, a clear, a hint: no order
+            self._noted.append((event, time.perf_counter(), False))
 
     def seen(self, event: TraceEvent) -> None:
         """Subscribe last: every observer has seen the event; the intervals it starts start now."""
+        kind = event.__class__
+        if kind is GoalFinished or kind is GoalReceived:
+            self._noted.append((event, time.perf_counter(), True))
+
+    def _catch_up(self) -> None:
+        """Do the bookkeeping of every event noted so far, in the order they came."""
+        noted, self._noted = self._noted, []
+        for event, now, after in noted:
+            if after:
+                self._after(event, now)
+            else:
+                self._handlers[event.__class__](event, now)
+
+    def _after(self, event: TraceEvent, now: float) -> None:
         if isinstance(event, GoalFinished):
-            self._last_end[event.agent] = time.perf_counter()
-        elif isinstance(event, GoalReceived):
-            now = time.perf_counter()
+            self._last_end[event.agent] = now
+        else:
             for r in self._open:
                 if r.awaits(event.agent):
                     r.planning[event.agent] = now
 
     # -- one function an event kind ----------------------------------------------------------
 
-    def _received(self, event: GoalReceived) -> None:
+    def _received(self, event: GoalReceived, now: float) -> None:
         mine = self._by_ticket.get(event.ticket) if event.ticket is not None else None
         if mine is not None and mine.given is None:
             mine.given = event.t
@@ -184,7 +204,7 @@ class GoalClock:
             waiting.started = event.t
             self._running[event.agent] = waiting
 
-    def _suspended(self, event: GoalSuspended) -> None:
+    def _suspended(self, event: GoalSuspended, now: float) -> None:
         # What ends from now on at this agent is what ran above the suspended goal.
         self._last_end.pop(event.agent, None)
         running = self._running.get(event.agent)
