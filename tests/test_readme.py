@@ -87,7 +87,7 @@ def test_the_readme_states_the_python_version_pyproject_requires() -> None:
 
 
 def test_the_readme_and_license_file_state_pyprojects_license() -> None:
-    license_name = PYPROJECT["project"]["license"]["text"]
+    license_name = PYPROJECT["project"]["license"]
     assert license_name == "MIT"
     assert "MIT" in README and "(LICENSE)" in README
     text = (ROOT / "LICENSE").read_text(encoding="utf-8")
