@@ -11,18 +11,18 @@ from bench import fuzz
 
 
 @pytest.mark.timeout(120)
-def test_a_few_dozen_hostile_inputs_give_no_traceback_hang_or_crash(tmp_path: Path) -> None:
+def test_hostile_inputs_give_no_traceback_hang_or_crash(tmp_path: Path) -> None:
     # Every fourth input (and every special file) through real processes, the rest in workers.
-    assert fuzz.main(30, results=tmp_path, seed=2024, subprocess_every=4) == 0
+    assert fuzz.main(16, results=tmp_path, seed=2024, subprocess_every=4) == 0
     report = json.loads((tmp_path / "fuzz.json").read_text())
-    assert report["runs"] == 30
+    assert report["runs"] == 16
     for key in ("tracebacks", "timeouts", "over_memory", "bad_exit", "code_ran"):
         assert report[key] == 0, report["examples"]
     assert report["max_seconds"] < fuzz.TIMEOUT_S
     through = report["through"]
-    assert through["subprocess"]["inputs"] >= 7
-    assert through["subprocess"]["inputs"] + through["in_process"]["inputs"] == 30
-    assert report["executions"] >= 60
+    assert through["subprocess"]["inputs"] >= 4
+    assert through["subprocess"]["inputs"] + through["in_process"]["inputs"] == 16
+    assert report["executions"] >= 32
 
 
 def test_every_kind_of_input_is_made() -> None:
