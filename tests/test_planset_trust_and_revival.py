@@ -11,11 +11,21 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import pytest
+
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Plan, Step, replay
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings
-from htnagent.upkeep import PLAN_SET_KINDS, NaivePlanSet, OnlinePlanSet, Replanning, Revival, new_plan_set
+from htnagent.upkeep import (
+    PLAN_SET_KINDS,
+    NaivePlanSet,
+    OnlinePlanSet,
+    PlanSet,
+    Replanning,
+    Revival,
+    new_plan_set,
+)
 
 # -- §2.1 trusting a plan behind an undo -------------------------------------------------------
 
@@ -172,6 +182,9 @@ def test_plan_set_mode_picks_the_class() -> None:
     assert type(new_plan_set(d, goal, mode=Replanning.ONLINE)) is OnlinePlanSet
     # Every mode has its class: the mode is a lookup, never a comparison.
     assert set(PLAN_SET_KINDS) == set(Replanning)
+    # The shared base answers no event by itself: a plan set is one mode's or the other's.
+    with pytest.raises(TypeError, match="abstract"):
+        PlanSet(d, goal)  # type: ignore[abstract]
 
 
 def test_a_fork_keeps_its_own_revival_store() -> None:

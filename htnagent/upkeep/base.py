@@ -23,6 +23,7 @@ Pure and synchronous: the agent runtime calls it; no event loop inside.
 from __future__ import annotations
 
 import operator
+from abc import ABC, abstractmethod
 from typing import Self
 
 from htnagent.model.domain import Domain
@@ -37,13 +38,14 @@ from htnagent.upkeep.validity import changed_predicates, first_failure
 _steps = operator.attrgetter("steps")
 
 
-class PlanSet:
+class PlanSet(ABC):
     """The alternative plans of one goal, cheapest first, kept valid from the belief.
 
     This class holds what both modes share; the updates on events are each
     subclass's own (:class:`~htnagent.upkeep.online.OnlinePlanSet`,
     :class:`~htnagent.upkeep.naive.NaivePlanSet`; a caller picks one, or lets
-    :func:`~htnagent.upkeep.kinds.new_plan_set` pick it for a mode).  ``plans`` is
+    :func:`~htnagent.upkeep.kinds.new_plan_set` pick it for a mode): the abstract
+    methods below are the events each mode answers in its own way.  ``plans`` is
     the list of kept plans, cheapest first.
     """
 
@@ -161,7 +163,9 @@ class PlanSet:
     def _refresh(self, state: State) -> None:
         """Re-check (and repair) the plans rewritten unchecked while the goal waited on the
         stack (see ``lazy``), from the belief ``state``."""
+        return  # naive keeps no plan unchecked; the on-line plan set re-checks them
 
+    @abstractmethod
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         """Add alternative plans (up to K) to the kept ones (§1, §4).
 
@@ -170,7 +174,6 @@ class PlanSet:
         from.  A goal's first plan is one plan; alternatives cost a search of their
         own, so they are looked for only where they are used.
         """
-        raise NotImplementedError(f"{type(self).__name__} does not implement widen")
 
     def cannot_do(self, action: Atom, state: State) -> None:
         """The executor cannot do ``action`` from ``state``: plan around it from there."""
@@ -192,6 +195,7 @@ class PlanSet:
         """Before the goal acts again, after a change from outside that may have opened a
         cheaper way, make the best plan as good as one made afresh (on-line only: see
         :meth:`~htnagent.upkeep.online.OnlinePlanSet.reconsider`)."""
+        return  # naive plans afresh whenever it needs a plan: nothing to weigh
 
     def confirm_achieved(self, state: State) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
@@ -218,9 +222,9 @@ class PlanSet:
         if best_broke and kept:
             self._best_replaced(state)
 
+    @abstractmethod
     def _best_replaced(self, state: State) -> None:
         """The best plan went and another took its place, in the belief ``state``."""
-        raise NotImplementedError(f"{type(self).__name__} does not implement _best_replaced")
 
     def shorten_detours(self, state: State) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
@@ -271,18 +275,19 @@ class PlanSet:
 
     # -- events ---------------------------------------------------------------
 
+    @abstractmethod
     def action_succeeded(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
-        raise NotImplementedError(f"{type(self).__name__} does not implement action_succeeded")
 
+    @abstractmethod
     def action_failed(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
         """The executed action failed (§2.2)."""
-        raise NotImplementedError(f"{type(self).__name__} does not implement action_failed")
 
+    @abstractmethod
     def action_suspended(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
@@ -290,8 +295,8 @@ class PlanSet:
 
         ``after`` is the belief with the suspension effect (step 1, done by the caller).
         """
-        raise NotImplementedError(f"{type(self).__name__} does not implement action_suspended")
 
+    @abstractmethod
     def suspension_cleared(
         self, action: Atom, before: State, after: State, memo: SearchMemo | None = None
     ) -> None:
@@ -300,11 +305,10 @@ class PlanSet:
         A kept plan that still meant to ``resume(action)`` does the whole action
         instead (the counterpart of §2.6's rollback(A), A → resume(A)).
         """
-        raise NotImplementedError(f"{type(self).__name__} does not implement suspension_cleared")
 
+    @abstractmethod
     def belief_changed(self, before: State, after: State, memo: SearchMemo | None = None) -> None:
         """The world changed from outside (§2.3)."""
-        raise NotImplementedError(f"{type(self).__name__} does not implement belief_changed")
 
 
 __all__ = ["PlanSet"]
