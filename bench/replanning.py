@@ -98,6 +98,11 @@ def main(runs: int = 25) -> int:
                 "child": [f.child_ms or 0.0 for f in figures],
                 "total": [f.total_ms or 0.0 for f in figures],
             }
+            replans = {
+                "parent": [f.parent_replan_ms or 0.0 for f in figures],
+                "child": [f.child_replan_ms or 0.0 for f in figures],
+                "total": [f.replan_ms or 0.0 for f in figures],
+            }
             distance = figures[0].distance
             planning = _median([f.planning_ms for f in figures])
             for level, values in levels.items():
@@ -114,6 +119,7 @@ def main(runs: int = 25) -> int:
                         "mode": mode,
                         "look_ahead": look_ahead,
                         "median_ms": round(median, 4),
+                        "replan_ms": round(_median(replans[level]), 4),
                         "runs": len(values),
                         "distance": round(distance, 4),
                         "planning_ms": round(planning, 4),
