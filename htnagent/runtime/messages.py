@@ -142,13 +142,6 @@ class Timeout(_Message):
     seq: int
 
 
-class Elapsed(_Message):
-    """The timed motion or activity serving order ``seq`` is over (an executor's timer to itself)."""
-
-    kind: Literal["elapsed"] = "elapsed"
-    seq: int
-
-
 Order = Execute | Suspend | Resume | Clear | Prepare | ParentLost
 """What a parent sends down to its executor."""
 
@@ -158,6 +151,6 @@ Result = Success | Failure | Suspended | Refused
 ActionResult = Success | Failure | Suspended
 """How an ordered action ended (a Refused only says it goes on)."""
 
-Message = Order | Result | Submit | BeliefUpdate | Timeout | Elapsed
+Message = Order | Result | Submit | BeliefUpdate | Timeout
 """Everything an actor's mailbox can hold: orders from above, results from below, goals and
 belief updates from outside, and timers an actor set for itself."""
