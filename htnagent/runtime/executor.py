@@ -303,6 +303,12 @@ class AdapterActor(ExecutorActor):
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         async with self.executor, anyio.create_task_group() as tg:
+            # Two readers wait from the start: an order met while one action runs (a suspend,
+            # then the emergency's first action) is read at once, never after spawning a task.
+            for _ in range(2):
+                turn = anyio.Event()
+                self._idle.append(turn)
+                tg.start_soon(self._serve, tg, turn)
             task_status.started()
             await self._serve(tg)
 
