@@ -25,6 +25,8 @@ def main() -> int:
         from bench import ipc
 
         return ipc.main(sys.argv[2:])
+    if sys.argv[1:2] == ["fuzz"]:  # its own options: python -m bench fuzz --help
+        return fuzz.cli(sys.argv[2:])
     if sys.argv[1:2] == ["ipc-interrupt"]:  # its own options: python -m bench ipc-interrupt --help
         from bench import ipc_interrupt
 
@@ -78,8 +80,6 @@ def main() -> int:
         from bench import remote  # needs the zenoh extra
 
         return remote.main() if args.robots is None else remote.main(args.robots)
-    if args.study == "fuzz":
-        return fuzz.main(runs=args.runs or 1000)
     if args.study == "reaction":
         return reaction.main(runs=args.runs or 300)
     if args.study == "fleet":

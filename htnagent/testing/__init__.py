@@ -10,5 +10,6 @@ robot's physical state, and compare with shortest paths computed here.
 - :mod:`htnagent.testing.differential` — random scenarios run in both
   replanning modes and compared;
 - :mod:`htnagent.testing.storms` — random and extreme scenarios, run and checked;
+- :mod:`htnagent.testing.hostile_inputs` — hostile inputs for the command line, and their judge;
 - :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite, and a large generated one.
 """
