@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 import json
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -58,6 +58,27 @@ SHIPPED = tuple(sorted(p.name for p in SCENARIO_DIR.glob("*.yaml") if p.name != 
 def inline(data: dict[str, Any], name: str = "inline.yaml") -> Scenario:
     """A scenario written in the test, on the museum map."""
     return parse_scenario({"name": name, "map": "museum_map.yaml", **data}, name, SCENARIO_DIR)
+
+
+def half_way_emergency(*, then: Sequence[dict[str, Any]] = (), close: Sequence[str] = ()) -> dict[str, Any]:
+    """The navigator alone walks n40 → n35 along arc59; half way (the walk's progress) the
+    emergency goto_node(n29) arrives.  ``then``: goals given after these two; ``close``: arcs
+    shut at t = 1 s, while the robot walks."""
+    return {
+        "robot": {"start": "n40", "speed": 1.0},
+        "agents": [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}],
+        "goals": [
+            {"agent": "navigator", "task": "goto_node(n35)"},
+            {
+                "agent": "navigator",
+                "task": "goto_node(n29)",
+                "emergency": True,
+                "when": {"action": "move(n40,n35,arc59)", "progress": 0.5},
+            },
+            *then,
+        ],
+        "events": [{"when": {"time": 1.0}, "close": arc} for arc in close],
+    }
 
 
 @functools.cache

@@ -29,7 +29,7 @@ from htnagent.runtime.events import GoalResumed, PlanSelected, TraceEvent
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
-from tests.support import Event, events_of, inline, statuses, summary_of
+from tests.support import Event, events_of, half_way_emergency, inline, statuses, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -292,22 +292,7 @@ def test_a_resumed_goal_whose_plan_starts_with_rollback_is_reached() -> None:
     # The navigator alone, from n40 to n35 along arc59.  Half way an emergency that
     # cannot be planned (area8 is cut off) arrives; arc59 is shut meanwhile, so the
     # resumed goal must roll back to n40 and go round by n38.
-    scenario = inline(
-        {
-            "robot": {"start": "n40", "speed": 1.0},
-            "agents": [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}],
-            "goals": [
-                {"agent": "navigator", "task": "goto_node(n35)"},
-                {
-                    "agent": "navigator",
-                    "task": "goto_node(n29)",
-                    "emergency": True,
-                    "when": {"action": "move(n40,n35,arc59)", "progress": 0.5},
-                },
-            ],
-            "events": [{"when": {"time": 1.0}, "close": "arc51"}, {"when": {"time": 1.0}, "close": "arc59"}],
-        }
-    )
+    scenario = inline(half_way_emergency(close=["arc51", "arc59"]))
     report = run(scenario)
     assert statuses(report) == ["success", "failure"]
     started = [e["action"] for e in of(events_of(report), "action_started", "navigator")]

@@ -31,7 +31,7 @@ from htnagent.runtime.executor import ActionOutcome, Alarm, Executor, ExecutorAc
 from htnagent.runtime.progress import Phase
 from htnagent.scenario import parse_scenario
 from htnagent.system.simulation import run_scenario
-from tests.support import events_of, summary_of, without_wall_clock
+from tests.support import events_of, half_way_emergency, summary_of, without_wall_clock
 from tests.test_triggers import MOVE_LENGTH, SCENARIOS
 
 
@@ -128,23 +128,9 @@ class Walker(Executor):
         self.context.report_progress(action, Phase.STOPPED)
 
 
-# The navigator walks n40 → n35; half way, an emergency (triggered by the walk's progress)
-# sends it to n29 first: the walk stops, is rolled back or resumed, and both goals end.
-HALF_WAY = {
-    "name": "half way",
-    "map": "museum_map.yaml",
-    "robot": {"start": "n40", "speed": 1.0},
-    "agents": [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}],
-    "goals": [
-        {"agent": "navigator", "task": "goto_node(n35)"},
-        {
-            "agent": "navigator",
-            "task": "goto_node(n29)",
-            "emergency": True,
-            "when": {"action": "move(n40,n35,arc59)", "progress": 0.5},
-        },
-    ],
-}
+# The emergency comes half way through the walk (its progress): the walk stops, is rolled
+# back or resumed, and both goals end.
+HALF_WAY = {"name": "half way", "map": "museum_map.yaml", **half_way_emergency()}
 
 
 def test_a_users_executor_with_the_clock_progress_and_trace_runs_as_the_robot_does(

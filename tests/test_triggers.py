@@ -28,7 +28,7 @@ from htnagent.runtime.messages import Execute, Resume, Suspend, Suspended
 from htnagent.runtime.trace import Trace
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.simulation import NEVER_TRIGGERED, RunReport, run_scenario
-from tests.support import Event, events_of, inline, summary_of
+from tests.support import Event, events_of, half_way_emergency, inline, summary_of
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -131,25 +131,16 @@ def test_a_trigger_at_the_very_moment_of_the_suspension_fires_then() -> None:
 
 # The navigator alone, n40 → n35 along arc59.  Half way an emergency that cannot be
 # planned arrives and arc59 is shut meanwhile, so the walk is rolled back to n40.
-ROLLED_BACK: dict[str, Any] = {
-    "robot": {"start": "n40", "speed": 1.0},
-    "agents": [{"name": "navigator", "domain": "museum.nodes", "executor": "robot"}],
-    "goals": [
-        {"agent": "navigator", "task": "goto_node(n35)"},
-        {
-            "agent": "navigator",
-            "task": "goto_node(n29)",
-            "emergency": True,
-            "when": {"action": "move(n40,n35,arc59)", "progress": 0.5},
-        },
+ROLLED_BACK = half_way_emergency(
+    then=[
         {
             "agent": "navigator",
             "task": "goto_node(n38)",
             "when": {"action": "move(n40,n35,arc59)", "progress": 0.8},
-        },
+        }
     ],
-    "events": [{"when": {"time": 1.0}, "close": "arc51"}, {"when": {"time": 1.0}, "close": "arc59"}],
-}
+    close=["arc51", "arc59"],
+)
 
 
 def test_a_move_rolled_back_before_the_fraction_never_fires_its_trigger() -> None:
