@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, replanning, scaling, step
+from bench.machine import recording_machine
 
 
 def _robots(text: str) -> tuple[int, ...]:
@@ -93,4 +94,4 @@ def main() -> int:
     return replanning.main(runs=args.runs or 25)
 
 
-raise SystemExit(main())
+raise SystemExit(recording_machine(main))

@@ -28,7 +28,11 @@ import functools
 import importlib
 import importlib.util
 import io
+import json
+import os
 import re
+import shutil
+import subprocess
 import sys
 from collections.abc import Iterator, Mapping
 from pathlib import Path
@@ -544,6 +548,38 @@ def test_the_benchmark_page_is_filled_and_its_pictures_added() -> None:
 def test_a_machine_line_is_read_from_the_results_md() -> None:
     # replanning.json has no machine of its own; the .md the bench wrote beside it does.
     assert "cores, Python" in bench_hook().machine_of("replanning")
+
+
+def test_the_machine_python_m_bench_noted_for_a_file_is_named(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    hook = bench_hook()
+    monkeypatch.setattr(hook, "RESULTS", tmp_path)
+    (tmp_path / "step.json").write_text("[]")
+    assert hook.machine_of("step") == "not recorded in the file"
+    (tmp_path / "machines.json").write_text('{"step.json": "A CPU, 2 cores, Python 3.11.7, Linux"}')
+    assert hook.machine_of("step") == "A CPU, 2 cores, Python 3.11.7, Linux"
+
+
+def test_python_m_bench_notes_the_machine_of_each_file_it_writes(tmp_path: Path) -> None:
+    # A study run as users run it (the smallest: one hostile input, written to the results folder
+    # of a copy of the repository's bench/) leaves the machine beside the file it wrote.
+    shutil.copytree(
+        ROOT / "bench", tmp_path / "bench", ignore=shutil.ignore_patterns("results", "__pycache__")
+    )
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-m", "bench", "fuzz", "--runs", "1", "--subprocess-every", "1000"],
+        cwd=tmp_path,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 0, done.stderr
+    record = json.loads((tmp_path / "bench" / "results" / "machines.json").read_text())
+    assert list(record) == ["fuzz.json"]
+    assert "cores, Python" in record["fuzz.json"]
 
 
 # -- the examples on the pages run ---------------------------------------------------------------------

@@ -53,11 +53,18 @@ def commit_of(path: Path) -> str:
 
 
 def machine_of(name: str) -> str:
-    """The machine the file says its figures come from (its ``machine`` key, or the machine line
-    of the ``.md`` the bench wrote beside it); "not recorded in the file" otherwise."""
+    """The machine the file says its figures come from (its ``machine`` key, the machine
+    ``python -m bench`` noted for it in ``machines.json``, or the machine line of the ``.md`` the
+    bench wrote beside it); "not recorded in the file" otherwise."""
     data = load(name)
     if isinstance(data, Mapping) and isinstance(data.get("machine"), str):
         return str(data["machine"])
+    record = RESULTS / "machines.json"  # written by python -m bench for every file it writes
+    if record.is_file():
+        machines = json.loads(record.read_text(encoding="utf-8"))
+        for file in (f"{name}.json", f"{name}.md"):
+            if isinstance(machines.get(file), str):
+                return str(machines[file])
     md = RESULTS / f"{name}.md"
     if md.is_file():
         found = MACHINE_LINE.search(md.read_text(encoding="utf-8"))
@@ -184,8 +191,10 @@ def _reliability() -> str:
 def _remote() -> str:
     data = load("remote")
     fleet_cols = ["robots", "speed", "wall_s", "setup_s", "per_robot_ms", "orders_per_s", "all_succeeded"]
-    return table(scalars({k: v for k, v in data.items() if k != "machine"})) + "\n\n" + table(
-        data["fleet"], fleet_cols
+    return (
+        table(scalars({k: v for k, v in data.items() if k != "machine"}))
+        + "\n\n"
+        + table(data["fleet"], fleet_cols)
     )
 
 
