@@ -38,7 +38,7 @@ import anyio
 
 from bench.machine import machine_line
 from htnagent.model.terms import parse
-from htnagent.remote.codec import decode, encode
+from htnagent.remote.codec import Received, encode, receive
 from htnagent.remote.link import Keys, Link
 from htnagent.runtime.messages import Execute, Success
 
@@ -69,13 +69,17 @@ async def _echo(endpoint: str) -> None:
     keys = Keys("bench", "echo")
     async with Link(listen=[endpoint]) as link:
         put = link.publisher(keys.up)
+        me = link.session_id
+        sent = 0
 
-        def answer(payload: bytes) -> None:
-            t, order = decode(payload)
+        def answer(got: Received) -> None:
+            nonlocal sent
+            order = got.item
             assert isinstance(order, Execute)
-            put(encode(t, Success(action=order.action, seq=order.seq)))
+            sent += 1
+            put(encode(got.t, Success(action=order.action, seq=order.seq), me, sent))
 
-        link.on_sample(keys.down, answer)
+        link.on_sample(keys.down, answer, receive)
         link.token(keys.host_alive)
         print("ready", flush=True)
         await anyio.sleep_forever()
@@ -101,15 +105,15 @@ async def _measure_link(endpoint: str, proc: subprocess.Popen[str]) -> dict[str,
     lost = anyio.Event()
     lost_at: list[float] = []
 
-    def arrived(payload: bytes) -> None:
-        _, result = decode(payload)
+    def arrived(got: Received) -> None:
+        result = got.item
         assert isinstance(result, Success)
         answers[result.seq] = time.perf_counter()
         event = waiting.pop(result.seq, None)
         if event is not None:
             event.set()
 
-    def liveliness(up: bool) -> None:
+    def liveliness(up: bool, session: str) -> None:
         if up:
             alive.set()
         else:
@@ -117,9 +121,10 @@ async def _measure_link(endpoint: str, proc: subprocess.Popen[str]) -> dict[str,
             lost.set()
 
     async with Link(connect=[endpoint]) as link:
-        link.on_sample(keys.up, arrived)
+        link.on_sample(keys.up, arrived, receive)
         link.on_liveliness(keys.host_alive, liveliness)
         put = link.publisher(keys.down)
+        me = link.session_id
         link.token(keys.parent_alive)
         with anyio.fail_after(10):
             await alive.wait()
@@ -127,7 +132,7 @@ async def _measure_link(endpoint: str, proc: subprocess.Popen[str]) -> dict[str,
         for seq in range(1, ROUND_TRIPS + 1):
             done = waiting[seq] = anyio.Event()
             start = time.perf_counter()
-            put(encode(0.0, Execute(action=action, seq=seq)))
+            put(encode(0.0, Execute(action=action, seq=seq), me, seq))
             await done.wait()
             trips.append((answers[seq] - start) * 1000)
         trips.sort()
@@ -136,7 +141,7 @@ async def _measure_link(endpoint: str, proc: subprocess.Popen[str]) -> dict[str,
         all_in = waiting[last] = anyio.Event()
         start = time.perf_counter()
         for seq in range(first, last + 1):
-            put(encode(0.0, Execute(action=action, seq=seq)))
+            put(encode(0.0, Execute(action=action, seq=seq), me, seq))
         with anyio.fail_after(60):
             await all_in.wait()
         burst_s = time.perf_counter() - start
@@ -156,7 +161,7 @@ async def _notice(endpoint: str, how: signal.Signals) -> float:
     alive, lost = anyio.Event(), anyio.Event()
     lost_at: list[float] = []
 
-    def liveliness(up: bool) -> None:
+    def liveliness(up: bool, session: str) -> None:
         if up:
             alive.set()
         else:

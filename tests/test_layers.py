@@ -21,6 +21,7 @@ import htnagent
 ROOT = Path(htnagent.__file__).parent
 PYPROJECT = Path(__file__).resolve().parents[1] / "pyproject.toml"
 
+
 def _modules() -> dict[str, Path]:
     """Every module of the package by dotted name (``htnagent/executors`` is a link: followed)."""
     found: dict[str, Path] = {}
@@ -74,11 +75,7 @@ def test_no_module_imports_itself_round_a_circle() -> None:
     # A strongly connected set of modules is one circle or several: each set is named once,
     # with one of its circles.
     graph = _imports()
-    tangles = [
-        tangle
-        for tangle in nx.strongly_connected_components(graph)
-        if len(tangle) > 1
-    ]
+    tangles = [tangle for tangle in nx.strongly_connected_components(graph) if len(tangle) > 1]
     told = [
         f"{sorted(tangle)}, e.g. " + " -> ".join(a for a, _ in nx.find_cycle(graph.subgraph(tangle)))
         for tangle in tangles

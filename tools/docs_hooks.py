@@ -184,8 +184,10 @@ def _reliability() -> str:
 def _remote() -> str:
     data = load("remote")
     fleet_cols = ["robots", "speed", "wall_s", "setup_s", "per_robot_ms", "orders_per_s", "all_succeeded"]
-    return table(scalars({k: v for k, v in data.items() if k != "machine"})) + "\n\n" + table(
-        data["fleet"], fleet_cols
+    return (
+        table(scalars({k: v for k, v in data.items() if k != "machine"}))
+        + "\n\n"
+        + table(data["fleet"], fleet_cols)
     )
 
 

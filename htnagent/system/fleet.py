@@ -56,15 +56,15 @@ def check_fleet(scenarios: Sequence[Scenario]) -> None:
     seen: dict[tuple[str, str, str], str] = {}
     for scenario in scenarios:
         _, served = scenario.chain_from()
-        if served is None or served.remote is None:
+        if served is None or served.endpoint is None:
             continue  # this robot runs in this process: nothing on the network to share
-        key = (served.remote, scenario.key_space, served.name)
+        key = (served.endpoint, scenario.key_space, served.name)
         if key in seen:
             index = scenario.agent_names.index(served.name)
             raise ScenarioError(
                 scenario.file,
                 f"agents[{index}].remote",
-                f"{served.name} at {served.remote} in namespace {scenario.key_space} is another robot's "
+                f"{served.name} at {served.endpoint} in namespace {scenario.key_space} is another robot's "
                 f"too ({seen[key]}); give each robot's scenario a namespace of its own",
             )
         seen[key] = scenario.file
