@@ -63,7 +63,7 @@ def main() -> int:
         type=_robots,
         default=None,
         metavar="N,N,...",
-        help="remote: the fleet sizes, serving processes each (default 1,4,8)",
+        help="remote: the fleet sizes, robots (default 1,10,100; up to 10 robots a serving process)",
     )
     args = parser.parse_args()
     if args.study in ("ipc", "ipc-interrupt"):
