@@ -10,7 +10,7 @@ from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, r
 
 
 def _robots(text: str) -> tuple[int, ...]:
-    """``--robots 1,4,8``: fleet sizes, each at least 1."""
+    """``--robots 1,10,100``: fleet sizes, each at least 1."""
     try:
         sizes = tuple(int(part) for part in text.split(","))
     except ValueError:
