@@ -65,9 +65,10 @@ GUARD = 30.0
 
 @pytest.fixture(scope="module")
 def certs(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, Path]:
-    """Two test roots: ``ours`` (serve, parent) and ``theirs`` (a parent of another fleet)."""
+    """Two test roots: ``ours`` (serve, parent, and an intruder holding a certificate of the
+    fleet's root) and ``theirs`` (a parent of another fleet)."""
     base = tmp_path_factory.mktemp("certs")
-    make_certificates(base / "ours")
+    make_certificates(base / "ours", peers=("serve", "parent", "intruder"))
     make_certificates(base / "theirs")
     return base / "ours", base / "theirs"
 
@@ -618,3 +619,54 @@ def test_one_process_serves_several_robots_over_one_zenoh_session(tmp_path: Path
 
     open_now, answers = anyio.run(main)
     assert open_now == 1 and answers == [1, 1, 1]
+
+
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
+def test_with_access_control_a_peer_of_the_same_root_under_another_name_gets_nothing_through(
+    tmp_path: Path, certs: tuple[Path, Path], backend: str
+) -> None:
+    # The intruder holds a certificate of the fleet's root (CN intruder) and forges the
+    # parent's session id with numbers above the parent's: past the link, the gate could
+    # not tell.  Zenoh's access control (serve --allow parent) lets nothing of it through.
+    ours, _ = certs
+    port = free_port()
+    endpoint = f"tls/127.0.0.1:{port}"
+    scenario = load_scenario(remote_scenario(tmp_path, port))
+    keys = Keys(scenario.key_space, "navigator")
+    root = str(ours / "root.pem")
+
+    def side(name: str, allow: tuple[str, ...] = ()) -> Security:
+        pem, key = str(ours / f"{name}.pem"), str(ours / f"{name}.key")
+        return Security(root_ca=root, certificate=pem, key=key, mutual=True, allow=allow)
+
+    events: list[TraceEvent] = []
+
+    async def main() -> tuple[int, int]:
+        served = _serving(scenario, endpoint, events, side("serve", allow=ALLOWED))
+        async with served, Link(connect=[endpoint], security=side("parent")) as link:
+            parent = _Parent(link, keys)
+            with anyio.fail_after(10):
+                await parent.host.wait()
+            session = await _open(endpoint, side("intruder"))
+            try:
+                await anyio.sleep(0.6)
+                for n in range(1000, 1020):
+                    session.put(keys.down, encode(0.0, Execute(action=ACTION, seq=n), parent.me, n))
+                replies = await anyio.to_thread.run_sync(
+                    lambda: list(session.liveliness().get(f"{keys.host_alive}/*", timeout=0.3))
+                )
+                tokens = sum(1 for r in replies if r.ok is not None)
+            finally:
+                await anyio.to_thread.run_sync(session.close)
+            parent.order(seq=1)  # the parent, numbered 1: still heard (nothing forged came first)
+            return tokens, (await parent.answer()).seq
+
+    tokens, answered = anyio.run(main, backend=backend)
+    assert tokens == 0 and answered == 1
+    goals = [e for e in events if isinstance(e, GoalReceived) and e.agent == "navigator"]
+    assert len(goals) == 1  # the parent's order only
+    assert not [e for e in events if isinstance(e, PeerRefused)]  # nothing even arrived
+
+
+ALLOWED = ("parent",)
+"""The certificate names ``serve --allow`` lets through, in the test above."""

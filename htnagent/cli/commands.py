@@ -833,6 +833,13 @@ def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
         "--users", metavar="FILE", help="Zenoh's user/password authentication: lines user:password"
     )
     serve.add_argument(
+        "--allow",
+        action="append",
+        metavar="NAME",
+        help="only this parent may use the link (repeatable): its certificate's common name with "
+        "--root-ca, its user name with --users; Zenoh's access control denies everyone else",
+    )
+    serve.add_argument(
         "--insecure",
         action="store_true",
         help="allow a plain tcp/ endpoint off the loopback: anyone who reaches it can order the robot",
@@ -874,6 +881,9 @@ def _listen_security(args: argparse.Namespace) -> Security | None:
             file=sys.stderr,
             flush=True,
         )
+    allow = tuple(args.allow or ())
+    if allow and args.root_ca is None and args.users is None:
+        raise SettingsError("--allow names a parent by its certificate (--root-ca) or user name (--users)")
     if not tls and args.users is None:
         return None
     return Security(
@@ -882,6 +892,7 @@ def _listen_security(args: argparse.Namespace) -> Security | None:
         key=args.key,
         mutual=args.root_ca is not None,
         users_file=args.users,
+        allow=allow,
     )
 
 

@@ -62,7 +62,12 @@ class Security:
     ``users_file`` is Zenoh's dictionary of ``user:password`` lines a connecting peer
     must be in.  Connecting (a parent): ``root_ca`` checks the serving process's
     certificate, ``certificate`` and ``key`` (with ``mutual``) are shown to it, and
-    ``user`` and ``password`` are given to it.  The password is never shown (repr)."""
+    ``user`` and ``password`` are given to it.  The password is never shown (repr).
+
+    ``allow`` (listening): the certificate common names (with ``mutual``) or user names
+    (with ``users_file``) that may use the link at all, and then only on ``keys`` (key
+    expressions): Zenoh's access control, everything else denied, in and out.  A peer
+    admitted by TLS under another name connects, and nothing it sends arrives."""
 
     root_ca: str | None = None
     certificate: str | None = None
@@ -71,6 +76,8 @@ class Security:
     user: str | None = None
     password: str | None = field(default=None, repr=False)
     users_file: str | None = None
+    allow: tuple[str, ...] = ()
+    keys: tuple[str, ...] = ()
 
     def settings(self, listening: bool) -> list[tuple[str, object]]:
         """Zenoh's configuration keys (``transport/link/tls``, ``transport/auth/usrpwd``)."""
@@ -91,7 +98,35 @@ class Security:
             ]
         if self.users_file is not None:
             found.append(("transport/auth/usrpwd/dictionary_file", self.users_file))
+        if listening and self.allow:
+            found.append(("access_control", self._access_control()))
         return found
+
+    def _access_control(self) -> dict[str, object]:
+        # Zenoh's ACL: default deny; the allowed names may declare, put and query on the
+        # served agents' keys only, both ways (what the parent sends, what it is sent).
+        subject: dict[str, object] = {"id": "parents"}
+        if self.mutual:
+            subject["cert_common_names"] = list(self.allow)
+        if self.users_file is not None:
+            subject["usernames"] = list(self.allow)
+        messages = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable"]
+        messages += ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
+        return {
+            "enabled": True,
+            "default_permission": "deny",
+            "rules": [
+                {
+                    "id": "served",
+                    "messages": messages,
+                    "flows": ["ingress", "egress"],
+                    "permission": "allow",
+                    "key_exprs": list(self.keys),
+                }
+            ],
+            "subjects": [subject],
+            "policies": [{"rules": ["served"], "subjects": ["parents"]}],
+        }
 
 
 def zenoh_config(

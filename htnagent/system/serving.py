@@ -29,6 +29,7 @@ Zenoh session (:data:`htnagent.remote.link.SESSIONS`).
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import logging
 from collections.abc import Callable, Iterable, Sequence
@@ -246,6 +247,10 @@ async def serve(
     scenarios = [scenario] if isinstance(scenario, Scenario) else list(scenario)
     for one in scenarios:
         check_served(one, agent)
+    if security is not None and security.allow:
+        # Zenoh's access control: the allowed parents on these robots' keys, nothing else.
+        keys = tuple(f"{Keys(one.key_space, agent).base}/**" for one in scenarios)
+        security = dataclasses.replace(security, keys=keys)
     hosts = []
     for one in scenarios:
         names = one.agent_names
