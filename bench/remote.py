@@ -279,14 +279,18 @@ def _robot_scenario(folder: Path, index: int, port: int, certs: Path | None = No
     return path
 
 
-def _serve(paths: list[Path], port: int, certs: Path | None = None) -> subprocess.Popen[str]:
-    """A ``serve`` process for the robots of ``paths`` at the port (mutual TLS with ``certs``)."""
+def _serve(
+    paths: list[Path], port: int, certs: Path | None = None, allow: tuple[str, ...] = ()
+) -> subprocess.Popen[str]:
+    """A ``serve`` process for the robots of ``paths`` at the port (mutual TLS with ``certs``;
+    with ``allow``, Zenoh's access control lets only those certificate names through)."""
     if certs is None:
         secured: tuple[str, ...] = ("--listen", f"tcp/127.0.0.1:{port}")
     else:
         secured = (
             *("--listen", f"tls/127.0.0.1:{port}", "--root-ca", str(certs / "root.pem")),
             *("--certificate", str(certs / "serve.pem"), "--key", str(certs / "serve.key")),
+            *(a for name in allow for a in ("--allow", name)),
         )
     return subprocess.Popen(
         [
@@ -430,7 +434,12 @@ class _Watch:
             self.refused += item.count
 
 
-async def _security(certs: Path, other: Path, done: list[dict[str, Any]], save: Any) -> None:
+async def _security(
+    certs: Path, other: Path, done: list[dict[str, Any]], save: Any, allow: tuple[str, ...] = ()
+) -> None:
+    """The intruder cases against one ``serve`` process; with ``allow`` (Zenoh's access
+    control for the parent's certificate name), only the forger holding a certificate of
+    the fleet's root."""
     import zenoh
 
     from htnagent.remote.codec import encode as encode_item
@@ -443,7 +452,7 @@ async def _security(certs: Path, other: Path, done: list[dict[str, Any]], save: 
     root = str(certs / "root.pem")
     with tempfile.TemporaryDirectory() as tmp:
         path = _robot_scenario(Path(tmp), 0, port, certs)
-        host = _serve([path], port, certs)
+        host = _serve([path], port, certs, allow)
         try:
             assert host.stdout is not None and host.stdout.readline().startswith("serving")
             keys = Keys("bench/fleet/robot0", "navigator")
@@ -475,7 +484,12 @@ async def _security(certs: Path, other: Path, done: list[dict[str, Any]], save: 
                     session = await anyio.to_thread.run_sync(zenoh.open, config)
                     try:
                         await anyio.sleep(0.6)  # connected, if it can be
-                        reached = len(list(session.info.peers_zid())) > 0
+                        # Reached: it sees the serving process's token (TLS refused it: no
+                        # peer at all; access control: connected, and nothing comes through).
+                        replies = await anyio.to_thread.run_sync(
+                            lambda: list(session.liveliness().get(f"{keys.host_alive}/*", timeout=0.3))
+                        )
+                        reached = any(r.ok is not None for r in replies)
                         me = str(session.info.zid())
                         sent = 0
                         started = time.perf_counter()
@@ -534,6 +548,14 @@ async def _security(certs: Path, other: Path, done: list[dict[str, Any]], save: 
                     mutual=True,
                 )
                 tcp = f"tcp/127.0.0.1:{port}"
+                if allow:
+                    await case(
+                        f"forging the parent's id with a certificate of the root, --allow {allow[0]}",
+                        on_link,
+                        endpoint,
+                        orders(INTRUDER_ORDERS, forged=parent_id, first=1000),
+                    )
+                    return
                 await case(
                     "no certificate", Security(root_ca=root, mutual=True), endpoint, orders(INTRUDER_ORDERS)
                 )
@@ -606,6 +628,7 @@ def main(robots: tuple[int, ...] = ROBOTS) -> int:
         security: list[dict[str, Any]] = []
         out["security"] = security
         anyio.run(_security, certs, other, security, save)
+        anyio.run(functools.partial(_security, certs, other, security, save, allow=("parent",)))
         fleet: list[dict[str, Any]] = []
         out["fleet"] = fleet
         for n in robots:
