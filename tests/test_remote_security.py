@@ -670,3 +670,38 @@ def test_with_access_control_a_peer_of_the_same_root_under_another_name_gets_not
 
 ALLOWED = ("parent",)
 """The certificate names ``serve --allow`` lets through, in the test above."""
+
+
+def test_a_parent_faster_than_the_robot_loses_nothing(tmp_path: Path) -> None:
+    # A burst of a thousand world changes (a door shut and opened again, 500 times) and
+    # then an order: Zenoh's reliable, blocking link and the gate admit every one, in order.
+    from htnagent.remote.codec import WorldChange
+    from htnagent.system.serving import Host
+    from htnagent.system.simulation import build_runtime
+
+    port = free_port()
+    endpoint = f"tcp/127.0.0.1:{port}"
+    scenario = load_scenario(remote_scenario(tmp_path, port))
+    keys = Keys(scenario.key_space, "navigator")
+    burst = 1000
+
+    async def main() -> tuple[int, int, int, set[str]]:
+        runtime, world = build_runtime(scenario, speed=200.0, first="navigator")
+        host = Host(runtime, world, "navigator", "guide", keys, endpoint)
+        async with runtime, anyio.create_task_group() as tg:
+            await tg.start(host.serve)
+            async with Link(connect=[endpoint]) as link:
+                parent = _Parent(link, keys)
+                with anyio.fail_after(10):
+                    await parent.host.wait()
+                for k in range(burst):
+                    parent.sent += 1
+                    parent.put(encode(0.0, WorldChange(arc="arc3", close=k % 2 == 0), parent.me, parent.sent))
+                parent.order(seq=1)
+                answered = (await parent.answer()).seq
+            tg.cancel_scope.cancel()
+        return host.gate.admitted, host.gate.refused, answered, set(world.closed)
+
+    admitted, refused, answered, closed = anyio.run(main)
+    assert (admitted, refused, answered) == (burst + 1, 0, 1)
+    assert "arc3" not in closed  # shut and opened 500 times: open, as the last change left it

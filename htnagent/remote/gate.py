@@ -11,9 +11,10 @@ payloads from anyone else costs a JSON parse each and no memory: a payload is
   (unparsed), malformed, of a type that never travels this way (a result sent
   down), from a session that is not the bound peer, or numbered at or below the
   last one admitted (replayed, or out of order);
-- held, a little while and a few at most, when nobody is bound yet: the peer's
-  first payloads may come before its token (another Zenoh thread), and are
-  admitted, in order, when it binds (:meth:`Gate.bind`).
+- held, a little while and a bounded number and size at most, when nobody is
+  bound yet: the peer's first payloads may come before its token (another
+  Zenoh thread; a parent may send a burst at once), and are admitted, in
+  order, when it binds (:meth:`Gate.bind`).
 
 Refusals are counted per claimed sender (at most :data:`MAX_PEERS` of them, the
 rest together as ``others``) and taken once a second by the side that owns the
@@ -35,8 +36,10 @@ from htnagent.remote.codec import CodecError, Item, Received, receive
 
 MAX_PEERS = 32
 """Senders whose refusals are counted apart; the rest are ``others`` (a forger may claim any id)."""
-HOLD = 64
+HOLD = 4096
 """Payloads kept while no peer is bound (the oldest go first, refused)."""
+HOLD_BYTES = 8 * 1024 * 1024
+"""Bytes of payloads kept while no peer is bound, at most."""
 HOLD_S = 2.0
 """Wall-clock seconds a held payload waits for its sender's token."""
 UNKNOWN = "unknown"
@@ -69,7 +72,8 @@ class Gate:
         self._lock = threading.Lock()
         self._peer: str | None = None
         self._last = 0
-        self._held: deque[tuple[float, Received]] = deque()
+        self._held: deque[tuple[float, Received, int]] = deque()
+        self._held_bytes = 0
         self._refused: dict[str, _Tally] = {}
         self.admitted = 0
         self.refused = 0
@@ -99,10 +103,10 @@ class Gate:
         with self._lock:
             self._expire(time.monotonic())
             if self._peer is None:
-                self._held.append((time.monotonic(), got))
-                if len(self._held) > HOLD:
-                    _, old = self._held.popleft()
-                    self._count(old.sender, "held too long: its sender never joined")
+                self._held.append((time.monotonic(), got, len(payload)))
+                self._held_bytes += len(payload)
+                while len(self._held) > HOLD or self._held_bytes > HOLD_BYTES:
+                    self._drop_held()
                 return None
             if got.sender != self._peer:
                 self._count(got.sender, f"not from the bound peer (session {self._peer})")
@@ -121,10 +125,10 @@ class Gate:
             if self._peer is not None:
                 return None
             self._peer, self._last = peer, 0
-            held, self._held = self._held, deque()
+            held, self._held, self._held_bytes = self._held, deque(), 0
             admitted = []
             now = time.monotonic()
-            for at, got in held:
+            for at, got, _ in held:
                 if got.sender != peer:
                     self._count(got.sender, f"not from the bound peer (session {peer})")
                 elif now - at > HOLD_S:
@@ -168,8 +172,12 @@ class Gate:
 
     def _expire(self, now: float) -> None:
         while self._held and now - self._held[0][0] > HOLD_S:
-            _, old = self._held.popleft()
-            self._count(old.sender, "held too long: its sender never joined")
+            self._drop_held()
+
+    def _drop_held(self) -> None:
+        _, old, size = self._held.popleft()
+        self._held_bytes -= size
+        self._count(old.sender, "held too long: its sender never joined")
 
 
 def _kind(item: Item) -> str:
@@ -177,4 +185,4 @@ def _kind(item: Item) -> str:
     return str(kind) if kind else type(item).__name__
 
 
-__all__ = ["HOLD", "HOLD_S", "MAX_PEERS", "Gate", "Refusal"]
+__all__ = ["HOLD", "HOLD_BYTES", "HOLD_S", "MAX_PEERS", "Gate", "Refusal"]
