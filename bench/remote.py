@@ -494,7 +494,9 @@ async def _security(
                         sent = 0
                         started = time.perf_counter()
                         for payload in payloads(me):
-                            session.put(keys.down, payload)
+                            # Blocking, as our own links put: every message arrives (the
+                            # default, drop, would let Zenoh shed some of the flood itself).
+                            session.put(keys.down, payload, congestion_control=zenoh.CongestionControl.BLOCK)
                             sent += 1
                         put_s = time.perf_counter() - started
                         # Refusals are reported once a second: wait until all are in (or 60 s).
