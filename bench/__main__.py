@@ -11,7 +11,7 @@ from bench.machine import recording_machine
 
 
 def _robots(text: str) -> tuple[int, ...]:
-    """``--robots 1,4,8``: fleet sizes, each at least 1."""
+    """``--robots 1,10,100``: fleet sizes, each at least 1."""
     try:
         sizes = tuple(int(part) for part in text.split(","))
     except ValueError:
@@ -66,7 +66,7 @@ def main() -> int:
         type=_robots,
         default=None,
         metavar="N,N,...",
-        help="remote: the fleet sizes, serving processes each (default 1,4,8)",
+        help="remote: the fleet sizes, robots (default 1,10,100; up to 10 robots a serving process)",
     )
     args = parser.parse_args()
     if args.study in ("ipc", "ipc-interrupt"):

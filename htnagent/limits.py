@@ -95,6 +95,10 @@ MIN_SPEED = 1e-6
 MAX_SPEED = 1e9
 """Fastest pace accepted: faster, durations would vanish below the clock's resolution."""
 
+MAX_PAYLOAD_BYTES = 1024 * 1024
+"""Largest message a remote agent's link accepts (a museum run's largest is a few KiB): a
+bigger one is refused (``peer_refused``) before it is parsed."""
+
 
 def max_file_bytes(override: int | None = None) -> int:
     """The file-size bound: ``override`` if given, else the environment's, else :data:`MAX_FILE_BYTES`."""

@@ -266,11 +266,10 @@ def test_every_item_crosses_the_wire_unchanged() -> None:
             decode(bad)
 
 
-def test_an_order_before_the_parents_token_counts_as_the_parent_having_joined(tmp_path: Path) -> None:
+def test_an_order_before_the_parents_token_is_held_and_handled_when_the_token_comes(tmp_path: Path) -> None:
     # Zenoh hands the parent's token and its first order to the event loop from different
-    # threads: the order may come first (seen under load).  The serving side must then
-    # send up at once what the order causes -- the robot's progress drives the parent's
-    # triggers -- and trace the join once, not again when the token comes.
+    # threads: the order may come first (seen under load).  It is held (not refused, not
+    # lost), handled once the token binds that parent, and the join is traced once.
     from htnagent.model.terms import parse
     from htnagent.remote.codec import encode
     from htnagent.remote.link import Keys
@@ -281,7 +280,7 @@ def test_an_order_before_the_parents_token_counts_as_the_parent_having_joined(tm
 
     scenario = load_scenario(remote_scenario(tmp_path, free_port()))
 
-    async def main() -> tuple[bool, list[str]]:
+    async def main() -> tuple[bool, bool, list[str], int]:
         runtime, world = build_runtime(scenario, speed=1.0, first="navigator")
         keys = Keys(scenario.key_space, "navigator")
         host = Host(runtime, world, "navigator", "guide", keys, "tcp/127.0.0.1:7447")
@@ -292,10 +291,11 @@ def test_an_order_before_the_parents_token_counts_as_the_parent_having_joined(tm
                 joined.append(event.side)
 
         runtime.subscribe(watch)
-        host._arrived(encode(0.0, Prepare(action=parse("move_area(area8,area7)"))))
-        up = host.parent_up
-        host._liveliness(True)  # the token, late
-        return up, joined
+        early = host.gate.admit(encode(0.0, Prepare(action=parse("move_area(area8,area7)")), "p1", 1))
+        before = host.parent_up
+        host._liveliness(True, "p1")  # the token, late
+        host._liveliness(True, "p1")  # and seen again: still one join
+        return early is None and not before, host.parent_up, joined, host.gate.admitted
 
-    up, joined = anyio.run(main)
-    assert up and joined == ["parent"]
+    held, up, joined, admitted = anyio.run(main)
+    assert held and up and joined == ["parent"] and admitted == 1

@@ -62,7 +62,7 @@ def test_without_the_extra_a_scenario_in_one_process_runs(capsys: pytest.Capture
 
 def test_a_remote_agent_is_read_with_its_endpoint_and_the_namespace_defaults_to_the_name() -> None:
     s = parse_scenario(scenario_data(remote="tcp/127.0.0.1:7447"), "s.yaml")
-    assert s.agent("navigator").remote == "tcp/127.0.0.1:7447"
+    assert s.agent("navigator").endpoint == "tcp/127.0.0.1:7447"
     assert s.key_space == "museum-remote-navigator"
     assert s.remote and s.peer_wait == 10.0
     local, served = s.chain_from()
@@ -73,8 +73,8 @@ def test_a_remote_agent_is_read_with_its_endpoint_and_the_namespace_defaults_to_
 @pytest.mark.parametrize(
     ("change", "where"),
     [
-        ({"navigator": {"remote": "udp/127.0.0.1:7447"}}, "agents[1].remote"),
-        ({"navigator": {"remote": "tcp/127.0.0.1"}}, "agents[1].remote"),
+        ({"navigator": {"remote": "udp/127.0.0.1:7447"}}, "agents[1].remote.endpoint"),
+        ({"navigator": {"remote": "tcp/127.0.0.1"}}, "agents[1].remote.endpoint"),
         ({"guide": {"remote": "tcp/127.0.0.1:7447"}}, "agents[0].remote"),
         ({"goal_to": "navigator"}, "goals[0].agent"),
         ({"namespace": "a b"}, "namespace"),

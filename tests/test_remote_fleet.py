@@ -21,7 +21,7 @@ import pytest
 
 pytest.importorskip("zenoh", reason="the zenoh extra is not installed")
 
-from htnagent.runtime.events import GoalResumed, PeerLost, Summary, TraceEvent
+from htnagent.runtime.events import GoalResumed, PeerJoined, PeerLost, Summary, TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import load_scenario
 from htnagent.system.fleet import FleetReport, run_fleet
@@ -63,15 +63,22 @@ def assert_as_alone(summary: Summary, expected: Summary) -> None:
 
 @pytest.mark.parametrize("backend", ["asyncio", "trio"])
 def test_every_robot_of_a_fleet_ends_as_the_museum_in_one_process(tmp_path: Path, backend: str) -> None:
+    from htnagent.remote.link import sessions_open
+
     files = fleet_files(tmp_path, 2)
     scenarios = [load_scenario(path) for path, _ in files]
+    sessions: list[int] = []  # this process's Zenoh sessions, whenever a robot's peer joined
+
+    def observers(index: int) -> list[Observer]:
+        return [lambda e: sessions.append(sessions_open()) if isinstance(e, PeerJoined) else None]
 
     async def parent() -> FleetReport:
         with anyio.fail_after(GUARD):
-            return await run_fleet(scenarios, speed=SPEED)
+            return await run_fleet(scenarios, speed=SPEED, observers=observers)
 
     with serving_all(files, SPEED):
         report = anyio.run(parent, backend=backend)
+    assert sessions == [1, 1]  # one session for both robots' links, each to its own endpoint
     expected = alone()
     assert len(report.runs) == 2
     failed = [(i, g.goal, g.reason) for i, r in enumerate(report.runs) for g in r.summary.goals if g.reason]

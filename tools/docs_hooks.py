@@ -190,12 +190,15 @@ def _reliability() -> str:
 
 def _remote() -> str:
     data = load("remote")
-    fleet_cols = ["robots", "speed", "wall_s", "setup_s", "per_robot_ms", "orders_per_s", "all_succeeded"]
-    return (
-        table(scalars({k: v for k, v in data.items() if k != "machine"}))
-        + "\n\n"
-        + table(data["fleet"], fleet_cols)
+    fleet_cols = ["robots", "processes", "sessions", "success", "wall_s", "setup_s", "cpu_s_parent"]
+    fleet_cols += ["cpu_s_serving", "orders_per_s"]
+    security_cols = ["case", "orders_sent", "orders_executed", "refused", "refused_by", "growth_mb"]
+    fleet = [{k: r.get(k, "") for k in fleet_cols} for r in data["fleet"]]
+    security = [{k: r.get(k, "") for k in security_cols} for r in data.get("security", [])]
+    text = (
+        table(scalars({k: v for k, v in data.items() if k != "machine"})) + "\n\n" + table(fleet, fleet_cols)
     )
+    return text + ("\n\n" + table(security, security_cols) if security else "")
 
 
 def _fuzz() -> str:

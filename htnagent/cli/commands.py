@@ -31,8 +31,9 @@ import textwrap
 import threading
 import time
 from collections.abc import Awaitable, Callable, Sequence
+from pathlib import Path
 from types import FrameType, TracebackType
-from typing import Any, NoReturn, Self, TextIO
+from typing import TYPE_CHECKING, Any, NoReturn, Self, TextIO
 
 import anyio
 from rich.console import Console
@@ -41,7 +42,7 @@ from rich.table import Table
 from rich.text import Text
 from rich_argparse import RawDescriptionRichHelpFormatter
 
-from htnagent.errors import HtnAgentError, PlotError, ScenarioError, TextFormError
+from htnagent.errors import HtnAgentError, PlotError, ScenarioError, SettingsError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
@@ -77,6 +78,9 @@ from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
 from htnagent.views.timeline import draw_timeline
 from htnagent.views.trace_file import read_trace
+
+if TYPE_CHECKING:
+    from htnagent.remote.link import Security
 
 PROG = "htnagent"
 
@@ -152,7 +156,7 @@ def build_parser() -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {VERSION}")
     sub = parser.add_subparsers(
-        dest="command", metavar="{run,compare,plan,check,verify,report,serve}", required=True
+        dest="command", metavar="{run,compare,plan,check,verify,report,serve,certs}", required=True
     )
 
     run = sub.add_parser("run", help="execute the scenario to the end")
@@ -235,6 +239,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="the scenario the trace ran (for the map and the agents' order)",
     )
     _add_serve(sub)
+    _add_certs(sub)
     _add_compare(sub)
     return parser
 
@@ -345,6 +350,8 @@ def _main(argv: Sequence[str] | None, owns_process: bool) -> int:
             return _report(args)
         if args.command == "serve":
             return _serve(args, restore_signals=not owns_process)
+        if args.command == "certs":
+            return _certs(args)
         if args.command == "compare":
             return _compare(args, restore_signals=not owns_process)
         return _run(args, restore_signals=not owns_process)
@@ -787,41 +794,129 @@ async def _until_interrupted(run: Callable[..., Awaitable[RunReport]], signals: 
 
 
 def _endpoint(text: str) -> str:
-    """``--listen``: ``tcp/HOST:PORT``."""
-    from htnagent.scenario.schema import ENDPOINT_PATTERN
+    """``--listen``: ``tcp/HOST:PORT`` or ``tls/HOST:PORT``."""
+    from htnagent.scenario.wording import ENDPOINT_PATTERN
 
     if re.fullmatch(ENDPOINT_PATTERN, text) is None:
-        raise argparse.ArgumentTypeError(f"expected tcp/HOST:PORT, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected tcp/HOST:PORT or tls/HOST:PORT, got {text!r}")
     return text
 
 
 def _add_serve(sub: argparse._SubParsersAction[_Parser]) -> None:
     serve = sub.add_parser(
-        "serve", help="serve one agent (and the agents below it) to its parent in another process"
+        "serve",
+        help="serve one agent (and the agents below it) to its parent in another process",
+        description="Serve AGENT of each scenario (a robot each, one Zenoh session for all) at "
+        "ENDPOINT. Off the loopback the link must be TLS: tls/HOST:PORT with --certificate and "
+        "--key, and --root-ca (mutual TLS: the parent shows a certificate signed by it) or "
+        "--users (Zenoh's user/password).",
     )
-    serve.add_argument("scenario", metavar="SCENARIO", help=_SCENARIO_HELP)
+    serve.add_argument("scenario", nargs="+", metavar="SCENARIO", help=_SCENARIO_HELP)
     serve.add_argument("--agent", required=True, metavar="NAME", help="the agent to serve")
     serve.add_argument(
         "--listen",
         type=_endpoint,
         default="tcp/127.0.0.1:7447",
         metavar="ENDPOINT",
-        help="where the parent connects, tcp/HOST:PORT (default: tcp/127.0.0.1:7447, loopback only)",
+        help="where the parent connects, tcp/HOST:PORT or tls/HOST:PORT "
+        "(default: tcp/127.0.0.1:7447, loopback only)",
     )
     serve.add_argument(
         "--speed", type=_speed, metavar="X", help="simulated seconds per real second (default 1)"
     )
+    serve.add_argument(
+        "--root-ca", metavar="FILE", help="TLS: the root certificate parents' must be signed by"
+    )
+    serve.add_argument("--certificate", metavar="FILE", help="TLS: this process's certificate")
+    serve.add_argument("--key", metavar="FILE", help="TLS: the private key of --certificate")
+    serve.add_argument(
+        "--users", metavar="FILE", help="Zenoh's user/password authentication: lines user:password"
+    )
+    serve.add_argument(
+        "--allow",
+        action="append",
+        metavar="NAME",
+        help="only this parent may use the link (repeatable): its certificate's common name with "
+        "--root-ca, its user name with --users; Zenoh's access control denies everyone else",
+    )
+    serve.add_argument(
+        "--insecure",
+        action="store_true",
+        help="allow a plain tcp/ endpoint off the loopback: anyone who reaches it can order the robot",
+    )
+
+
+def _listen_security(args: argparse.Namespace) -> Security | None:
+    """How ``serve`` secures its endpoint, from its options; SettingsError unless it is safe
+    (off the loopback: TLS with mutual authentication or user/password) or ``--insecure``."""
+    from htnagent.remote.link import Security
+    from htnagent.scenario.schema import on_loopback
+
+    listen: str = args.listen
+    tls = listen.startswith("tls/")
+    for option in ("root_ca", "certificate", "key", "users"):
+        name = getattr(args, option)
+        if name is not None and not Path(name).is_file():
+            raise SettingsError(f"--{option.replace('_', '-')} {name}: no such file")
+    if tls:
+        if args.certificate is None or args.key is None:
+            raise SettingsError(f"--listen {listen}: TLS needs this process's --certificate and --key")
+        if args.root_ca is None and args.users is None:
+            raise SettingsError(
+                f"--listen {listen}: TLS needs --root-ca (mutual TLS: parents show a certificate "
+                "signed by it) or --users (Zenoh's user/password), else anyone could connect"
+            )
+    elif args.root_ca is not None or args.certificate is not None or args.key is not None:
+        raise SettingsError(f"--listen {listen}: certificates need a tls/ endpoint")
+    elif not on_loopback(listen):
+        if not args.insecure:
+            raise SettingsError(
+                f"--listen {listen} is off the loopback: anyone who reaches it could order the robot; "
+                "use tls/HOST:PORT with --certificate, --key and --root-ca or --users "
+                "(or --insecure to allow it anyway)"
+            )
+        print(
+            f"{PROG}: WARNING: --insecure: {listen} is plain TCP off the loopback: anyone who reaches "
+            "it can read every message and order the robot",
+            file=sys.stderr,
+            flush=True,
+        )
+    allow = tuple(args.allow or ())
+    if allow and args.root_ca is None and args.users is None:
+        raise SettingsError("--allow names a parent by its certificate (--root-ca) or user name (--users)")
+    if not tls and args.users is None:
+        return None
+    return Security(
+        root_ca=args.root_ca,
+        certificate=args.certificate,
+        key=args.key,
+        mutual=args.root_ca is not None,
+        users_file=args.users,
+        allow=allow,
+    )
 
 
 def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
-    scenario = load_scenario(scenario_file(args.scenario))
+    scenarios = [load_scenario(scenario_file(name)) for name in args.scenario]
     import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
+    from htnagent.remote.link import sessions_open
+    from htnagent.system.fleet import check_fleet
     from htnagent.system.serving import check_served, serve
 
-    check_served(scenario, args.agent)
+    security = _listen_security(args)
+    for scenario in scenarios:
+        check_served(scenario, args.agent)
+    check_fleet(scenarios)
 
     def ready() -> None:
-        print(f"serving {args.agent} at {args.listen} (namespace {scenario.key_space})", flush=True)
+        spaces = ", ".join(s.key_space for s in scenarios)
+        label = "namespace" if len(scenarios) == 1 else f"{len(scenarios)} robots, namespaces"
+        sessions = sessions_open()
+        print(
+            f"serving {args.agent} at {args.listen} ({label} {spaces}; "
+            f"{sessions} Zenoh session{'s' if sessions != 1 else ''})",
+            flush=True,
+        )
 
     async def until_interrupted(signals: _RunSignals) -> None:
         stop = anyio.Event()
@@ -833,13 +928,57 @@ def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
 
         async with anyio.create_task_group() as tg:
             tg.start_soon(watch)
-            await serve(scenario, args.agent, args.listen, speed=args.speed, ready=ready, stop=stop)
+            await serve(
+                scenarios,
+                args.agent,
+                args.listen,
+                speed=args.speed,
+                ready=ready,
+                stop=stop,
+                security=security,
+            )
             tg.cancel_scope.cancel()
 
     with _RunSignals(restore=restore_signals) as signals:
         anyio.run(until_interrupted, signals)
     print(f"{PROG}: interrupted", file=sys.stderr)
     return EXIT_INTERRUPTED
+
+
+def _add_certs(sub: argparse._SubParsersAction[_Parser]) -> None:
+    certs = sub.add_parser(
+        "certs",
+        help="make a self-signed root and peer certificates for a TEST fleet (mutual TLS)",
+        description="Write DIR/root.pem, DIR/root.key and, per peer, DIR/NAME.pem and DIR/NAME.key "
+        "(unencrypted keys, readable by their owner only), for trying remote agents over mutual "
+        "TLS. For tests and trials only: a real fleet's certificates come from its own authority.",
+    )
+    certs.add_argument("folder", metavar="DIR", help="the folder to write into (made if need be)")
+    certs.add_argument(
+        "--peer",
+        action="append",
+        metavar="NAME",
+        help="a peer to make a certificate for (repeatable; default: serve and parent)",
+    )
+    certs.add_argument(
+        "--host",
+        action="append",
+        metavar="NAME",
+        help="a host name or address the certificates are for (repeatable; default: "
+        "localhost, 127.0.0.1, ::1)",
+    )
+
+
+def _certs(args: argparse.Namespace) -> int:
+    import htnagent.remote  # noqa: F401  (the zenoh extra, or one line naming it)
+    from htnagent.remote.certs import DEFAULT_HOSTS, DEFAULT_PEERS, make_certificates
+
+    written = make_certificates(
+        Path(args.folder), peers=args.peer or DEFAULT_PEERS, hosts=args.host or DEFAULT_HOSTS
+    )
+    for path in written:
+        print(path)
+    return EXIT_OK
 
 
 def _first_error(group: BaseExceptionGroup[BaseException]) -> BaseException:

@@ -1,6 +1,8 @@
 """The wire form of what a parent and a serving process exchange: JSON, Atoms in their text form.
 
-Every payload is one JSON object ``{"t": T, "type": TYPE, "body": {...}}``: ``t``
+Every payload is one JSON object ``{"t": T, "type": TYPE, "body": {...}, "from": ID,
+"n": N}``: ``from`` is the sender's Zenoh session id and ``n`` counts its payloads on
+that key from 1 (:mod:`htnagent.remote.gate` admits them in order only); ``t``
 is the sender's simulated time (the receiver's clock keeps in step with it,
 :meth:`htnagent.runtime.clock.Clock.call_from_peer`), ``type`` one of
 
@@ -18,12 +20,11 @@ What does not decode is refused with :class:`CodecError`, never half read.
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from typing import Any
 
-from pydantic import ValidationError
-
-from htnagent.errors import HtnAgentError, TraceFormatError
+from htnagent.errors import HtnAgentError
 from htnagent.model.terms import Atom, parse
 from htnagent.runtime.events import TraceEvent, event_from_dict
 from htnagent.runtime.messages import (
@@ -101,8 +102,18 @@ Item = Wire | Progress | TraceEvent | RobotStatus | WorldChange
 """Anything a payload carries."""
 
 
-def encode(t: float, item: Item) -> bytes:
-    """The payload of ``item``, sent at simulated time ``t``."""
+@dataclass(frozen=True, slots=True)
+class Received:
+    """A payload read: the sender's time, the item, the sender's session id and number."""
+
+    t: float
+    item: Item
+    sender: str
+    n: int
+
+
+def encode(t: float, item: Item, sender: str = "", n: int = 0) -> bytes:
+    """The payload of ``item``, sent at simulated time ``t`` by session ``sender``, its ``n``-th."""
     body: dict[str, Any]
     if isinstance(item, TraceEvent):
         kind, body = "event", dict(item.as_dict())
@@ -121,7 +132,8 @@ def encode(t: float, item: Item) -> bytes:
         kind, body = "world", {"arc": item.arc, "close": item.close}
     else:
         kind, body = "message", _message_body(item)
-    return json.dumps({"t": t, "type": kind, "body": body}, separators=(",", ":")).encode()
+    envelope = {"t": t, "type": kind, "body": body, "from": sender, "n": n}
+    return json.dumps(envelope, separators=(",", ":")).encode()
 
 
 def _message_body(message: Wire) -> dict[str, Any]:
@@ -138,15 +150,38 @@ def _message_body(message: Wire) -> dict[str, Any]:
 
 def decode(payload: bytes) -> tuple[float, Item]:
     """The sender's time and the item of a payload; :class:`CodecError` if it is not one."""
+    got = receive(payload)
+    return got.t, got.item
+
+
+def receive(payload: bytes) -> Received:
+    """All a payload holds; :class:`CodecError` if it is not one this module writes."""
     try:
         data = json.loads(payload)
+        if not isinstance(data, dict):
+            raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
         t, kind, body = data["t"], data["type"], data["body"]
+        sender, n = data.get("from", ""), data.get("n", 0)
         if not isinstance(t, int | float) or isinstance(t, bool) or not isinstance(body, dict):
             raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
-        return float(t), _item(kind, body)
+        if not isinstance(sender, str) or len(sender) > 64:
+            raise CodecError(f"from: not a session id: {str(sender)[:80]!r}")
+        if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n < 2**63:
+            raise CodecError(f"n: not a payload number: {str(n)[:80]!r}")
+        if not math.isfinite(t):
+            raise CodecError(f"t: not a finite time: {t!r}")
+        return Received(float(t), _item(kind, body), sender, n)
     except CodecError:
         raise
-    except (ValueError, KeyError, TypeError, RecursionError, TraceFormatError, ValidationError) as e:
+    except (
+        ValueError,
+        KeyError,
+        TypeError,
+        AttributeError,
+        RecursionError,
+        OverflowError,
+        HtnAgentError,
+    ) as e:
         raise CodecError(f"not a payload of htnagent ({type(e).__name__}: {e}): {payload[:80]!r}") from None
 
 

@@ -1,29 +1,36 @@
-"""One Zenoh session, safely configured, and the bridge from its threads into the event loop.
+"""Zenoh sessions, safely configured and shared, and the bridge from their threads into the event loop.
 
 - :func:`zenoh_config`: peer mode, no multicast or gossip scouting (nothing is
   discovered, nothing answers on the network), listening only on the
   endpoints given (none by default: Zenoh's own default listens on every
   interface), connecting only to those given, and a lease of 1 s, so that a
-  frozen peer is noticed within about a second.
+  frozen peer is noticed within about a second; with :class:`Security`, TLS
+  (``tls/`` endpoints: the root certificate, each side's certificate and key,
+  mutual authentication) and Zenoh's user/password authentication.
 - :class:`Keys`: the key space of one remote agent, under the scenario's namespace.
 - :class:`LoopBridge`: Zenoh calls back on threads of its own; items are
   handed to the event loop without waiting (``call_soon_threadsafe`` under
   asyncio, ``run_sync_soon`` under trio).  Waiting there (``from_thread.run_sync``)
   would deadlock closing the session, which waits for its callbacks.
-- :class:`Link`: the session as an async context manager: opened and closed on a
-  worker thread (closing with a time limit, shielded), with its subscribers,
-  publishers and liveliness token.
+- :class:`Link`: one robot's use of a session, as an async context manager, with
+  its subscribers, publishers and liveliness tokens (undeclared when it ends).
+  The session itself is the process's: :data:`SESSIONS` opens one per set of
+  settings (where it listens, how it is secured) and shares it among every link
+  that fits -- all the robots a process serves, all the robots a fleet's parent
+  runs -- opening it on a worker thread and closing it (with a time limit,
+  shielded) when its last link ends.  :func:`sessions_open` counts them.
 """
 
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import json
 import logging
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any, Self
+from typing import Any, Self, TypeVar
 
 import anyio
 import anyio.to_thread
@@ -32,6 +39,7 @@ import zenoh
 from htnagent.errors import RemoteError
 
 log = logging.getLogger("htnagent")
+T = TypeVar("T")
 
 LEASE_MS = 1000
 """A peer that sends nothing for this long is gone (Zenoh's default is 10 s)."""
@@ -45,8 +53,86 @@ BLOCKED_PUT_MS = 2000
 """A put blocked this long by a peer that reads nothing closes the link (Zenoh's default: 5 s)."""
 
 
-def zenoh_config(listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zenoh.Config:
-    """Peer mode, nothing scouted, listening and connecting only where told."""
+@dataclass(frozen=True)
+class Security:
+    """How a link is secured: TLS files and Zenoh's user/password authentication.
+
+    Listening (a serving process): ``certificate`` and ``key`` are its own, and with
+    ``mutual`` a connecting peer must show a certificate signed by ``root_ca``;
+    ``users_file`` is Zenoh's dictionary of ``user:password`` lines a connecting peer
+    must be in.  Connecting (a parent): ``root_ca`` checks the serving process's
+    certificate, ``certificate`` and ``key`` (with ``mutual``) are shown to it, and
+    ``user`` and ``password`` are given to it.  The password is never shown (repr).
+
+    ``allow`` (listening): the certificate common names (with ``mutual``) or user names
+    (with ``users_file``) that may use the link at all, and then only on ``keys`` (key
+    expressions): Zenoh's access control, everything else denied, in and out.  A peer
+    admitted by TLS under another name connects, and nothing it sends arrives."""
+
+    root_ca: str | None = None
+    certificate: str | None = None
+    key: str | None = None
+    mutual: bool = False
+    user: str | None = None
+    password: str | None = field(default=None, repr=False)
+    users_file: str | None = None
+    allow: tuple[str, ...] = ()
+    keys: tuple[str, ...] = ()
+
+    def settings(self, listening: bool) -> list[tuple[str, object]]:
+        """Zenoh's configuration keys (``transport/link/tls``, ``transport/auth/usrpwd``)."""
+        tls = "transport/link/tls/"
+        side = "listen" if listening else "connect"
+        found: list[tuple[str, object]] = []
+        if self.root_ca is not None:
+            found.append((tls + "root_ca_certificate", self.root_ca))
+        if self.certificate is not None and self.key is not None:
+            found += [(f"{tls}{side}_certificate", self.certificate), (f"{tls}{side}_private_key", self.key)]
+        if self.mutual:
+            # Both sides: the listener asks for the peer's certificate, the connector shows its own.
+            found.append((tls + "enable_mtls", True))
+        if self.user is not None and self.password is not None:
+            found += [
+                ("transport/auth/usrpwd/user", self.user),
+                ("transport/auth/usrpwd/password", self.password),
+            ]
+        if self.users_file is not None:
+            found.append(("transport/auth/usrpwd/dictionary_file", self.users_file))
+        if listening and self.allow:
+            found.append(("access_control", self._access_control()))
+        return found
+
+    def _access_control(self) -> dict[str, object]:
+        # Zenoh's ACL: default deny; the allowed names may declare, put and query on the
+        # served agents' keys only, both ways (what the parent sends, what it is sent).
+        subject: dict[str, object] = {"id": "parents"}
+        if self.mutual:
+            subject["cert_common_names"] = list(self.allow)
+        if self.users_file is not None:
+            subject["usernames"] = list(self.allow)
+        messages = ["put", "delete", "declare_subscriber", "query", "reply", "declare_queryable"]
+        messages += ["liveliness_token", "liveliness_query", "declare_liveliness_subscriber"]
+        return {
+            "enabled": True,
+            "default_permission": "deny",
+            "rules": [
+                {
+                    "id": "served",
+                    "messages": messages,
+                    "flows": ["ingress", "egress"],
+                    "permission": "allow",
+                    "key_exprs": list(self.keys),
+                }
+            ],
+            "subjects": [subject],
+            "policies": [{"rules": ["served"], "subjects": ["parents"]}],
+        }
+
+
+def zenoh_config(
+    listen: Sequence[str] = (), connect: Sequence[str] = (), security: Security | None = None
+) -> zenoh.Config:
+    """Peer mode, nothing scouted, listening and connecting only where told, secured as told."""
     config = zenoh.Config()
     settings: list[tuple[str, object]] = [
         ("mode", "peer"),
@@ -70,6 +156,8 @@ def zenoh_config(listen: Sequence[str] = (), connect: Sequence[str] = ()) -> zen
         ("transport/unicast/accept_timeout", OPEN_MS),
         ("transport/link/tx/queue/congestion_control/block/wait_before_close", BLOCKED_PUT_MS * 1000),
     ]
+    if security is not None:
+        settings += security.settings(listening=bool(listen))
     for key, value in settings:
         config.insert_json5(key, json.dumps(value))
     return config
@@ -98,12 +186,12 @@ class Keys:
 
     @property
     def host_alive(self) -> str:
-        """The serving process's liveliness token."""
+        """The serving process's liveliness tokens: ``…/alive/host/<session id>``."""
         return f"{self.base}/alive/host"
 
     @property
     def parent_alive(self) -> str:
-        """The parent process's liveliness token."""
+        """The parent process's liveliness tokens: ``…/alive/parent/<session id>``."""
         return f"{self.base}/alive/parent"
 
 
@@ -143,33 +231,73 @@ class LoopBridge:
         self.closed = True
 
 
-class Link:
-    """A Zenoh session for one remote agent's link; ``async with`` opens and closes it."""
+class _Shared:
+    """One open (or opening) session and how many links use it."""
 
-    def __init__(self, *, listen: Sequence[str] = (), connect: Sequence[str] = ()) -> None:
-        self.listen = tuple(listen)
-        self.connect = tuple(connect)
-        self._session: zenoh.Session | None = None
-        self._bridge: LoopBridge | None = None
-        self._keep: list[object] = []  # what Zenoh undeclares when dropped
+    def __init__(self, listen: tuple[str, ...], connect: tuple[str, ...], security: Security | None):
+        self.listen = listen
+        self.connect = connect
+        self.security = security
+        self.users = 0
+        self.session: zenoh.Session | None = None
+        self.error: RemoteError | None = None
+        self.ready = anyio.Event()
 
-    async def __aenter__(self) -> Self:
-        self._bridge = LoopBridge()
-        config = zenoh_config(self.listen, self.connect)
+    def fits(self, listen: tuple[str, ...], connect: tuple[str, ...], security: Security | None) -> bool:
+        return self.listen == listen and self.security == security and set(connect) <= set(self.connect)
+
+
+class Sessions:
+    """The process's Zenoh sessions: one per set of settings, shared by every link that fits.
+
+    Used from one event loop at a time (a session outlives no ``anyio.run``: it closes
+    with its last link).  A link connecting to an endpoint no open session connects to
+    opens a session of its own; :meth:`hold` opens one for a whole fleet first."""
+
+    def __init__(self) -> None:
+        self._shared: list[_Shared] = []
+        self.opened = 0
+        """Sessions opened by this process so far."""
+
+    @property
+    def count(self) -> int:
+        """Sessions open now."""
+        return sum(1 for s in self._shared if s.session is not None)
+
+    async def acquire(
+        self, listen: tuple[str, ...], connect: tuple[str, ...], security: Security | None
+    ) -> _Shared:
+        for shared in self._shared:
+            if shared.fits(listen, connect, security):
+                shared.users += 1
+                await shared.ready.wait()
+                if shared.error is not None:
+                    shared.users -= 1
+                    raise shared.error
+                return shared
+        shared = _Shared(listen, connect, security)
+        shared.users = 1
+        self._shared.append(shared)  # before the first await: a link meanwhile waits for this one
         try:
-            self._session = await anyio.to_thread.run_sync(zenoh.open, config)
+            config = zenoh_config(listen, connect, security)
+            shared.session = await anyio.to_thread.run_sync(zenoh.open, config)
         except zenoh.ZError as e:
-            where = ", ".join(self.listen or self.connect)
-            raise RemoteError(f"cannot open a Zenoh session at {where}: {' '.join(str(e).split())}") from None
-        return self
+            where = ", ".join(listen or connect)
+            shared.error = RemoteError(f"cannot open a Zenoh session at {where}: {' '.join(str(e).split())}")
+            self._shared.remove(shared)
+            raise shared.error from None
+        finally:
+            shared.ready.set()
+        self.opened += 1
+        return shared
 
-    async def __aexit__(
-        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        if self._bridge is not None:
-            self._bridge.close()
-        session, self._session = self._session, None
-        self._keep.clear()
+    async def release(self, shared: _Shared) -> None:
+        shared.users -= 1
+        if shared.users > 0:
+            return
+        if shared in self._shared:
+            self._shared.remove(shared)
+        session, shared.session = shared.session, None
         if session is None:
             return
         # Closing waits for Zenoh's threads; under a time limit, and shielded so that a
@@ -177,35 +305,105 @@ class Link:
         with anyio.CancelScope(shield=True), anyio.move_on_after(CLOSE_WITHIN):
             await anyio.to_thread.run_sync(session.close, abandon_on_cancel=True)
 
+    def hold(
+        self, *, listen: Sequence[str] = (), connect: Sequence[str] = (), security: Security | None = None
+    ) -> Link:
+        """A link that declares nothing: held open around a fleet's runs, it makes their
+        links share one session connecting to every endpoint given."""
+        return Link(listen=listen, connect=connect, security=security)
+
+
+SESSIONS = Sessions()
+"""The process's sessions."""
+
+
+def sessions_open() -> int:
+    """How many Zenoh sessions this process has open now (one per set of settings in use)."""
+    return SESSIONS.count
+
+
+class Link:
+    """One robot's use of the process's Zenoh session; ``async with`` opens (or shares) and ends it."""
+
+    def __init__(
+        self,
+        *,
+        listen: Sequence[str] = (),
+        connect: Sequence[str] = (),
+        security: Security | None = None,
+    ) -> None:
+        self.listen = tuple(listen)
+        self.connect = tuple(connect)
+        self.security = security
+        self._shared: _Shared | None = None
+        self._bridge: LoopBridge | None = None
+        self._keep: list[Any] = []  # what this link declared, undeclared when it ends
+
+    async def __aenter__(self) -> Self:
+        self._bridge = LoopBridge()
+        self._shared = await SESSIONS.acquire(self.listen, self.connect, self.security)
+        return self
+
+    async def __aexit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if self._bridge is not None:
+            self._bridge.close()
+        shared, self._shared = self._shared, None
+        kept, self._keep = self._keep, []
+        if shared is None:
+            return
+        with anyio.CancelScope(shield=True):
+            if shared.users > 1:
+                # The session goes on for other links: undeclare ours (the token last but
+                # first undeclared: the peer learns at once that this side is gone).
+                for declared in reversed(kept):
+                    with contextlib.suppress(zenoh.ZError):  # the session is closing under it
+                        declared.undeclare()
+            kept.clear()
+            await SESSIONS.release(shared)
+
     @property
     def session(self) -> zenoh.Session:
-        if self._session is None:
+        if self._shared is None or self._shared.session is None:
             raise RemoteError("the Zenoh session is not open")
-        return self._session
+        return self._shared.session
+
+    @property
+    def session_id(self) -> str:
+        """The session's Zenoh id: what the peer binds to (:mod:`htnagent.remote.gate`)."""
+        return str(self.session.info.zid())
 
     @property
     def bridge(self) -> LoopBridge:
         assert self._bridge is not None, "the link is not open"
         return self._bridge
 
-    def on_sample(self, key: str, handler: Callable[[bytes], None]) -> None:
-        """Call ``handler`` in the event loop with the payload of every sample put on ``key``."""
+    def on_sample(self, key: str, handler: Callable[[T], None], admit: Callable[[bytes], T | None]) -> None:
+        """Call ``handler`` in the event loop with ``admit(payload)`` of every sample put on
+        ``key`` unless that is None.  ``admit`` runs on Zenoh's thread: what it refuses
+        never reaches the event loop."""
         bridge = self.bridge
 
         def arrived(sample: zenoh.Sample) -> None:  # a Zenoh thread: hand over, never wait
-            bridge.call_soon(handler, sample.payload.to_bytes())
+            got = admit(sample.payload.to_bytes())
+            if got is not None:
+                bridge.call_soon(handler, got)
 
         self._keep.append(self.session.declare_subscriber(key, arrived))
 
-    def on_liveliness(self, key: str, handler: Callable[[bool], None]) -> None:
-        """Call ``handler(True)`` when a liveliness token on ``key`` appears (or is there
-        already), ``handler(False)`` when it goes (its session closed, or its lease ran out)."""
+    def on_liveliness(self, key: str, handler: Callable[[bool, str], None]) -> None:
+        """Call ``handler(True, ID)`` when a liveliness token ``KEY/ID`` appears (or is there
+        already), ``handler(False, ID)`` when it goes (its session closed, or its lease ran out)."""
         bridge = self.bridge
+        prefix = key + "/"
 
         def changed(sample: zenoh.Sample) -> None:
-            bridge.call_soon(handler, sample.kind == zenoh.SampleKind.PUT)
+            name = str(sample.key_expr)
+            if name.startswith(prefix):
+                bridge.call_soon(handler, sample.kind == zenoh.SampleKind.PUT, name[len(prefix) :])
 
-        self._keep.append(self.session.liveliness().declare_subscriber(key, changed, history=True))
+        self._keep.append(self.session.liveliness().declare_subscriber(prefix + "*", changed, history=True))
 
     def publisher(self, key: str) -> Callable[[bytes], None]:
         """A function putting a payload on ``key``: reliable, in order, sent at once."""
@@ -216,5 +414,6 @@ class Link:
         return lambda payload: publisher.put(payload)
 
     def token(self, key: str) -> None:
-        """Declare this process alive on ``key`` (last: after the subscribers it answers with)."""
-        self._keep.append(self.session.liveliness().declare_token(key))
+        """Declare this link alive at ``KEY/<session id>`` (last: after the subscribers it
+        answers with)."""
+        self._keep.append(self.session.liveliness().declare_token(f"{key}/{self.session_id}"))

@@ -11,7 +11,10 @@ A lost peer is a reported failure, never a hang (docs/contracts.md "Agents in
 other processes"): when the serving process's liveliness token goes — its
 process died, or it froze and its lease ran out — every order in flight fails
 with ``peer lost`` and ``peer_lost`` is traced; until the token is back
-(``peer_joined``), new orders fail at once.  Start-up waits
+(``peer_joined``), new orders fail at once.  Only the serving process whose
+token it bound to is heard (:mod:`htnagent.remote.gate`): anything else on the
+``up`` key is refused and traced as ``peer_refused``, at most once a second per
+sender.  Start-up waits
 ``scenario.peer_wait`` seconds for the peer, then raises
 :class:`~htnagent.errors.RemoteError`.
 """
@@ -27,10 +30,11 @@ from anyio.abc import TaskStatus
 
 from htnagent.errors import RemoteError
 from htnagent.model.domain import Domain
-from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
-from htnagent.remote.link import Keys, Link
+from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode
+from htnagent.remote.gate import Gate
+from htnagent.remote.link import Keys, Link, Security
 from htnagent.runtime.clock import Clock
-from htnagent.runtime.events import PeerJoined, PeerLost, TraceEvent
+from htnagent.runtime.events import PeerJoined, PeerLost, PeerRefused, TraceEvent
 from htnagent.runtime.executor import ExecutorActor
 from htnagent.runtime.messages import (
     BeliefUpdate,
@@ -53,6 +57,20 @@ log = logging.getLogger("htnagent")
 
 PEER_LOST = "peer lost"
 """The start of the reason of every order that failed because its peer went."""
+REPORT_EVERY = 1.0
+"""Wall-clock seconds between two ``peer_refused`` events about one peer, at least."""
+
+
+def _goes_up(item: Item) -> bool:
+    return isinstance(item, Success | Failure | Suspended | Refused | Progress | TraceEvent | RobotStatus)
+
+
+async def report_refusals(gate: Gate, emit: Callable[[PeerRefused], None], agent: str, side: str) -> None:
+    """Trace what ``gate`` refused, once every :data:`REPORT_EVERY` seconds (until cancelled)."""
+    while True:
+        await anyio.sleep(REPORT_EVERY)
+        for r in gate.refusals():
+            emit(PeerRefused(agent=agent, side=side, peer=r.peer, reason=r.reason, count=r.count))
 
 
 class RemoteChild(ExecutorActor):
@@ -69,6 +87,7 @@ class RemoteChild(ExecutorActor):
         domain: Domain | None = None,
         wait: float = 10.0,
         where: str = "",
+        security: Security | None = None,
     ) -> None:
         """``where``: the scenario file and key naming the endpoint, for the start-up error."""
         super().__init__(name, clock, trace)
@@ -85,12 +104,17 @@ class RemoteChild(ExecutorActor):
         self._joined = anyio.Event()
         self._lost_once = False
         self._put: Callable[[bytes], None] | None = None
+        self.security = security
+        self.gate = Gate(_goes_up, "results, progress, events and the robot's state go up")
+        self._me = ""
+        self._sent = 0
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
-        async with Link(connect=[self.endpoint]) as link:
+        async with Link(connect=[self.endpoint], security=self.security) as link:
             # Subscribers first, the token last: the peer, once it sees the token, knows
             # that what it sends will be heard (a put before that would be lost).
-            link.on_sample(self.keys.up, self._arrived)
+            self._me = link.session_id
+            link.on_sample(self.keys.up, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.host_alive, self._liveliness)
             self._put = link.publisher(self.keys.down)
             link.token(self.keys.parent_alive)
@@ -104,14 +128,17 @@ class RemoteChild(ExecutorActor):
                     f"serve SCENARIO --agent {self.name} --listen {self.endpoint}"
                 )
             task_status.started()
-            while True:
-                self._forward(await self.inbox.receive())
+            async with anyio.create_task_group() as tg:
+                tg.start_soon(report_refusals, self.gate, self.trace.emit, self.name, "serving")
+                while True:
+                    self._forward(await self.inbox.receive())
 
     # -- down ------------------------------------------------------------------------------------
 
     def _publish(self, item: Item) -> None:
         if self._put is not None:
-            self._put(encode(self.clock.now(), item))
+            self._sent += 1
+            self._put(encode(self.clock.now(), item, self._me, self._sent))
 
     def _forward(self, message: Message) -> None:
         if isinstance(message, Execute | Resume):
@@ -138,14 +165,10 @@ class RemoteChild(ExecutorActor):
 
     # -- up --------------------------------------------------------------------------------------
 
-    def _arrived(self, payload: bytes) -> None:
-        try:
-            t, item = decode(payload)
-        except CodecError as e:
-            log.warning("%s: dropping a payload from %s: %s", self.name, self.endpoint, e)
-            return
-        # In the sender's order, at the sender's time (the clocks keep in step).
-        self.clock.call_from_peer(t, functools.partial(self._handle, item))
+    def _arrived(self, got: Received) -> None:
+        # Admitted by the gate: from the serving process bound to, in order.  Handled in the
+        # sender's order, at the sender's time (the clocks keep in step).
+        self.clock.call_from_peer(got.t, functools.partial(self._handle, got.item))
 
     def _handle(self, item: Item) -> None:
         if isinstance(item, Success | Failure | Suspended | Refused):
@@ -165,8 +188,19 @@ class RemoteChild(ExecutorActor):
         elif isinstance(item, RobotStatus):
             self.status = item
 
-    def _liveliness(self, alive: bool) -> None:
-        if alive and not self.up:
+    def _liveliness(self, alive: bool, session: str) -> None:
+        if alive:
+            held = self.gate.bind(session)
+            if held is None:
+                if session != self.gate.peer:
+                    self.gate.refuse(session, f"another serving process while {self.gate.peer} serves")
+                return
+            self._joined_as(held)
+        elif self.gate.unbind(session):
+            self._lost()
+
+    def _joined_as(self, held: list[Received]) -> None:
+        if not self.up:
             self.up = True
             self._joined.set()
             self.trace.emit(PeerJoined(agent=self.name, side="serving", endpoint=self.endpoint))
@@ -174,7 +208,11 @@ class RemoteChild(ExecutorActor):
                 # It may be the same process, come back from a freeze, still holding what was
                 # ordered before: nobody awaits that any more.
                 self._publish(ParentLost())
-        elif not alive and self.up:
+        for got in held:
+            self._arrived(got)
+
+    def _lost(self) -> None:
+        if self.up:
             self.up = False
             self._lost_once = True
             failed = list(self._in_flight.values())

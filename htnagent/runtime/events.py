@@ -291,6 +291,21 @@ class PeerJoined(TraceEvent):
     endpoint: str
 
 
+@dataclass(slots=True, kw_only=True)
+class PeerRefused(TraceEvent):
+    """Payloads on remote agent ``agent``'s link were refused, never acted on: ``count`` of
+    them since the last such event (at most one a second per peer), the last for ``reason``,
+    claimed to be from Zenoh session ``peer`` (``unknown``: it named none; ``others``: past
+    the senders counted apart).  ``side`` is whose payloads they claimed to be (``parent``
+    on the serving process, ``serving`` on the parent's)."""
+
+    event: ClassVar[Literal["peer_refused"]] = "peer_refused"
+    side: str
+    peer: str
+    reason: str
+    count: int
+
+
 # -- the start and the end of a run ---------------------------------------------------------------
 
 
@@ -393,6 +408,7 @@ EVENT_KINDS: dict[str, type[TraceEvent]] = {
         EventsDropped,
         PeerLost,
         PeerJoined,
+        PeerRefused,
         Summary,
     )
 }

@@ -46,6 +46,8 @@ def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) 
     """Check every reference of ``s`` against its map and build its agents' domains (in ``s``)."""
     file, world = s.file, s.world
     _check_chain(s)
+    s._base = base_dir
+    _check_link_files(s, base_dir)
     for i, a in enumerate(s.agents):
         if isinstance(a.domain, HddlDomainSpec):
             if a.executor != ROBOT:
@@ -157,6 +159,20 @@ def check_task(s: Scenario, agent_name: str, task: Atom, where: str) -> None:
         )
     _check_arity(domain, task, s.file, where)
     _check_map_names(s.info_for(agent_name), task, s.world, s.file, where)
+
+
+def _check_link_files(s: Scenario, base_dir: Path) -> None:
+    """Each file a ``remote:`` link names (certificates, key, password) is a regular file."""
+    for i, a in enumerate(s.agents):
+        if a.remote is None:
+            continue
+        for key, name in a.remote.files.items():
+            path = base_dir / name
+            if not path.is_file():
+                why = "is not a regular file" if path.exists() else "does not exist"
+                raise ScenarioError(
+                    s.file, f"agents[{i}].remote.{key}", f"{name} {why} (paths are relative to the scenario)"
+                )
 
 
 def _check_chain(s: Scenario) -> None:

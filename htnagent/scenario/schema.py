@@ -9,11 +9,14 @@ returns: the file's fields plus the parsed map and each agent's domain.
 
 from __future__ import annotations
 
+import ipaddress
 import re
 from collections.abc import Mapping
+from pathlib import Path
 from typing import Annotated, Literal
 
 from pydantic import (
+    BeforeValidator,
     Discriminator,
     Field,
     PlainValidator,
@@ -35,7 +38,7 @@ from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario.hddl_agent import HddlDomainSpec
 from htnagent.scenario.specs import Name, Spec, TextForm
-from htnagent.scenario.wording import kind_of
+from htnagent.scenario.wording import ENDPOINT_PATTERN, kind_of
 
 __all__ = [
     "ROBOT",
@@ -44,20 +47,108 @@ __all__ = [
     "HddlDomainSpec",
     "MapSource",
     "PlannerSpec",
+    "RemoteLink",
     "RobotSpec",
     "Scenario",
     "TextForm",
     "Trigger",
     "WorldEvent",
+    "on_loopback",
 ]
 
 ROBOT = "robot"
 """The executor name of the last agent of the chain: the robot itself."""
 
 
-ENDPOINT_PATTERN = r"^tcp/(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):[0-9]{1,5}$"
 Endpoint = Annotated[str, Strict(), Field(pattern=ENDPOINT_PATTERN)]
-"""A Zenoh endpoint: ``tcp/HOST:PORT`` (an IPv6 address in brackets)."""
+"""A Zenoh endpoint: ``tcp/HOST:PORT`` or ``tls/HOST:PORT`` (an IPv6 address in brackets)."""
+EnvName = Annotated[str, Strict(), Field(pattern=r"^[A-Za-z_][A-Za-z0-9_]{0,127}$")]
+FileName = Annotated[str, Strict(), Field(min_length=1, max_length=4096)]
+
+
+def on_loopback(endpoint: str) -> bool:
+    """Whether ``endpoint`` (``PROTO/HOST:PORT``) names this host only: 127.0.0.0/8, ::1 or localhost.
+
+    Anything else -- another address, a host name, ``0.0.0.0`` (every interface) -- may be
+    reached from the network."""
+    host = endpoint.split("/", 1)[-1].rsplit(":", 1)[0].strip("[]")
+    if host.lower() == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host).is_loopback
+    except ValueError:
+        return False
+
+
+class RemoteLink(Spec):
+    """Where another process serves an agent, and how the link to it is secured.
+
+    Written either as the endpoint alone (``remote: "tcp/127.0.0.1:7447"``) or as a
+    mapping.  Paths are relative to the scenario file; a password is never written in
+    the file, only where to find it (an environment variable or a file)."""
+
+    endpoint: Endpoint
+    root_ca: FileName | None = None
+    """The root certificate the serving process's certificate must be signed by (TLS)."""
+    certificate: FileName | None = None
+    """This (the parent's) side's certificate, for mutual TLS."""
+    key: FileName | None = None
+    """The private key of ``certificate``."""
+    user: Annotated[str, Strict(), Field(min_length=1, max_length=256)] | None = None
+    """Zenoh's user/password authentication: the user name."""
+    password_env: EnvName | None = None
+    """The environment variable holding the password."""
+    password_file: FileName | None = None
+    """The file holding the password (its first line)."""
+    insecure: Annotated[bool, Strict()] = False
+    """Allow a plain ``tcp/`` endpoint off the loopback (anyone on the way reads and forges)."""
+
+    @model_validator(mode="after")
+    def _secured(self) -> RemoteLink:
+        if (self.certificate is None) != (self.key is None):
+            raise ValueError("certificate and key go together (mutual TLS)")
+        if self.password_env is not None and self.password_file is not None:
+            raise ValueError("give the password in password_env or password_file, not both")
+        has_password = self.password_env is not None or self.password_file is not None
+        if has_password != (self.user is not None):
+            raise ValueError("user and a password (password_env or password_file) go together")
+        tls = self.endpoint.startswith("tls/")
+        if tls:
+            if self.root_ca is None:
+                raise ValueError(
+                    "a tls/ endpoint needs root_ca, the root certificate the server's is checked by"
+                )
+            if self.certificate is None and self.user is None:
+                raise ValueError(
+                    "a tls/ endpoint needs certificate and key (mutual TLS) or user and a password"
+                )
+        elif self.root_ca is not None or self.certificate is not None:
+            raise ValueError("certificates need a tls/ endpoint")
+        elif not on_loopback(self.endpoint) and not self.insecure:
+            raise ValueError(
+                f"{self.endpoint} is off the loopback, where anyone who reaches it could order the "
+                "robot: use a tls/ endpoint with root_ca and certificate and key (mutual TLS) or "
+                "user and a password (or insecure: true to allow it anyway)"
+            )
+        return self
+
+    @property
+    def files(self) -> dict[str, str]:
+        """The files the link names, by key (relative to the scenario file)."""
+        named = {
+            "root_ca": self.root_ca,
+            "certificate": self.certificate,
+            "key": self.key,
+            "password_file": self.password_file,
+        }
+        return {k: v for k, v in named.items() if v is not None}
+
+
+def _remote_link(value: object) -> object:
+    # The short form, the endpoint alone, is the mapping with nothing but it.
+    return {"endpoint": value} if isinstance(value, str) else value
+
+
 Namespace = Annotated[str, Strict(), Field(pattern=r"^[A-Za-z0-9_.-]+(/[A-Za-z0-9_.-]+)*$", max_length=200)]
 PositiveSeconds = Annotated[float, Strict(), Field(gt=0, le=MAX_SECONDS, allow_inf_nan=False)]
 
@@ -133,9 +224,15 @@ class AgentSpec(Spec):
     """For an HDDL domain: the actions that may be suspended half way (docs/design.md §7.1)."""
     executor: Name
     """The next agent's name, or ``robot`` for the last agent."""
-    remote: Endpoint | None = None
+    remote: Annotated[RemoteLink, BeforeValidator(_remote_link)] | None = None
     """Where another process serves this agent and everything below it
-    (``python -m htnagent serve``), e.g. ``tcp/127.0.0.1:7447``; None: in this process."""
+    (``python -m htnagent serve``), e.g. ``tcp/127.0.0.1:7447``, and how the link is
+    secured; None: in this process."""
+
+    @property
+    def endpoint(self) -> str | None:
+        """The endpoint of :attr:`remote` (None: in this process)."""
+        return None if self.remote is None else self.remote.endpoint
 
 
 class PlannerSpec(Spec):
@@ -254,6 +351,7 @@ class Scenario(Spec):
     """Wall-clock seconds a run waits at start-up for the processes serving its remote agents."""
 
     _file: str = PrivateAttr(default="")
+    _base: Path = PrivateAttr(default=Path("."))
     _world: WorldMap | None = PrivateAttr(default=None)
     _domains: dict[str, ResolvedDomain] = PrivateAttr(default_factory=dict)
     _hddl: dict[str, HddlPlanning] = PrivateAttr(default_factory=dict)
@@ -299,6 +397,10 @@ class Scenario(Spec):
                 return tuple(local), spec
             local.append(spec)
         return tuple(local), None
+
+    def link_file(self, name: str) -> Path:
+        """A file a ``remote:`` link names, found relative to the scenario file."""
+        return self._base / name
 
     @property
     def remote(self) -> bool:

@@ -37,12 +37,17 @@ from typing_extensions import is_typeddict
 
 from htnagent.errors import ScenarioError, shown
 
-__all__ = ["NAME_PATTERN", "key_path", "kind_of", "scenario_error"]
+__all__ = ["ENDPOINT_PATTERN", "NAME_PATTERN", "key_path", "kind_of", "scenario_error"]
 
 NAME_PATTERN = r"^[^(),\s\"'?]+$"
+ENDPOINT_PATTERN = r"^(tcp|tls)/(\[[0-9A-Fa-f:.]+\]|[A-Za-z0-9.-]+):[0-9]{1,5}$"
+"""A Zenoh endpoint: ``tcp/HOST:PORT`` or ``tls/HOST:PORT`` (an IPv6 address in brackets)."""
 """A name usable as one constant of a text form ``name(arg,...)``: what map names must match."""
 
-_PATTERN_RULES = {NAME_PATTERN: "is not a valid name (no spaces, parentheses, commas, quotes or '?')"}
+_PATTERN_RULES = {
+    NAME_PATTERN: "is not a valid name (no spaces, parentheses, commas, quotes or '?')",
+    ENDPOINT_PATTERN: "is not an endpoint: expected tcp/HOST:PORT or tls/HOST:PORT",
+}
 """How each pattern a schema uses is told to a person."""
 
 _BOUNDS = {

@@ -7,26 +7,33 @@ one scenario file, so a robot is described exactly as when it runs alone;
 :func:`run_fleet` runs their :func:`~htnagent.system.simulation.run_scenario` side by
 side in one task group of the caller's event loop and returns each run's report.
 
-The runs share nothing but the event loop: each has its own runtime, clock and
-links, so a robot whose serving process dies or freezes fails only its own
-goals (``peer lost``) while the others go on, and the fleet ends once every
-run has ended.  Two robots that would talk on the same keys of the same
-endpoint (the same namespace and served agent) would read each other's
-messages; :func:`check_fleet` refuses that before anything starts.
+The runs share nothing but the event loop and the process's Zenoh session (one
+for every robot whose links are secured alike, held open for the whole fleet):
+each has its own runtime, clock and link (its keys, its liveliness tokens), so
+a robot whose serving process dies or freezes fails only its own goals (``peer
+lost``) while the others go on, and the fleet ends once every run has ended.
+Two robots that would talk on the same keys of the same endpoint (the same
+namespace and served agent) would read each other's messages; :func:`check_fleet`
+refuses that before anything starts.
 """
 
 from __future__ import annotations
 
+import contextlib
 import functools
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 import anyio
 
 from htnagent.errors import HtnAgentError, ScenarioError
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.system.simulation import RunReport, link_security, run_scenario
+
+if TYPE_CHECKING:
+    from htnagent.remote.link import Security
 
 
 @dataclass(frozen=True, slots=True)
@@ -56,15 +63,15 @@ def check_fleet(scenarios: Sequence[Scenario]) -> None:
     seen: dict[tuple[str, str, str], str] = {}
     for scenario in scenarios:
         _, served = scenario.chain_from()
-        if served is None or served.remote is None:
+        if served is None or served.endpoint is None:
             continue  # this robot runs in this process: nothing on the network to share
-        key = (served.remote, scenario.key_space, served.name)
+        key = (served.endpoint, scenario.key_space, served.name)
         if key in seen:
             index = scenario.agent_names.index(served.name)
             raise ScenarioError(
                 scenario.file,
                 f"agents[{index}].remote",
-                f"{served.name} at {served.remote} in namespace {scenario.key_space} is another robot's "
+                f"{served.name} at {served.endpoint} in namespace {scenario.key_space} is another robot's "
                 f"too ({seen[key]}); give each robot's scenario a namespace of its own",
             )
         seen[key] = scenario.file
@@ -102,9 +109,11 @@ async def run_fleet(
         reports[index] = await run()
 
     try:
-        async with anyio.create_task_group() as tg:
-            for index in range(len(scenarios)):
-                tg.start_soon(one, index)
+        async with contextlib.AsyncExitStack() as stack:
+            await _share_sessions(stack, scenarios)
+            async with anyio.create_task_group() as tg:
+                for index in range(len(scenarios)):
+                    tg.start_soon(one, index)
     except BaseExceptionGroup as group:
         # A robot that could not start (its serving process not reached): raised as
         # run_scenario raises it, not wrapped in this task group's group.  Anything else
@@ -115,6 +124,27 @@ async def run_fleet(
         raise _first(errors) from None
     # Every task ended without raising (else the group would have): every report is in.
     return FleetReport(runs=tuple(r for r in reports if r is not None))
+
+
+async def _share_sessions(stack: contextlib.AsyncExitStack, scenarios: Sequence[Scenario]) -> None:
+    """Hold one Zenoh session open, for the whole fleet, per way its links are secured,
+    connecting to every endpoint of the robots secured that way: the robots' links then
+    share it (one session for the process, not one per robot)."""
+    groups: dict[Security | None, list[str]] = {}
+    for scenario in scenarios:
+        _, served = scenario.chain_from()
+        if served is None or served.endpoint is None:
+            continue
+        security = link_security(scenario, served.name)
+        endpoints = groups.setdefault(security, [])
+        if served.endpoint not in endpoints:
+            endpoints.append(served.endpoint)
+    if not groups:
+        return  # no robot is served elsewhere: zenoh (an optional extra) is not needed
+    from htnagent.remote.link import SESSIONS
+
+    for security, endpoints in groups.items():
+        await stack.enter_async_context(SESSIONS.hold(connect=endpoints, security=security))
 
 
 def _first(group: BaseExceptionGroup[HtnAgentError]) -> HtnAgentError:

@@ -14,6 +14,7 @@ serving process last told.
 
 from __future__ import annotations
 
+import os
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
@@ -21,6 +22,7 @@ from typing import TYPE_CHECKING
 import anyio
 
 from htnagent.agent import AgentConfig, GoalStatus
+from htnagent.errors import RemoteError
 from htnagent.executors.hddl_robot import FactWorld, HddlRobot
 from htnagent.executors.robot import Robot, RobotWorld
 from htnagent.model.terms import Atom
@@ -47,7 +49,7 @@ from htnagent.upkeep import Replanning
 from htnagent.version import VERSION
 
 if TYPE_CHECKING:
-    from htnagent.remote.link import Keys
+    from htnagent.remote.link import Keys, Security
 
 NEVER_TRIGGERED = "never given: its trigger did not happen"
 STALLED = "stalled: nothing more could happen"
@@ -145,16 +147,18 @@ def build_runtime(
     if remote is not None:
         from htnagent.remote.proxy import RemoteChild  # only now: zenoh is an optional extra
 
-        served, endpoint = remote, remote.remote
-        assert endpoint is not None
+        served, link = remote, remote.remote
+        assert link is not None
+        security = link_security(scenario, served.name)
 
         def bottom(clock: Clock, trace: Trace) -> ExecutorActor | Executor:
             return RemoteChild(
                 served.name,
                 clock,
                 trace,
-                endpoint=endpoint,
+                endpoint=link.endpoint,
                 keys=remote_keys(scenario, served.name),
+                security=security,
                 domain=scenario.domain_for(served.name),
                 wait=scenario.peer_wait,
                 where=f"{scenario.file}: agents[{scenario.agent_names.index(served.name)}].remote",
@@ -165,6 +169,50 @@ def build_runtime(
 
     # The summary names every goal's outcome: keep them all (a scenario lists its goals).
     return Runtime(configs, bottom, speed=speed, keep_outcomes=None), world
+
+
+def link_security(scenario: Scenario, agent: str) -> Security | None:
+    """How the parent's side of the link to ``agent`` is secured, as the scenario's
+    ``remote:`` says: the files found relative to the scenario, the password read now
+    (from its environment variable or file).  None: a plain ``tcp/`` link.
+
+    Raises RemoteError naming the scenario's key when the password is not there."""
+    from htnagent.remote.link import Security
+
+    index = scenario.agent_names.index(agent)
+    link = scenario.agents[index].remote
+    assert link is not None
+    where = f"{scenario.file}: agents[{index}].remote"
+    if not link.endpoint.startswith("tls/") and link.user is None:
+        return None
+    password = None
+    if link.password_env is not None:
+        password = os.environ.get(link.password_env)
+        if not password:
+            raise RemoteError(
+                f"{where}.password_env: the environment variable {link.password_env} is not set"
+            )
+    elif link.password_file is not None:
+        path = scenario.link_file(link.password_file)
+        try:
+            lines = path.read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeError) as e:
+            raise RemoteError(f"{where}.password_file: {link.password_file}: cannot read it ({e})") from None
+        password = lines[0].strip() if lines else ""
+        if not password:
+            raise RemoteError(f"{where}.password_file: {link.password_file} holds no password")
+
+    def file(name: str | None) -> str | None:
+        return None if name is None else str(scenario.link_file(name))
+
+    return Security(
+        root_ca=file(link.root_ca),
+        certificate=file(link.certificate),
+        key=file(link.key),
+        mutual=link.certificate is not None,
+        user=link.user,
+        password=password,
+    )
 
 
 def remote_keys(scenario: Scenario, agent: str) -> Keys:
