@@ -196,6 +196,11 @@ def test_a_password_comes_from_its_environment_variable_or_file_and_is_never_sho
         ("tls/0.0.0.0:7447", ["--certificate", "{c}/serve.pem", "--key", "{c}/serve.key"], "--root-ca"),
         ("tcp/0.0.0.0:7447", ["--root-ca", "{c}/root.pem"], "certificates need a tls/ endpoint"),
         ("tls/0.0.0.0:7447", ["--root-ca", "{c}/nothing.pem"], "no such file"),
+        (
+            "tls/0.0.0.0:7447",
+            ["--root-ca", "{c}/root.pem", "--certificate", "{c}/serve.pem", "--key", "{c}/serve.key"],
+            "--allow NAME",
+        ),
     ],
 )
 def test_serve_off_the_loopback_without_tls_is_one_line_and_exit_2(

@@ -884,6 +884,15 @@ def _listen_security(args: argparse.Namespace) -> Security | None:
     allow = tuple(args.allow or ())
     if allow and args.root_ca is None and args.users is None:
         raise SettingsError("--allow names a parent by its certificate (--root-ca) or user name (--users)")
+    if tls and not allow and not on_loopback(listen) and not args.insecure:
+        # A certificate of the same root (or another user of --users) gets onto the link; only
+        # Zenoh's access control, by name, keeps it off the robot's keys (the payloads' session
+        # id is only a claim).
+        raise SettingsError(
+            f"--listen {listen} is off the loopback: name the parent that may command the robot "
+            "(--allow NAME: its certificate's common name, or its user name), else anyone with a "
+            "certificate of the same root could (or --insecure to allow it anyway)"
+        )
     if not tls and args.users is None:
         return None
     return Security(
