@@ -483,9 +483,10 @@ class _Parent:
         link.token(keys.parent_alive)
 
     def _up(self, got: Received) -> None:
-        if isinstance(got.item, Success):
-            self.results.append(got.item)
-            self.answered.set()
+        for _, item in got.items:
+            if isinstance(item, Success):
+                self.results.append(item)
+                self.answered.set()
 
     def order(self, seq: int, n: int | None = None) -> None:
         self.sent += 1

@@ -80,6 +80,8 @@ class Clock:
         self._quiet = anyio.Event()
         self._wall: float | None = None  # paced: the wall-clock time at which ``now`` was reached
         self._outside = 0
+        self._pacing = False  # the time keeper waits for the wall clock to reach a timer
+        self._settled: list[Callable[[], None]] = []
 
     # -- time ---------------------------------------------------------------------
 
@@ -128,12 +130,18 @@ class Clock:
         self._idle_callbacks.append(callback)
         self._poke()
 
+    def when_settled(self, callback: Callable[[], None]) -> None:
+        """Call ``callback`` once, as soon as the runtime is idle: everything this instant
+        brought has been handled, before time moves on (or the time keeper waits)."""
+        self._settled.append(callback)
+        self._poke()
+
     # -- work accounting ------------------------------------------------------------
 
     def add_work(self, n: int = 1) -> None:
         """A message is in flight (or a receiver holds one)."""
         self._busy += n
-        self._poke()
+        self._poke_unless_pacing()
 
     def done_work(self, n: int = 1) -> None:
         """A receiver finished with messages it held."""
@@ -141,22 +149,30 @@ class Clock:
         assert self._busy >= 0, "work accounting went negative"
         if self._busy == 0:
             self._idle.set()
-        self._poke()
+        self._poke_unless_pacing()
 
     def add_outside(self, n: int = 1) -> None:
         """An answer is awaited from outside the process: time goes on, but the runtime is
         not idle for good (no :meth:`on_idle` callback) until :meth:`done_outside`."""
         self._outside += n
-        self._poke()
+        self._poke_unless_pacing()
 
     def done_outside(self, n: int = 1) -> None:
         """Answers awaited from outside came (or will never come)."""
         self._outside -= n
         assert self._outside >= 0, "outside work accounting went negative"
-        self._poke()
+        self._poke_unless_pacing()
 
     def _poke(self) -> None:
         self._changed.set()
+
+    def _poke_unless_pacing(self) -> None:
+        # Work and outside work change nothing for a time keeper waiting for the wall clock
+        # to reach a timer: it looks at them when the wait ends (busy: it waits for idle
+        # first), and idle callbacks run only with no timer left.  Waking it for every
+        # message (two pokes each) cost a fleet's runtimes a loop round each, to no end.
+        if not self._pacing:
+            self._changed.set()
 
     async def keep_time(self) -> None:
         """Advance time forever: when idle, fire the next timer (the runtime's time keeper)."""
@@ -171,6 +187,11 @@ class Clock:
                 await anyio.lowlevel.checkpoint()
             if self._busy > 0:
                 continue
+            if self._settled:
+                settled, self._settled = self._settled, []
+                for cb in settled:
+                    cb()
+                continue  # what they did may be work: look again
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
                 self._changed = anyio.Event()
@@ -196,9 +217,13 @@ class Clock:
                 wait = due - time.monotonic()
                 if wait > 1e-6:
                     self._changed = anyio.Event()
-                    with anyio.move_on_after(wait):
-                        await self._changed.wait()
-                    continue  # woken early, or due now: look again
+                    self._pacing = True
+                    try:
+                        with anyio.move_on_after(wait):
+                            await self._changed.wait()
+                    finally:
+                        self._pacing = False
+                    continue  # woken early (an earlier timer, a peer's message, stop), or due now
                 self._wall = due
             heapq.heappop(self._timers)
             if nxt.cancelled:
