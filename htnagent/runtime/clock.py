@@ -166,6 +166,12 @@ class Clock:
     def _poke(self) -> None:
         self._changed.set()
 
+    def _renew_changed(self) -> None:
+        # Before a wait: a poke from now on wakes it (an event is made only when the last
+        # one was set: most waits end by a time limit, and making one costs).
+        if self._changed.is_set():
+            self._changed = anyio.Event()
+
     def _poke_unless_pacing(self) -> None:
         # Work and outside work change nothing for a time keeper waiting for the wall clock
         # to reach a timer: it looks at them when the wait ends (busy: it waits for idle
@@ -178,23 +184,27 @@ class Clock:
         """Advance time forever: when idle, fire the next timer (the runtime's time keeper)."""
         while True:
             if self._busy > 0:
-                self._idle = anyio.Event()
-                if self._busy > 0:
-                    await self._idle.wait()
+                if self._idle.is_set():  # an event is made only when the last one was used
+                    self._idle = anyio.Event()
+                await self._idle.wait()
                 continue
-            # Let tasks that are ready but have not yet picked up their work run first.
+            # Let tasks that are ready but have not yet picked up their work run first
+            # (as soon as one has, it is work: wait for it instead).
             for _ in range(3):
                 await anyio.lowlevel.checkpoint()
+                if self._busy > 0:
+                    break
             if self._busy > 0:
                 continue
             if self._settled:
                 settled, self._settled = self._settled, []
                 for cb in settled:
                     cb()
-                continue  # what they did may be work: look again
+                if self._busy > 0:
+                    continue  # what they did is work: handled first
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
-                self._changed = anyio.Event()
+                self._renew_changed()
                 await self._changed.wait()
                 continue
             while self._timers and self._timers[0].cancelled:
@@ -204,7 +214,7 @@ class Clock:
                     cb()
                 if self._busy > 0 or self._timers:
                     continue
-                self._changed = anyio.Event()
+                self._renew_changed()
                 await self._changed.wait()
                 continue
             nxt = self._timers[0]
@@ -216,7 +226,7 @@ class Clock:
                 due = self._wall + max(nxt.when - self._now, 0.0) / self.speed
                 wait = due - time.monotonic()
                 if wait > 1e-6:
-                    self._changed = anyio.Event()
+                    self._renew_changed()
                     self._pacing = True
                     try:
                         with anyio.move_on_after(wait):
