@@ -282,14 +282,16 @@ class LoopBridge:
 
 
 class Outbox(Generic[T]):
-    """What one side sends on one key, gathered while its event loop runs one round and put
-    as one payload (or a few, none over :data:`BATCH` items or, if it can be helped,
-    :data:`~htnagent.limits.MAX_PAYLOAD_BYTES`) once the round is over.
+    """What one side sends on one key, gathered for a moment and put as one payload (or a
+    few, none over :data:`BATCH` items or, if it can be helped,
+    :data:`~htnagent.limits.MAX_PAYLOAD_BYTES`).
 
-    A result, the robot's state and the trace events around them come out of one round
-    together: one payload for them all is one put, one sample for the peer's gate and one
-    hand-over to its event loop, where there were one each.  Nothing waits longer than the
-    round (the items keep their order and each its time: ``pack`` writes them).
+    ``soon`` says when the moment ends: by default after this round of the event loop; a
+    remote agent's link, once its runtime has handled everything of the instant
+    (:meth:`~htnagent.runtime.clock.Clock.when_settled`).  A result, the robot's state and
+    the trace events around them come out together: one payload for them all is one put,
+    one sample for the peer's gate and one hand-over to its event loop, where there were
+    one each.  The items keep their order and each its time (``pack`` writes them).
     """
 
     def __init__(
@@ -298,12 +300,13 @@ class Outbox(Generic[T]):
         pack: Callable[[Sequence[T], int], bytes],
         soon: Callable[[Callable[[], None]], object],
     ) -> None:
-        """``pack(items, n)``: the ``n``-th payload, of ``items``; ``soon``: runs the flush
-        after the round (:attr:`LoopBridge.soon`)."""
+        """``pack(items, n)``: the ``n``-th payload, of ``items``; ``soon(flush)``: runs the
+        flush when the moment ends."""
         self._put = put
         self._pack = pack
         self._soon = soon
         self._pending: list[T] = []
+        self._scheduled = False
         self.sent = 0
         """Payloads put so far (the last one's number)."""
         self.closed = False
@@ -313,10 +316,15 @@ class Outbox(Generic[T]):
         if self.closed:
             return
         self._pending.append(item)
-        if len(self._pending) == 1:
-            self._soon(self.flush)
-        elif len(self._pending) >= BATCH:
+        if not self._scheduled:
+            self._scheduled = True
+            self._soon(self._flush_scheduled)
+        if len(self._pending) >= BATCH:
             self.flush()  # a full payload goes at once (the flush to come finds the rest)
+
+    def _flush_scheduled(self) -> None:
+        self._scheduled = False
+        self.flush()
 
     def flush(self) -> None:
         """Put what is gathered now."""

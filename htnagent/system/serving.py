@@ -63,6 +63,7 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
+from htnagent.system.fleet import share_domains
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
@@ -253,6 +254,7 @@ async def serve(
     scenarios = [scenario] if isinstance(scenario, Scenario) else list(scenario)
     for one in scenarios:
         check_served(one, agent)
+    share_domains(scenarios)  # robots on one map: one domain each, built once
     if security is not None and security.allow:
         # Zenoh's access control: the allowed parents on these robots' keys, nothing else.
         keys = tuple(f"{Keys(one.key_space, agent).base}/**" for one in scenarios)
