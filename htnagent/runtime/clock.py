@@ -161,7 +161,7 @@ class Clock:
         """Answers awaited from outside came (or will never come)."""
         self._outside -= n
         assert self._outside >= 0, "outside work accounting went negative"
-        self._poke_unless_pacing()
+        self._poke()  # idle callbacks may be due now: the time keeper looks again
 
     def _poke(self) -> None:
         self._changed.set()
@@ -173,16 +173,53 @@ class Clock:
             self._changed = anyio.Event()
 
     def _poke_unless_pacing(self) -> None:
-        # Work and outside work change nothing for a time keeper waiting for the wall clock
-        # to reach a timer: it looks at them when the wait ends (busy: it waits for idle
-        # first), and idle callbacks run only with no timer left.  Waking it for every
-        # message (two pokes each) cost a fleet's runtimes a loop round each, to no end.
+        # Work and awaited answers change nothing for a time keeper with nothing to do
+        # (:meth:`_nothing_to_do`): it looks at them when its wait ends (busy: it waits for
+        # idle first).  Waking it for every message (two pokes each) cost a fleet's
+        # runtimes a loop round each, to no end.
         if not self._pacing:
             self._changed.set()
+
+    def _nothing_to_do(self) -> float | None:
+        """How long the time keeper has nothing to do, whether the runtime is busy or not:
+        until a paced timer is due (not a peer's message), or for ever (``inf``) with no
+        timer and nobody to tell that the runtime is idle; nothing settled to tell, not
+        stopped.  None if it has something to do when the runtime is next idle."""
+        if self._settled or self._stopped:
+            return None
+        while self._timers and self._timers[0].cancelled:
+            heapq.heappop(self._timers)
+        if not self._timers:
+            return math.inf if not self._idle_callbacks or self._outside else None
+        nxt = self._timers[0]
+        if self.speed is None or self._wall is None or not nxt.paced:
+            return None  # due now (or the wall clock not known yet: looked at when idle)
+        wait = self._wall + max(nxt.when - self._now, 0.0) / self.speed - time.monotonic()
+        return wait if wait > 1e-6 else None
+
+    async def _pace(self, wait: float) -> None:
+        # Until the wall clock reaches a timer, or a poke (an earlier timer, a peer's message,
+        # something settled to tell, an idle callback, an answer from outside, stop); work
+        # and idleness do not poke meanwhile.
+        self._renew_changed()
+        self._pacing = True
+        try:
+            with anyio.move_on_after(wait):
+                await self._changed.wait()
+        finally:
+            self._pacing = False
 
     async def keep_time(self) -> None:
         """Advance time forever: when idle, fire the next timer (the runtime's time keeper)."""
         while True:
+            wait = self._nothing_to_do()
+            if wait is not None:
+                # Nothing to do before a paced timer is due (or anything pokes): whether the
+                # runtime is busy or idle meanwhile does not matter, so neither wakes the
+                # time keeper -- no round of checkpoints after every message, which a
+                # fleet's runtimes paid for each message.  Looked at again once it is due.
+                await self._pace(wait)
+                continue
             if self._busy > 0:
                 if self._idle.is_set():  # an event is made only when the last one was used
                     self._idle = anyio.Event()
@@ -226,13 +263,7 @@ class Clock:
                 due = self._wall + max(nxt.when - self._now, 0.0) / self.speed
                 wait = due - time.monotonic()
                 if wait > 1e-6:
-                    self._renew_changed()
-                    self._pacing = True
-                    try:
-                        with anyio.move_on_after(wait):
-                            await self._changed.wait()
-                    finally:
-                        self._pacing = False
+                    await self._pace(wait)
                     continue  # woken early (an earlier timer, a peer's message, stop), or due now
                 self._wall = due
             heapq.heappop(self._timers)
