@@ -8,10 +8,13 @@
   (``tls/`` endpoints: the root certificate, each side's certificate and key,
   mutual authentication) and Zenoh's user/password authentication.
 - :class:`Keys`: the key space of one remote agent, under the scenario's namespace.
-- :class:`LoopBridge`: Zenoh calls back on threads of its own; items are
-  handed to the event loop without waiting (``call_soon_threadsafe`` under
-  asyncio, ``run_sync_soon`` under trio).  Waiting there (``from_thread.run_sync``)
-  would deadlock closing the session, which waits for its callbacks.
+- :class:`LoopBridge`: Zenoh calls back on threads of its own (the thread that
+  received the sample: no Python thread per subscriber); items are handed to the
+  event loop without waiting, queued, one wake-up (``call_soon_threadsafe``
+  under asyncio, ``run_sync_soon`` under trio) for every batch that arrives
+  while the loop is busy.  Waiting there (``from_thread.run_sync``) would
+  deadlock closing the session, which waits for its callbacks.
+- :class:`Outbox`: what one side sends at one instant, put as one payload.
 - :class:`Link`: one robot's use of a session, as an async context manager, with
   its subscribers, publishers and liveliness tokens (undeclared when it ends).
   The session itself is the process's: :data:`SESSIONS` opens one per set of
