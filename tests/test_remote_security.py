@@ -321,6 +321,22 @@ def test_a_payload_of_several_items_is_admitted_whole_in_order_or_refused_whole(
     assert encode_batch(orders[:1], "parent", 7) == encode(1.0, orders[0][1], "parent", 7)
 
 
+def test_atoms_read_back_are_kept_for_the_next_payload_in_bounded_memory() -> None:
+    from htnagent.remote import codec
+
+    first = receive(_order("parent", 1)).items[0][1]
+    again = receive(_order("parent", 2)).items[0][1]
+    assert isinstance(first, Execute) and isinstance(again, Execute) and first.action is again.action
+    for i in range(3 * codec.ATOMS_KEPT):  # a peer naming a new action every time
+        receive(encode(1.0, Execute(action=parse(f"move(n{i},n2,arc3)"), seq=1), "p", i + 1))
+    assert len(codec._ATOMS_READ) <= codec.ATOMS_KEPT
+    long = parse(f"say({'x' * 500})")  # long texts are read, never kept
+    assert receive(encode(1.0, Execute(action=long, seq=1), "p", 1)).items[0][1] == Execute(
+        action=long, seq=1
+    )
+    assert all(len(text) <= 200 for text in codec._ATOMS_READ)
+
+
 def test_an_outbox_puts_what_was_sent_in_a_round_as_numbered_payloads_in_order() -> None:
     put: list[bytes] = []
     flushes: list[Any] = []

@@ -224,6 +224,26 @@ def receive(payload: bytes) -> Received:
         raise CodecError(f"not a payload of htnagent ({type(e).__name__}: {e}): {payload[:80]!r}") from None
 
 
+ATOMS_KEPT = 1024
+"""Atoms read back from their text kept for the next payload (short texts only; all
+forgotten when full): a robot's actions come again and again, progress reports above all."""
+_ATOMS_READ: dict[str, Atom] = {}
+
+
+def _atom(text: object) -> Atom:
+    # Atoms are immutable values: one read serves every payload naming it.  Called on
+    # Zenoh's threads; a dict's get and set are atomic, and a lost entry is read again.
+    if not isinstance(text, str) or len(text) > 200:
+        return parse(text)  # type: ignore[arg-type]  # parse names what is wrong
+    atom = _ATOMS_READ.get(text)
+    if atom is None:
+        atom = parse(text)
+        if len(_ATOMS_READ) >= ATOMS_KEPT:
+            _ATOMS_READ.clear()
+        _ATOMS_READ[text] = atom
+    return atom
+
+
 def _timed(data: object, payload: bytes) -> tuple[float, Item]:
     if not isinstance(data, dict):
         raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
@@ -242,16 +262,16 @@ def _item(kind: object, body: dict[str, Any]) -> Item:
             raise CodecError(f"unknown message kind {body.get('kind')!r}")
         fields = dict(body)
         for name in _ATOMS & fields.keys():
-            fields[name] = parse(fields[name])
+            fields[name] = _atom(fields[name])
         for name in _ATOM_TUPLES & fields.keys():
-            fields[name] = tuple(parse(v) for v in fields[name])
+            fields[name] = tuple(_atom(v) for v in fields[name])
         return cls.model_validate(fields)
     if kind == "event":
         return event_from_dict(body)
     if kind == "progress":
         return Progress(
             actor=str(body["actor"]),
-            action=parse(body["action"]),
+            action=_atom(body["action"]),
             phase=Phase(body["phase"]),
             duration=float(body["duration"]),
             done=float(body["done"]),
