@@ -95,10 +95,10 @@ async def _echo(endpoint: str) -> None:
 
         def answer(got: Received) -> None:
             nonlocal sent
-            order = got.item
-            assert isinstance(order, Execute)
-            sent += 1
-            put(encode(got.t, Success(action=order.action, seq=order.seq), me, sent))
+            for t, order in got.items:
+                assert isinstance(order, Execute)
+                sent += 1
+                put(encode(t, Success(action=order.action, seq=order.seq), me, sent))
 
         link.on_sample(keys.down, answer, receive)
         link.token(keys.host_alive)
@@ -127,12 +127,12 @@ async def _measure_link(endpoint: str, proc: subprocess.Popen[str]) -> dict[str,
     lost_at: list[float] = []
 
     def arrived(got: Received) -> None:
-        result = got.item
-        assert isinstance(result, Success)
-        answers[result.seq] = time.perf_counter()
-        event = waiting.pop(result.seq, None)
-        if event is not None:
-            event.set()
+        for _, result in got.items:
+            assert isinstance(result, Success)
+            answers[result.seq] = time.perf_counter()
+            event = waiting.pop(result.seq, None)
+            if event is not None:
+                event.set()
 
     def liveliness(up: bool, session: str) -> None:
         if up:
@@ -426,12 +426,12 @@ class _Watch:
     def up(self, got: Any) -> None:
         from htnagent.runtime.events import GoalReceived, PeerRefused
 
-        item = got.item
-        self.events += 1
-        if isinstance(item, GoalReceived) and item.agent == "navigator":
-            self.executed += 1
-        elif isinstance(item, PeerRefused):
-            self.refused += item.count
+        for _, item in got.items:
+            self.events += 1
+            if isinstance(item, GoalReceived) and item.agent == "navigator":
+                self.executed += 1
+            elif isinstance(item, PeerRefused):
+                self.refused += item.count
 
 
 async def _security(

@@ -199,3 +199,64 @@ def test_an_answer_awaited_from_outside_keeps_the_runtime_from_being_idle_for_go
         return seen
 
     assert anyio.run(main) == ["timer", "answer", "idle"]
+
+
+def test_a_settled_callback_runs_once_when_the_runtime_is_idle_before_time_moves_on() -> None:
+    import anyio
+
+    from htnagent.runtime.clock import Clock, Mailbox
+
+    async def main() -> list[tuple[str, float]]:
+        clock = Clock(speed=100.0)
+        seen: list[tuple[str, float]] = []
+        box: Mailbox[str] = Mailbox(clock, "box")
+        done = anyio.Event()
+
+        async def receiver() -> None:
+            while True:
+                seen.append((await box.receive(), clock.now()))
+
+        def later() -> None:
+            seen.append(("timer", clock.now()))
+            done.set()
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            tg.start_soon(receiver)
+            with anyio.fail_after(5):
+                clock.call_later(1.0, later)
+                box.send("work")  # handled before the callback: the runtime is busy with it
+                clock.when_settled(lambda: seen.append(("settled", clock.now())))
+                await done.wait()
+                clock.when_settled(lambda: seen.append(("settled again", clock.now())))
+                for _ in range(10):
+                    await anyio.lowlevel.checkpoint()
+            tg.cancel_scope.cancel()
+        return seen
+
+    assert anyio.run(main) == [("work", 0.0), ("settled", 0.0), ("timer", 1.0), ("settled again", 1.0)]
+
+
+def test_robots_loaded_from_files_of_their_own_on_one_map_share_its_built_in_domains(tmp_path: Path) -> None:
+    import anyio
+
+    from htnagent.system.fleet import run_fleet, share_domains
+
+    first, second = (parse_scenario(scenario_data(), f"robot{i}.yaml", SCENARIOS) for i in range(2))
+    other_map = scenario_data()
+    small = tmp_path / "map.yaml"
+    small.write_text(
+        (SCENARIOS / "museum_map.yaml")
+        .read_text()
+        .replace("n1: {area: area1, x: 1, y: 1}", "n1: {area: area1, x: 1, y: 0}")
+    )
+    other_map["map"] = str(small)
+    elsewhere = parse_scenario(other_map, "elsewhere.yaml", SCENARIOS)
+    assert first.domain_for("guide") is not second.domain_for("guide")
+    share_domains([first, second, elsewhere])
+    for agent in ("guide", "navigator"):
+        assert second.domain_for(agent) is first.domain_for(agent)
+        assert elsewhere.domain_for(agent) is not first.domain_for(agent)  # another map: its own
+    report = anyio.run(run_fleet, [first, second])
+    assert report.succeeded
+    assert report.runs[0].summary.distance == report.runs[1].summary.distance

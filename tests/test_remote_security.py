@@ -37,9 +37,9 @@ from htnagent.cli.commands import main
 from htnagent.errors import RemoteError, ScenarioError
 from htnagent.model.terms import parse
 from htnagent.remote.certs import make_certificates
-from htnagent.remote.codec import Received, encode, receive
+from htnagent.remote.codec import MAX_ITEMS, Item, Received, encode, encode_batch, receive
 from htnagent.remote.gate import HOLD, MAX_PEERS, Gate
-from htnagent.remote.link import Keys, Link, Security, sessions_open, zenoh_config
+from htnagent.remote.link import BATCH, Keys, Link, Outbox, Security, sessions_open, zenoh_config
 from htnagent.runtime.events import (
     ActionStarted,
     GoalReceived,
@@ -282,6 +282,93 @@ def test_the_gate_admits_the_bound_peers_payloads_in_order_and_refuses_everythin
     assert gate.refusals() == []  # taken: each reported once
 
 
+def test_a_payload_of_several_items_is_admitted_whole_in_order_or_refused_whole() -> None:
+    gate = _gate()
+    gate.bind("parent")
+    orders: list[tuple[float, Item]] = [
+        (1.0, Execute(action=ACTION, seq=1)),
+        (1.0, Prepare(action=ACTION)),
+        (2.5, Execute(action=ACTION, seq=2)),
+    ]
+    got = gate.admit(encode_batch(orders, "parent", 1))
+    assert got is not None and got.items == tuple(orders) and got.n == 1
+    assert got.by_time() == [(1.0, [orders[0][1], orders[1][1]]), (2.5, [orders[2][1]])]
+    # One result among orders: the whole payload is refused, none of its orders acted on.
+    mixed: list[tuple[float, Item]] = [
+        (3.0, Execute(action=ACTION, seq=3)),
+        (3.0, Success(action=ACTION, seq=1)),
+    ]
+    assert gate.admit(encode_batch(mixed, "parent", 2)) is None
+    assert "wrongly typed: success" in {r.peer: r for r in gate.refusals()}["parent"].reason
+    # One item that does not decode, or too many items, or none: refused whole, never half read.
+    bad = json.loads(encode_batch(orders, "parent", 3))
+    bad["items"][1]["body"]["kind"] = "submit"
+    too_many = {
+        "items": [json.loads(encode(1.0, Prepare(action=ACTION)))] * (MAX_ITEMS + 1),
+        "from": "parent",
+        "n": 4,
+    }
+    for payload in (
+        bad,
+        too_many,
+        {"items": [], "from": "parent", "n": 5},
+        {"items": {}, "from": "parent", "n": 6},
+    ):
+        assert gate.admit(json.dumps(payload).encode()) is None
+    assert gate.admitted == 1 and gate.refused == 5
+    assert all("malformed" in r.reason for r in gate.refusals())
+    # A payload of one item is the single form: what an older sender or a test writes.
+    assert encode_batch(orders[:1], "parent", 7) == encode(1.0, orders[0][1], "parent", 7)
+
+
+def test_atoms_read_back_are_kept_for_the_next_payload_in_bounded_memory() -> None:
+    from htnagent.remote import codec
+
+    first = receive(_order("parent", 1)).items[0][1]
+    again = receive(_order("parent", 2)).items[0][1]
+    assert isinstance(first, Execute) and isinstance(again, Execute) and first.action is again.action
+    for i in range(3 * codec.ATOMS_KEPT):  # a peer naming a new action every time
+        receive(encode(1.0, Execute(action=parse(f"move(n{i},n2,arc3)"), seq=1), "p", i + 1))
+    assert len(codec._ATOMS_READ) <= codec.ATOMS_KEPT
+    long = parse(f"say({'x' * 500})")  # long texts are read, never kept
+    assert receive(encode(1.0, Execute(action=long, seq=1), "p", 1)).items[0][1] == Execute(
+        action=long, seq=1
+    )
+    assert all(len(text) <= 200 for text in codec._ATOMS_READ)
+
+
+def test_an_outbox_puts_what_was_sent_in_a_round_as_numbered_payloads_in_order() -> None:
+    put: list[bytes] = []
+    flushes: list[Any] = []
+    outbox: Outbox[tuple[float, Any]] = Outbox(
+        put.append, lambda items, n: encode_batch(items, "me", n), flushes.append
+    )
+    for seq in range(1, 4):
+        outbox.send((float(seq), Execute(action=ACTION, seq=seq)))
+    assert put == [] and len(flushes) == 1  # nothing put before the round is over; one flush
+    flushes.pop()()
+    assert [got.n for got in map(receive, put)] == [1]
+    assert [item.seq for _, item in receive(put[0]).items] == [1, 2, 3]  # type: ignore[union-attr]
+    for seq in range(BATCH + 1):  # a full payload goes at once, the rest with the flush
+        outbox.send((0.0, Execute(action=ACTION, seq=10 + seq)))
+    assert len(put) == 2 and len(receive(put[1]).items) == BATCH
+    assert len(flushes) == 1  # the flush to come, once
+    flushes.pop()()
+    assert [receive(p).n for p in put] == [1, 2, 3] and len(receive(put[2]).items) == 1
+    # Too big together for the receiver's limit: split, never refused whole.
+    big = Execute(action=parse(f"say({'x' * 200_000})"), seq=1)
+    for _ in range(8):
+        outbox.send((0.0, big))
+    flushes.pop()()
+    parts = put[3:]
+    assert len(parts) > 1 and all(len(p) <= 1024 * 1024 for p in parts)
+    assert sum(len(receive(p).items) for p in parts) == 8
+    assert [receive(p).n for p in put] == list(range(1, len(put) + 1))
+    outbox.closed = True
+    outbox.send((0.0, big))
+    assert flushes == []  # closed: dropped
+
+
 def test_the_gate_holds_a_peers_payloads_until_its_token_binds_it_and_a_few_at_most() -> None:
     gate = _gate()
     for n in range(1, HOLD + 11):  # 10 more than are held
@@ -483,9 +570,10 @@ class _Parent:
         link.token(keys.parent_alive)
 
     def _up(self, got: Received) -> None:
-        if isinstance(got.item, Success):
-            self.results.append(got.item)
-            self.answered.set()
+        for _, item in got.items:
+            if isinstance(item, Success):
+                self.results.append(item)
+                self.answered.set()
 
     def order(self, seq: int, n: int | None = None) -> None:
         self.sent += 1

@@ -1,9 +1,13 @@
 """The wire form of what a parent and a serving process exchange: JSON, Atoms in their text form.
 
-Every payload is one JSON object ``{"t": T, "type": TYPE, "body": {...}, "from": ID,
-"n": N}``: ``from`` is the sender's Zenoh session id and ``n`` counts its payloads on
-that key from 1 (:mod:`htnagent.remote.gate` admits them in order only); ``t``
-is the sender's simulated time (the receiver's clock keeps in step with it,
+Every payload is one JSON object, one item ``{"t": T, "type": TYPE, "body": {...},
+"from": ID, "n": N}`` or several sent together ``{"items": [{"t": T, "type": TYPE,
+"body": {...}}, ...], "from": ID, "n": N}`` (what one side sends in one round of its
+event loop -- a result, the robot's state, the trace events around them -- goes in one
+payload: one put, one hand-over to the receiver's event loop, not one each).  ``from``
+is the sender's Zenoh session id and ``n`` counts its payloads on that key from 1
+(:mod:`htnagent.remote.gate` admits them in order only); ``t`` is the sender's
+simulated time when it sent the item (the receiver's clock keeps in step with it,
 :meth:`htnagent.runtime.clock.Clock.call_from_peer`), ``type`` one of
 
 - ``message``: a protocol message (:mod:`htnagent.runtime.messages`) — down, an order
@@ -14,13 +18,15 @@ is the sender's simulated time (the receiver's clock keeps in step with it,
 - ``status``: where the robot is, the nodes it reached and how far it went;
 - ``world``: a door shut or opened (``arc``, ``close``).
 
-What does not decode is refused with :class:`CodecError`, never half read.
+What does not decode is refused with :class:`CodecError`, never half read: a payload
+with one bad item is refused whole.
 """
 
 from __future__ import annotations
 
 import json
 import math
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -102,18 +108,50 @@ Item = Wire | Progress | TraceEvent | RobotStatus | WorldChange
 """Anything a payload carries."""
 
 
+MAX_ITEMS = 4096
+"""Items one payload may carry, at most (besides :data:`~htnagent.limits.MAX_PAYLOAD_BYTES`)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Received:
-    """A payload read: the sender's time, the item, the sender's session id and number."""
+    """A payload read: its items, each with its sender's time, in the order sent; the sender's
+    session id and the payload's number."""
 
-    t: float
-    item: Item
+    items: tuple[tuple[float, Item], ...]
     sender: str
     n: int
+
+    def by_time(self) -> list[tuple[float, list[Item]]]:
+        """The items, those sent at one time (one after the other) together, in order."""
+        runs: list[tuple[float, list[Item]]] = []
+        for t, item in self.items:
+            if runs and runs[-1][0] == t:
+                runs[-1][1].append(item)
+            else:
+                runs.append((t, [item]))
+        return runs
 
 
 def encode(t: float, item: Item, sender: str = "", n: int = 0) -> bytes:
     """The payload of ``item``, sent at simulated time ``t`` by session ``sender``, its ``n``-th."""
+    kind, body = _wire(item)
+    envelope = {"t": t, "type": kind, "body": body, "from": sender, "n": n}
+    return json.dumps(envelope, separators=(",", ":")).encode()
+
+
+def encode_batch(items: Sequence[tuple[float, Item]], sender: str = "", n: int = 0) -> bytes:
+    """One payload of several ``(t, item)``, in order (of one, :func:`encode`'s form)."""
+    if len(items) == 1:
+        return encode(items[0][0], items[0][1], sender, n)
+    listed = []
+    for t, item in items:
+        kind, body = _wire(item)
+        listed.append({"t": t, "type": kind, "body": body})
+    envelope = {"items": listed, "from": sender, "n": n}
+    return json.dumps(envelope, separators=(",", ":")).encode()
+
+
+def _wire(item: Item) -> tuple[str, dict[str, Any]]:
     body: dict[str, Any]
     if isinstance(item, TraceEvent):
         kind, body = "event", dict(item.as_dict())
@@ -132,8 +170,7 @@ def encode(t: float, item: Item, sender: str = "", n: int = 0) -> bytes:
         kind, body = "world", {"arc": item.arc, "close": item.close}
     else:
         kind, body = "message", _message_body(item)
-    envelope = {"t": t, "type": kind, "body": body, "from": sender, "n": n}
-    return json.dumps(envelope, separators=(",", ":")).encode()
+    return kind, body
 
 
 def _message_body(message: Wire) -> dict[str, Any]:
@@ -149,9 +186,11 @@ def _message_body(message: Wire) -> dict[str, Any]:
 
 
 def decode(payload: bytes) -> tuple[float, Item]:
-    """The sender's time and the item of a payload; :class:`CodecError` if it is not one."""
+    """The sender's time and the item of a payload of one; :class:`CodecError` if it is not one."""
     got = receive(payload)
-    return got.t, got.item
+    if len(got.items) != 1:
+        raise CodecError(f"{len(got.items)} items, not one: {payload[:80]!r}")
+    return got.items[0]
 
 
 def receive(payload: bytes) -> Received:
@@ -160,17 +199,17 @@ def receive(payload: bytes) -> Received:
         data = json.loads(payload)
         if not isinstance(data, dict):
             raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
-        t, kind, body = data["t"], data["type"], data["body"]
         sender, n = data.get("from", ""), data.get("n", 0)
-        if not isinstance(t, int | float) or isinstance(t, bool) or not isinstance(body, dict):
-            raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
         if not isinstance(sender, str) or len(sender) > 64:
             raise CodecError(f"from: not a session id: {str(sender)[:80]!r}")
         if not isinstance(n, int) or isinstance(n, bool) or not 0 <= n < 2**63:
             raise CodecError(f"n: not a payload number: {str(n)[:80]!r}")
-        if not math.isfinite(t):
-            raise CodecError(f"t: not a finite time: {t!r}")
-        return Received(float(t), _item(kind, body), sender, n)
+        if "items" not in data:
+            return Received((_timed(data, payload),), sender, n)
+        listed = data["items"]
+        if not isinstance(listed, list) or not 0 < len(listed) <= MAX_ITEMS:
+            raise CodecError(f"items: not a list of 1 to {MAX_ITEMS} items: {payload[:80]!r}")
+        return Received(tuple(_timed(one, payload) for one in listed), sender, n)
     except CodecError:
         raise
     except (
@@ -185,6 +224,37 @@ def receive(payload: bytes) -> Received:
         raise CodecError(f"not a payload of htnagent ({type(e).__name__}: {e}): {payload[:80]!r}") from None
 
 
+ATOMS_KEPT = 1024
+"""Atoms read back from their text kept for the next payload (short texts only; all
+forgotten when full): a robot's actions come again and again, progress reports above all."""
+_ATOMS_READ: dict[str, Atom] = {}
+
+
+def _atom(text: object) -> Atom:
+    # Atoms are immutable values: one read serves every payload naming it.  Called on
+    # Zenoh's threads; a dict's get and set are atomic, and a lost entry is read again.
+    if not isinstance(text, str) or len(text) > 200:
+        return parse(text)  # type: ignore[arg-type]  # parse names what is wrong
+    atom = _ATOMS_READ.get(text)
+    if atom is None:
+        atom = parse(text)
+        if len(_ATOMS_READ) >= ATOMS_KEPT:
+            _ATOMS_READ.clear()
+        _ATOMS_READ[text] = atom
+    return atom
+
+
+def _timed(data: object, payload: bytes) -> tuple[float, Item]:
+    if not isinstance(data, dict):
+        raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
+    t, kind, body = data["t"], data["type"], data["body"]
+    if not isinstance(t, int | float) or isinstance(t, bool) or not isinstance(body, dict):
+        raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
+    if not math.isfinite(t):
+        raise CodecError(f"t: not a finite time: {t!r}")
+    return float(t), _item(kind, body)
+
+
 def _item(kind: object, body: dict[str, Any]) -> Item:
     if kind == "message":
         cls = _MESSAGES.get(body.get("kind"))  # type: ignore[arg-type]
@@ -192,16 +262,16 @@ def _item(kind: object, body: dict[str, Any]) -> Item:
             raise CodecError(f"unknown message kind {body.get('kind')!r}")
         fields = dict(body)
         for name in _ATOMS & fields.keys():
-            fields[name] = parse(fields[name])
+            fields[name] = _atom(fields[name])
         for name in _ATOM_TUPLES & fields.keys():
-            fields[name] = tuple(parse(v) for v in fields[name])
+            fields[name] = tuple(_atom(v) for v in fields[name])
         return cls.model_validate(fields)
     if kind == "event":
         return event_from_dict(body)
     if kind == "progress":
         return Progress(
             actor=str(body["actor"]),
-            action=parse(body["action"]),
+            action=_atom(body["action"]),
             phase=Phase(body["phase"]),
             duration=float(body["duration"]),
             done=float(body["done"]),

@@ -9,8 +9,9 @@ payloads from anyone else costs a JSON parse each and no memory: a payload is
 
 - refused when it is larger than :data:`~htnagent.limits.MAX_PAYLOAD_BYTES`
   (unparsed), malformed, of a type that never travels this way (a result sent
-  down), from a session that is not the bound peer, or numbered at or below the
-  last one admitted (replayed, or out of order);
+  down; a payload of several items is refused whole if one of them is), from a
+  session that is not the bound peer, or numbered at or below the last one
+  admitted (replayed, or out of order);
 - held, a little while and a bounded number and size at most, when nobody is
   bound yet: the peer's first payloads may come before its token (another
   Zenoh thread; a parent may send a burst at once), and are admitted, in
@@ -97,8 +98,9 @@ class Gate:
         if not got.sender:
             self.refuse(UNKNOWN, "names no sender session")
             return None
-        if not self._allowed(got.item):
-            self.refuse(got.sender, f"wrongly typed: {_kind(got.item)} never travels this way ({self._what})")
+        wrong = next((item for _, item in got.items if not self._allowed(item)), None)
+        if wrong is not None:  # the whole payload: nothing of a sender that lies is acted on
+            self.refuse(got.sender, f"wrongly typed: {_kind(wrong)} never travels this way ({self._what})")
             return None
         with self._lock:
             self._expire(time.monotonic())

@@ -8,10 +8,13 @@
   (``tls/`` endpoints: the root certificate, each side's certificate and key,
   mutual authentication) and Zenoh's user/password authentication.
 - :class:`Keys`: the key space of one remote agent, under the scenario's namespace.
-- :class:`LoopBridge`: Zenoh calls back on threads of its own; items are
-  handed to the event loop without waiting (``call_soon_threadsafe`` under
-  asyncio, ``run_sync_soon`` under trio).  Waiting there (``from_thread.run_sync``)
-  would deadlock closing the session, which waits for its callbacks.
+- :class:`LoopBridge`: Zenoh calls back on threads of its own (the thread that
+  received the sample: no Python thread per subscriber); items are handed to the
+  event loop without waiting, queued, one wake-up (``call_soon_threadsafe``
+  under asyncio, ``run_sync_soon`` under trio) for every batch that arrives
+  while the loop is busy.  Waiting there (``from_thread.run_sync``) would
+  deadlock closing the session, which waits for its callbacks.
+- :class:`Outbox`: what one side sends at one instant, put as one payload.
 - :class:`Link`: one robot's use of a session, as an async context manager, with
   its subscribers, publishers and liveliness tokens (undeclared when it ends).
   The session itself is the process's: :data:`SESSIONS` opens one per set of
@@ -27,16 +30,20 @@ import asyncio
 import contextlib
 import json
 import logging
+import threading
+import weakref
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from types import TracebackType
-from typing import Any, Self, TypeVar
+from typing import Any, Generic, Self, TypeVar
 
 import anyio
 import anyio.to_thread
 import zenoh
 
 from htnagent.errors import RemoteError
+from htnagent.limits import MAX_PAYLOAD_BYTES
 
 log = logging.getLogger("htnagent")
 T = TypeVar("T")
@@ -51,6 +58,8 @@ CLOSE_WITHIN = 2.0
 """Wall-clock seconds closing a session may take before it is left to finish alone."""
 BLOCKED_PUT_MS = 2000
 """A put blocked this long by a peer that reads nothing closes the link (Zenoh's default: 5 s)."""
+BATCH = 256
+"""Items one payload of an :class:`Outbox` carries, at most."""
 
 
 @dataclass(frozen=True)
@@ -195,40 +204,148 @@ class Keys:
         return f"{self.base}/alive/parent"
 
 
+class _Handoff:
+    """The calls Zenoh's threads hand to one event loop, queued and run in order: one wake-up
+    of the loop (``call_soon_threadsafe``) for every batch that arrives while it is busy,
+    not one per call.  Every link of the loop shares it (a fleet's messages, together)."""
+
+    def __init__(self, submit: Callable[..., object]) -> None:
+        self._submit = submit
+        self._lock = threading.Lock()
+        self._queue: deque[tuple[LoopBridge, Callable[..., None], tuple[Any, ...]]] = deque()
+        self._scheduled = False
+        self.ended = False
+
+    def put(self, bridge: LoopBridge, fn: Callable[..., None], args: tuple[Any, ...]) -> None:
+        with self._lock:
+            if self.ended:
+                return
+            self._queue.append((bridge, fn, args))
+            if self._scheduled:
+                return  # the loop has been woken already: it runs this with the rest
+            self._scheduled = True
+        try:
+            self._submit(self._run)
+        except RuntimeError:  # the loop has ended (asyncio: closed; trio: RunFinishedError)
+            with self._lock:
+                self.ended = True
+                self._queue.clear()
+
+    def _run(self) -> None:
+        with self._lock:
+            batch, self._queue = self._queue, deque()
+            self._scheduled = False
+        for bridge, fn, args in batch:
+            if not bridge.closed:
+                fn(*args)
+
+
+_HANDOFFS: weakref.WeakKeyDictionary[object, _Handoff] = weakref.WeakKeyDictionary()
+"""Each running event loop's hand-off (asyncio: by loop; trio: by its token)."""
+
+
 class LoopBridge:
     """Hands calls from any thread to the event loop it was made in, never waiting for them.
 
-    Made inside the event loop (asyncio or trio).  After :meth:`close`, and once the
-    loop has ended, calls are dropped.
+    Made inside the event loop (asyncio or trio).  Calls keep their order (every bridge of
+    one loop shares its queue).  After :meth:`close`, and once the loop has ended, calls
+    are dropped.
     """
 
     def __init__(self) -> None:
         self.closed = False
+        owner: object
         try:
             loop = asyncio.get_running_loop()
         except RuntimeError:
             import trio.lowlevel  # not asyncio: anyio runs on trio
 
-            self._submit: Callable[..., object] = trio.lowlevel.current_trio_token().run_sync_soon
+            owner = trio.lowlevel.current_trio_token()
+            submit: Callable[..., object] = owner.run_sync_soon
+            self.soon: Callable[[Callable[[], None]], object] = submit
+            """Run a function in the event loop soon, after what is ready now (from the loop only)."""
         else:
-            self._submit = loop.call_soon_threadsafe
+            owner, submit, self.soon = loop, loop.call_soon_threadsafe, loop.call_soon
+        handoff = _HANDOFFS.get(owner)
+        if handoff is None or handoff.ended:
+            handoff = _HANDOFFS[owner] = _Handoff(submit)
+        self._handoff = handoff
 
     def call_soon(self, fn: Callable[..., None], *args: Any) -> None:
         """Run ``fn(*args)`` in the event loop, soon (callable from any thread)."""
         if self.closed:
             return
-        try:
-            self._submit(self._run, fn, args)
-        except RuntimeError:  # the loop has ended (asyncio: closed; trio: RunFinishedError)
+        self._handoff.put(self, fn, args)
+        if self._handoff.ended:
             self.closed = True
-
-    def _run(self, fn: Callable[..., None], args: tuple[Any, ...]) -> None:
-        if not self.closed:
-            fn(*args)
 
     def close(self) -> None:
         """Drop every call from now on."""
         self.closed = True
+
+
+class Outbox(Generic[T]):
+    """What one side sends on one key, gathered for a moment and put as one payload (or a
+    few, none over :data:`BATCH` items or, if it can be helped,
+    :data:`~htnagent.limits.MAX_PAYLOAD_BYTES`).
+
+    ``soon`` says when the moment ends: by default after this round of the event loop; a
+    remote agent's link, once its runtime has handled everything of the instant
+    (:meth:`~htnagent.runtime.clock.Clock.when_settled`).  A result, the robot's state and
+    the trace events around them come out together: one payload for them all is one put,
+    one sample for the peer's gate and one hand-over to its event loop, where there were
+    one each.  The items keep their order and each its time (``pack`` writes them).
+    """
+
+    def __init__(
+        self,
+        put: Callable[[bytes], None],
+        pack: Callable[[Sequence[T], int], bytes],
+        soon: Callable[[Callable[[], None]], object],
+    ) -> None:
+        """``pack(items, n)``: the ``n``-th payload, of ``items``; ``soon(flush)``: runs the
+        flush when the moment ends."""
+        self._put = put
+        self._pack = pack
+        self._soon = soon
+        self._pending: list[T] = []
+        self._scheduled = False
+        self.sent = 0
+        """Payloads put so far (the last one's number)."""
+        self.closed = False
+
+    def send(self, item: T) -> None:
+        """Send ``item`` with the rest of this round's (never blocks; dropped once closed)."""
+        if self.closed:
+            return
+        self._pending.append(item)
+        if not self._scheduled:
+            self._scheduled = True
+            self._soon(self._flush_scheduled)
+        if len(self._pending) >= BATCH:
+            self.flush()  # a full payload goes at once (the flush to come finds the rest)
+
+    def _flush_scheduled(self) -> None:
+        self._scheduled = False
+        self.flush()
+
+    def flush(self) -> None:
+        """Put what is gathered now."""
+        items, self._pending = self._pending, []
+        for start in range(0, len(items), BATCH):
+            self._put_packed(items[start : start + BATCH])
+
+    def _put_packed(self, items: list[T]) -> None:
+        payload = self._pack(items, self.sent + 1)
+        if len(payload) > MAX_PAYLOAD_BYTES and len(items) > 1:
+            half = len(items) // 2  # too big together: the receiver would refuse them all
+            self._put_packed(items[:half])
+            self._put_packed(items[half:])
+            return
+        if self.closed:
+            return
+        self.sent += 1
+        self._put(payload)
 
 
 class _Shared:
@@ -322,6 +439,15 @@ def sessions_open() -> int:
     return SESSIONS.count
 
 
+def _direct(callback: Callable[[zenoh.Sample], None]) -> zenoh.handlers.Callback[zenoh.Sample]:
+    """``callback`` run on the Zenoh thread that received the sample.  Zenoh's default runs a
+    Python callback on a thread of its own, one per subscriber (two per robot): every sample
+    then cost one more thread switch and a contended hand-over of the GIL, and a fleet's
+    parent ran hundreds of such threads.  Ours never wait (the gate's lock is held for a
+    few lines, the event loop is handed the call): Zenoh's thread is not held up."""
+    return zenoh.handlers.Callback(callback, indirect=False)
+
+
 class Link:
     """One robot's use of the process's Zenoh session; ``async with`` opens (or shares) and ends it."""
 
@@ -338,6 +464,7 @@ class Link:
         self._shared: _Shared | None = None
         self._bridge: LoopBridge | None = None
         self._keep: list[Any] = []  # what this link declared, undeclared when it ends
+        self._outboxes: list[Outbox[Any]] = []
 
     async def __aenter__(self) -> Self:
         self._bridge = LoopBridge()
@@ -349,6 +476,11 @@ class Link:
     ) -> None:
         if self._bridge is not None:
             self._bridge.close()
+        for outbox in self._outboxes:
+            # What this round sent goes before the token (undeclared below) does.
+            with contextlib.suppress(zenoh.ZError, RemoteError):  # the session closed under it
+                outbox.flush()
+            outbox.closed = True
         shared, self._shared = self._shared, None
         kept, self._keep = self._keep, []
         if shared is None:
@@ -390,7 +522,7 @@ class Link:
             if got is not None:
                 bridge.call_soon(handler, got)
 
-        self._keep.append(self.session.declare_subscriber(key, arrived))
+        self._keep.append(self.session.declare_subscriber(key, _direct(arrived)))
 
     def on_liveliness(self, key: str, handler: Callable[[bool, str], None]) -> None:
         """Call ``handler(True, ID)`` when a liveliness token ``KEY/ID`` appears (or is there
@@ -403,7 +535,8 @@ class Link:
             if name.startswith(prefix):
                 bridge.call_soon(handler, sample.kind == zenoh.SampleKind.PUT, name[len(prefix) :])
 
-        self._keep.append(self.session.liveliness().declare_subscriber(prefix + "*", changed, history=True))
+        liveliness = self.session.liveliness()
+        self._keep.append(liveliness.declare_subscriber(prefix + "*", _direct(changed), history=True))
 
     def publisher(self, key: str) -> Callable[[bytes], None]:
         """A function putting a payload on ``key``: reliable, in order, sent at once."""
@@ -412,6 +545,18 @@ class Link:
         )
         self._keep.append(publisher)
         return lambda payload: publisher.put(payload)
+
+    def outbox(
+        self,
+        key: str,
+        pack: Callable[[Sequence[T], int], bytes],
+        soon: Callable[[Callable[[], None]], object] | None = None,
+    ) -> Outbox[T]:
+        """An :class:`Outbox` putting on ``key`` (flushed, then closed, when the link ends);
+        ``soon`` runs its flush (by default after this round of the event loop)."""
+        outbox = Outbox(self.publisher(key), pack, self.bridge.soon if soon is None else soon)
+        self._outboxes.append(outbox)
+        return outbox
 
     def token(self, key: str) -> None:
         """Declare this link alive at ``KEY/<session id>`` (last: after the subscribers it

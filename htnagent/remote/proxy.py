@@ -23,16 +23,16 @@ from __future__ import annotations
 
 import functools
 import logging
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.errors import RemoteError
 from htnagent.model.domain import Domain
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode
+from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
-from htnagent.remote.link import Keys, Link, Security
+from htnagent.remote.link import Keys, Link, Outbox, Security
 from htnagent.runtime.clock import Clock
 from htnagent.runtime.events import PeerJoined, PeerLost, PeerRefused, TraceEvent
 from htnagent.runtime.executor import ExecutorActor
@@ -103,11 +103,10 @@ class RemoteChild(ExecutorActor):
         self._in_flight: dict[int, Execute | Resume] = {}
         self._joined = anyio.Event()
         self._lost_once = False
-        self._put: Callable[[bytes], None] | None = None
+        self._out: Outbox[tuple[float, Item]] | None = None
         self.security = security
         self.gate = Gate(_goes_up, "results, progress, events and the robot's state go up")
         self._me = ""
-        self._sent = 0
 
     async def run(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         async with Link(connect=[self.endpoint], security=self.security) as link:
@@ -116,7 +115,7 @@ class RemoteChild(ExecutorActor):
             self._me = link.session_id
             link.on_sample(self.keys.up, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.host_alive, self._liveliness)
-            self._put = link.publisher(self.keys.down)
+            self._out = link.outbox(self.keys.down, self._pack, self.clock.when_settled)
             link.token(self.keys.parent_alive)
             with anyio.move_on_after(self.wait):
                 await self._joined.wait()
@@ -135,10 +134,12 @@ class RemoteChild(ExecutorActor):
 
     # -- down ------------------------------------------------------------------------------------
 
+    def _pack(self, items: Sequence[tuple[float, Item]], n: int) -> bytes:
+        return encode_batch(items, self._me, n)
+
     def _publish(self, item: Item) -> None:
-        if self._put is not None:
-            self._sent += 1
-            self._put(encode(self.clock.now(), item, self._me, self._sent))
+        if self._out is not None:
+            self._out.send((self.clock.now(), item))
 
     def _forward(self, message: Message) -> None:
         if isinstance(message, Execute | Resume):
@@ -168,7 +169,12 @@ class RemoteChild(ExecutorActor):
     def _arrived(self, got: Received) -> None:
         # Admitted by the gate: from the serving process bound to, in order.  Handled in the
         # sender's order, at the sender's time (the clocks keep in step).
-        self.clock.call_from_peer(got.t, functools.partial(self._handle, got.item))
+        for t, items in got.by_time():
+            self.clock.call_from_peer(t, functools.partial(self._handle_all, items))
+
+    def _handle_all(self, items: list[Item]) -> None:
+        for item in items:
+            self._handle(item)
 
     def _handle(self, item: Item) -> None:
         if isinstance(item, Success | Failure | Suspended | Refused):

@@ -80,6 +80,8 @@ class Clock:
         self._quiet = anyio.Event()
         self._wall: float | None = None  # paced: the wall-clock time at which ``now`` was reached
         self._outside = 0
+        self._pacing = False  # the time keeper waits for the wall clock to reach a timer
+        self._settled: list[Callable[[], None]] = []
 
     # -- time ---------------------------------------------------------------------
 
@@ -128,12 +130,18 @@ class Clock:
         self._idle_callbacks.append(callback)
         self._poke()
 
+    def when_settled(self, callback: Callable[[], None]) -> None:
+        """Call ``callback`` once, as soon as the runtime is idle: everything this instant
+        brought has been handled, before time moves on (or the time keeper waits)."""
+        self._settled.append(callback)
+        self._poke()
+
     # -- work accounting ------------------------------------------------------------
 
     def add_work(self, n: int = 1) -> None:
         """A message is in flight (or a receiver holds one)."""
         self._busy += n
-        self._poke()
+        self._poke_unless_pacing()
 
     def done_work(self, n: int = 1) -> None:
         """A receiver finished with messages it held."""
@@ -141,39 +149,99 @@ class Clock:
         assert self._busy >= 0, "work accounting went negative"
         if self._busy == 0:
             self._idle.set()
-        self._poke()
+        self._poke_unless_pacing()
 
     def add_outside(self, n: int = 1) -> None:
         """An answer is awaited from outside the process: time goes on, but the runtime is
         not idle for good (no :meth:`on_idle` callback) until :meth:`done_outside`."""
         self._outside += n
-        self._poke()
+        self._poke_unless_pacing()
 
     def done_outside(self, n: int = 1) -> None:
         """Answers awaited from outside came (or will never come)."""
         self._outside -= n
         assert self._outside >= 0, "outside work accounting went negative"
-        self._poke()
+        self._poke()  # idle callbacks may be due now: the time keeper looks again
 
     def _poke(self) -> None:
         self._changed.set()
 
+    def _renew_changed(self) -> None:
+        # Before a wait: a poke from now on wakes it (an event is made only when the last
+        # one was set: most waits end by a time limit, and making one costs).
+        if self._changed.is_set():
+            self._changed = anyio.Event()
+
+    def _poke_unless_pacing(self) -> None:
+        # Work and awaited answers change nothing for a time keeper with nothing to do
+        # (:meth:`_nothing_to_do`): it looks at them when its wait ends (busy: it waits for
+        # idle first).  Waking it for every message (two pokes each) cost a fleet's
+        # runtimes a loop round each, to no end.
+        if not self._pacing:
+            self._changed.set()
+
+    def _nothing_to_do(self) -> float | None:
+        """How long the time keeper has nothing to do, whether the runtime is busy or not:
+        until a paced timer is due (not a peer's message), or for ever (``inf``) with no
+        timer and nobody to tell that the runtime is idle; nothing settled to tell, not
+        stopped.  None if it has something to do when the runtime is next idle."""
+        if self._settled or self._stopped:
+            return None
+        while self._timers and self._timers[0].cancelled:
+            heapq.heappop(self._timers)
+        if not self._timers:
+            return math.inf if not self._idle_callbacks or self._outside else None
+        nxt = self._timers[0]
+        if self.speed is None or self._wall is None or not nxt.paced:
+            return None  # due now (or the wall clock not known yet: looked at when idle)
+        wait = self._wall + max(nxt.when - self._now, 0.0) / self.speed - time.monotonic()
+        return wait if wait > 1e-6 else None
+
+    async def _pace(self, wait: float) -> None:
+        # Until the wall clock reaches a timer, or a poke (an earlier timer, a peer's message,
+        # something settled to tell, an idle callback, an answer from outside, stop); work
+        # and idleness do not poke meanwhile.
+        self._renew_changed()
+        self._pacing = True
+        try:
+            with anyio.move_on_after(wait):
+                await self._changed.wait()
+        finally:
+            self._pacing = False
+
     async def keep_time(self) -> None:
         """Advance time forever: when idle, fire the next timer (the runtime's time keeper)."""
         while True:
-            if self._busy > 0:
-                self._idle = anyio.Event()
-                if self._busy > 0:
-                    await self._idle.wait()
+            wait = self._nothing_to_do()
+            if wait is not None:
+                # Nothing to do before a paced timer is due (or anything pokes): whether the
+                # runtime is busy or idle meanwhile does not matter, so neither wakes the
+                # time keeper -- no round of checkpoints after every message, which a
+                # fleet's runtimes paid for each message.  Looked at again once it is due.
+                await self._pace(wait)
                 continue
-            # Let tasks that are ready but have not yet picked up their work run first.
+            if self._busy > 0:
+                if self._idle.is_set():  # an event is made only when the last one was used
+                    self._idle = anyio.Event()
+                await self._idle.wait()
+                continue
+            # Let tasks that are ready but have not yet picked up their work run first
+            # (as soon as one has, it is work: wait for it instead).
             for _ in range(3):
                 await anyio.lowlevel.checkpoint()
+                if self._busy > 0:
+                    break
             if self._busy > 0:
                 continue
+            if self._settled:
+                settled, self._settled = self._settled, []
+                for cb in settled:
+                    cb()
+                if self._busy > 0:
+                    continue  # what they did is work: handled first
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
-                self._changed = anyio.Event()
+                self._renew_changed()
                 await self._changed.wait()
                 continue
             while self._timers and self._timers[0].cancelled:
@@ -183,7 +251,7 @@ class Clock:
                     cb()
                 if self._busy > 0 or self._timers:
                     continue
-                self._changed = anyio.Event()
+                self._renew_changed()
                 await self._changed.wait()
                 continue
             nxt = self._timers[0]
@@ -195,10 +263,8 @@ class Clock:
                 due = self._wall + max(nxt.when - self._now, 0.0) / self.speed
                 wait = due - time.monotonic()
                 if wait > 1e-6:
-                    self._changed = anyio.Event()
-                    with anyio.move_on_after(wait):
-                        await self._changed.wait()
-                    continue  # woken early, or due now: look again
+                    await self._pace(wait)
+                    continue  # woken early (an earlier timer, a peer's message, stop), or due now
                 self._wall = due
             heapq.heappop(self._timers)
             if nxt.cancelled:

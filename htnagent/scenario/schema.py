@@ -419,6 +419,30 @@ class Scenario(Spec):
                 return a
         raise ScenarioError(self._file, "agents", no_agent(name, self.agent_names))
 
+    def share_domains(self, other: Scenario) -> int:
+        """Plan with ``other``'s domains where both build one of the built-in domains from
+        equal maps; how many agents' domains are now ``other``'s.
+
+        A built-in domain is a function of its name and the map alone, and one domain
+        serves any number of runtimes (what a fleet of one scenario does): robots that a
+        process runs from scenario files of their own (a namespace, an endpoint each)
+        build its caches -- compiled methods, landmark rows -- once, not once a robot."""
+        from htnagent.domains import BUILTIN
+
+        if self._world is None or other._world is None or self._world != other._world:
+            return 0
+        theirs = {
+            spec.domain: other._domains[spec.name]
+            for spec in other.agents
+            if isinstance(spec.domain, str) and spec.domain in BUILTIN and spec.name in other._domains
+        }
+        shared = 0
+        for spec in self.agents:
+            if isinstance(spec.domain, str) and spec.domain in theirs and spec.name in self._domains:
+                self._domains[spec.name] = theirs[spec.domain]
+                shared += 1
+        return shared
+
     def domain_for(self, agent_name: str) -> Domain:
         """The agent's domain, built from the map (once; later calls return the same object)."""
         return self._resolved(agent_name).domain

@@ -53,6 +53,19 @@ class FleetReport:
         return any(run.interrupted for run in self.runs)
 
 
+def share_domains(scenarios: Sequence[Scenario]) -> None:
+    """Let robots on one map plan with one domain per built-in domain
+    (:meth:`~htnagent.scenario.Scenario.share_domains`): each scenario takes them from the
+    first one before it on an equal map."""
+    firsts: list[Scenario] = []
+    for scenario in scenarios:
+        for first in firsts:
+            if first is scenario or scenario.share_domains(first):
+                break
+        else:
+            firsts.append(scenario)
+
+
 def check_fleet(scenarios: Sequence[Scenario]) -> None:
     """Raise ScenarioError unless every robot's served agent has keys of its own.
 
@@ -95,6 +108,7 @@ async def run_fleet(
     is started whole or not at all.
     """
     check_fleet(scenarios)
+    share_domains(scenarios)
     reports: list[RunReport | None] = [None] * len(scenarios)
 
     async def one(index: int) -> None:
@@ -154,4 +168,4 @@ def _first(group: BaseExceptionGroup[HtnAgentError]) -> HtnAgentError:
     return first
 
 
-__all__ = ["FleetReport", "check_fleet", "run_fleet"]
+__all__ = ["FleetReport", "check_fleet", "run_fleet", "share_domains"]

@@ -40,9 +40,9 @@ from anyio.abc import TaskStatus
 from htnagent.errors import ScenarioError
 from htnagent.executors.robot import RobotWorld
 from htnagent.model.terms import Atom
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode
+from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
-from htnagent.remote.link import Keys, Link, Security
+from htnagent.remote.link import Keys, Link, Outbox, Security
 from htnagent.remote.proxy import RemoteChild, report_refusals
 from htnagent.runtime.clock import Mailbox
 from htnagent.runtime.events import PeerJoined, PeerLost, Summary, TraceEvent
@@ -63,6 +63,7 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
+from htnagent.system.fleet import share_domains
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
@@ -119,9 +120,8 @@ class Host:
         self._in_flight: set[int] = set()
         self._last_seq = 0
         self._waiting: dict[str, None] = {}  # other parents' live sessions, oldest first
-        self._put: Callable[[bytes], None] | None = None
+        self._out: Outbox[tuple[float, Item]] | None = None
         self._me = ""
-        self._sent = 0
 
     async def serve(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         """Serve until cancelled; started once the parent can connect."""
@@ -132,7 +132,7 @@ class Host:
             self._me = link.session_id
             link.on_sample(self.keys.down, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.parent_alive, self._liveliness)
-            self._put = link.publisher(self.keys.up)
+            self._out = link.outbox(self.keys.up, self._pack, self.runtime.clock.when_settled)
             self.runtime.subscribe(self._event)
             self.runtime.on_progress(self._progress)
             link.token(self.keys.host_alive)  # last: what the parent sends from now on is heard
@@ -147,10 +147,12 @@ class Host:
                 if isinstance(answer, Success | Failure | Suspended | Refused):
                     self._publish(answer)
 
+    def _pack(self, items: Sequence[tuple[float, Item]], n: int) -> bytes:
+        return encode_batch(items, self._me, n)
+
     def _publish(self, item: Item) -> None:
-        if self._put is not None and self.parent_up:
-            self._sent += 1
-            self._put(encode(self.runtime.clock.now(), item, self._me, self._sent))
+        if self._out is not None and self.parent_up:
+            self._out.send((self.runtime.clock.now(), item))
 
     def _event(self, event: TraceEvent) -> None:
         if not isinstance(event, PeerLost | PeerJoined | Summary):
@@ -161,7 +163,12 @@ class Host:
 
     def _arrived(self, got: Received) -> None:
         # Admitted by the gate: the bound parent's, in order.  At the sender's time.
-        self.runtime.clock.call_from_peer(got.t, functools.partial(self._handle, got.item))
+        for t, items in got.by_time():
+            self.runtime.clock.call_from_peer(t, functools.partial(self._handle_all, items))
+
+    def _handle_all(self, items: list[Item]) -> None:
+        for item in items:
+            self._handle(item)
 
     def _handle(self, item: Item) -> None:
         if isinstance(item, WorldChange):
@@ -247,6 +254,7 @@ async def serve(
     scenarios = [scenario] if isinstance(scenario, Scenario) else list(scenario)
     for one in scenarios:
         check_served(one, agent)
+    share_domains(scenarios)  # robots on one map: one domain each, built once
     if security is not None and security.allow:
         # Zenoh's access control: the allowed parents on these robots' keys, nothing else.
         keys = tuple(f"{Keys(one.key_space, agent).base}/**" for one in scenarios)
