@@ -160,12 +160,11 @@ def find_problems(
             (f for f in folder.glob("*.hddl") if f.is_file() and f.name != "domain.hddl"),
             key=lambda f: natural_key(f.name),
         )
-        if picks and first is None:
-            chosen = [f for i, f in enumerate(files, 1) if i in picks]
-        elif picks:
-            chosen = [f for i, f in enumerate(files, 1) if i <= first or i in picks]
-        else:
+        if not picks:
             chosen = files[:first]
+        else:
+            upto = 0 if first is None else first
+            chosen = [f for i, f in enumerate(files, 1) if i <= upto or i in picks]
         found += [Problem(folder.name, domain_file, f) for f in chosen]
     return found
 
@@ -796,6 +795,15 @@ def _verifier(option: Path | None) -> Path | None:
     return None
 
 
+def compiled() -> None:
+    """htnagent's bytecode written once, as installing a wheel writes it: with
+    ``PYTHONDONTWRITEBYTECODE`` set, every attempt would otherwise compile the planner
+    again (a tenth of a second each time, counted in its start)."""
+    import compileall
+
+    compileall.compile_dir(ROOT / "htnagent", quiet=1)
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     p = parser()
     args = p.parse_args(argv)
@@ -829,6 +837,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         file=sys.stderr,
     )
     write(args.out, rows)  # this run's file from the start, even if it is stopped before a row
+    if args.planner_cmd is None and not args.peers_only:
+        compiled()
     try:
         for i, problem in enumerate(problems, 1):
             for planner in planners:
