@@ -7,8 +7,9 @@ subfolders (``other/``, further instances) and folders without a ``domain.hddl``
 two side by side, so that timings are fair -- each in its own process group:
 
 - our planner, ``python -m htnagent plan --hddl DOMAIN PROBLEM --format ipc
-  --timeout S [--search NAME] [--anytime]`` (docs/contracts.md "Command line"); its
-  plan is checked by the IPC verifier (``hddl-verify``);
+  --timeout S --anytime [--search NAME]`` (docs/contracts.md "Command line"; with
+  ``--first-plan``, without ``--anytime``); its plan is checked by the IPC verifier
+  (``hddl-verify``);
 - with ``--peers NAME,...``, other planners on the same problem, under the same limit,
   right after ours: the anchors ``panda``, ``hypertension`` and ``lilotane`` (the
   wrappers ``plan-NAME DOMAIN PROBLEM OUT`` of ``--anchors``, by default
@@ -22,9 +23,9 @@ The limit ``S`` is the wall clock of the whole attempt, from starting the proces
 to its end (Python's start, reading the files, planning).  A process still running
 at ``S`` plus a grace of a few seconds (so that a planner may say ``timeout``
 itself) is killed with its whole process group; an answer that comes after ``S``
-counts as a timeout.  With ``--anytime`` our planner prints every better plan as it
-finds one: ``first_s`` is the time of the first, and the plan measured and verified is
-the last one printed before ``S``.
+counts as a timeout.  Our planner runs ``--anytime``, as the IPC's anytime track runs
+a planner: it prints every better plan as it finds one; ``first_s`` is the time of the
+first, and the plan measured and verified is the last one printed before ``S``.
 
 Every plan is verified, each planner's alike, under ``--verify-timeout`` seconds: a
 verifier that gives no verdict in that time (a plan of millions of actions) leaves the
@@ -320,7 +321,7 @@ def _filled(template: str, problem: Problem, timeout: float) -> list[str]:
 
 
 def our_command(
-    template: str | None, problem: Problem, timeout: float, search: str | None, anytime: bool = False
+    template: str | None, problem: Problem, timeout: float, search: str | None, anytime: bool = True
 ) -> list[str]:
     """Our planner's command line (``--planner-cmd`` replaces it: ``{domain}``, ``{problem}``,
     ``{timeout}``, ``{python}`` filled in)."""
@@ -761,7 +762,11 @@ def parser() -> argparse.ArgumentParser:
         help="with --problems: these positions too (6,10)",
     )
     p.add_argument("--search", default=None, help="our planner's search strategy (--search NAME)")
-    p.add_argument("--anytime", action="store_true", help="our planner with --anytime: the last plan counts")
+    p.add_argument(
+        "--first-plan",
+        action="store_true",
+        help="our planner without --anytime: its first plan counts (planner htnagent-first)",
+    )
     p.add_argument(
         "--verifier",
         type=Path,
@@ -824,7 +829,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2
     checker = Checker(_verifier(args.verifier), args.verify_timeout)
-    ours_name = "htnagent" + (f"-{args.search}" if args.search else "") + ("-anytime" if args.anytime else "")
+    ours_name = "htnagent" + (f"-{args.search}" if args.search else "")
+    ours_name += "-first" if args.first_plan else ""
     planners = ([] if args.peers_only else [ours_name]) + list(peers)
     rows, dropped = ([], 0) if args.fresh else earlier_rows(args.out, args.timeout)
     done = {(r["domain"], r["problem"], r["planner"]) for r in rows if _ran(r)}
@@ -851,7 +857,7 @@ def main(argv: Sequence[str] | None = None) -> int:
                     row = anchor(problem, planner, anchors, args.timeout, checker, args.grace)
                 else:
                     argv_ours = our_command(
-                        args.planner_cmd, problem, args.timeout, args.search, args.anytime
+                        args.planner_cmd, problem, args.timeout, args.search, not args.first_plan
                     )
                     row = ours(problem, planner, argv_ours, args.timeout, checker, args.grace)
                 rows.append(row)

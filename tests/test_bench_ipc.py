@@ -291,9 +291,9 @@ def test_our_planners_command_line() -> None:
     argv = ipc.our_command(None, problem, 60.0, "gbfs")
     assert argv[1:] == [
         *("-m", "htnagent", "plan", "--hddl", "d/domain.hddl", "d/p1.hddl"),
-        *("--format", "ipc", "--timeout", "60", "--search", "gbfs"),
+        *("--format", "ipc", "--timeout", "60", "--search", "gbfs", "--anytime"),
     ]
-    assert ipc.our_command(None, problem, 2.5, None)[-2:] == ["--timeout", "2.5"]
+    assert ipc.our_command(None, problem, 2.5, None, anytime=False)[-2:] == ["--timeout", "2.5"]
 
 
 def test_the_search_strategy_names_the_planner(suite: Path, fake: Path, tmp_path: Path) -> None:
@@ -533,12 +533,12 @@ def test_anytime_times_the_first_plan_and_measures_the_last_in_time(
     script.write_text(ANYTIME_PLANNER)
     _, rows = run(
         tmp_path,
-        *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier), "--anytime"),
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier)),
         *("--timeout", "2", "--grace", "0.2"),
         *("--planner-cmd", f"{{python}} {script} {HDDL / 'valid.plan'} {ending}"),
     )
     row = rows[0]
-    assert row["planner"] == "htnagent-anytime"
+    assert row["planner"] == "htnagent"
     assert row["solved"] is True
     assert row["plan_length"] == 6  # the last, shorter plan
     assert row["first_s"] is not None and row["first_s"] + 0.3 < row["seconds"]

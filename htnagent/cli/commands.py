@@ -196,6 +196,12 @@ def build_parser() -> argparse.ArgumentParser:
         help="the search order: astar (cost-optimal; a scenario's default), gbfs (greedy), dfs "
         "(depth-first in method order), or with --hddl auto (its default: dfs for 2 s, then gbfs)",
     )
+    pl.add_argument(
+        "--anytime",
+        action="store_true",
+        help="with --hddl: after the first plan, search for cheaper ones until --timeout (or Ctrl-C); "
+        "--format ipc prints each as it is found, text and json the last",
+    )
 
     check = sub.add_parser(
         "check",
@@ -362,6 +368,8 @@ def _plan(args: argparse.Namespace) -> int:
         return plan_hddl(args, files[0], files[1])
     if len(files) != 1:
         return _fail(f"plan takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} plan --help)")
+    if args.anytime:
+        return _fail(f"--anytime is for plan --hddl (see {PROG} plan --help)")
     for option in ("format", "timeout"):
         if getattr(args, option) is not None:
             return _fail(f"--{option} is for plan --hddl (see {PROG} plan --help)")

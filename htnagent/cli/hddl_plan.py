@@ -15,7 +15,9 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import signal
 import sys
+import threading
 from collections.abc import Sequence
 from typing import Any, NoReturn
 
@@ -23,10 +25,11 @@ from htnagent.cli.common import EXIT_FAILED, EXIT_OK, PROG, fail, guarded, is_te
 from htnagent.hddl.model import Domain, Problem
 from htnagent.hddl.plan_file import format_plan, object_spellings, spellings
 from htnagent.hddl.reader import read_domain, read_problem
+from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom
-from htnagent.planning.hddl_solving import Solved, solve
+from htnagent.planning.hddl_solving import Better, Solved, solve, solve_anytime
 from htnagent.planning.ipc_output import actions_of, ipc_plan
-from htnagent.planning.planner import PlanStatus, Search
+from htnagent.planning.planner import PlanStatus, Search, stop_searches
 
 SEARCH_CHOICES = (*(s.value for s in Search), "auto")
 FORMATS = ("text", "json", "ipc")
@@ -46,7 +49,22 @@ def plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> 
         return fail("--tree is for --format text or json: the ipc format lists the decomposition already")
     search = Search(args.search) if args.search not in (None, "auto") else None
     domain, problem = read_hddl(domain_file, problem_file)
-    solved = _solve_showing_progress(domain, problem, search=search, timeout=args.timeout)
+    spelling = spellings(domain.source.text, problem.source.text)
+    objects = object_spellings(domain, problem)
+    anytime = bool(getattr(args, "anytime", False))
+    watch = _Anytime()
+
+    def print_ipc(plan: Plan) -> None:
+        """Each better plan as the IPC's anytime track prints it, at once."""
+        watch.found = True
+        if form == "ipc":
+            sys.stdout.write(format_plan(ipc_plan(plan), spelling, objects))
+            sys.stdout.flush()
+
+    with watch if anytime else _nothing():
+        solved = _solve_showing_progress(
+            domain, problem, search=search, timeout=args.timeout, better=print_ipc if anytime else None
+        )
     result = solved.result
     best = result.best
     if best is None:
@@ -60,10 +78,9 @@ def plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> 
             why = result.status.value
         print(f"{PROG}: no plan: {why}", file=sys.stderr)
         return EXIT_FAILED
-    spelling = spellings(domain.source.text, problem.source.text)
-    objects = object_spellings(domain, problem)
     if form == "ipc":
-        sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
+        if not anytime:
+            sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
         return EXIT_OK
     actions = [spelled(a, spelling, objects) for a in actions_of(best)]
     if args.tree:
@@ -79,6 +96,8 @@ def plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> 
             "expansions": result.expansions,
             "seconds": round(result.seconds, 3),
         }
+        if anytime:
+            line["cheapest"] = result.exhausted  # no cheaper plan exists
         if args.tree:
             line["tree"] = tree_json(tree)
         print(json.dumps(line))
@@ -89,18 +108,67 @@ def plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> 
 
 
 def _solve_showing_progress(
-    domain: Domain, problem: Problem, *, search: Search | None, timeout: float | None
+    domain: Domain,
+    problem: Problem,
+    *,
+    search: Search | None,
+    timeout: float | None,
+    better: Better | None = None,
 ) -> Solved:
-    """:func:`solve`, its progress shown on stderr when stderr is a terminal (nothing otherwise)."""
+    """:func:`solve` (:func:`solve_anytime` when told of ``better`` plans), its progress
+    shown on stderr when stderr is a terminal (nothing otherwise)."""
     if not is_terminal(sys.stderr):
+        if better is not None:
+            return solve_anytime(domain, problem, better, search=search, timeout=timeout)
         return solve(domain, problem, search=search, timeout=timeout)
     from htnagent.views.console import SearchProgress  # rich: only for a person watching
 
     shown = SearchProgress(sys.stderr)
     try:
+        if better is not None:
+            return solve_anytime(domain, problem, better, search=search, timeout=timeout, progress=shown)
         return solve(domain, problem, search=search, timeout=timeout, progress=shown)
     finally:
         shown.close()
+
+
+class _nothing:
+    def __enter__(self) -> None:
+        return None
+
+    def __exit__(self, *exc: object) -> None:
+        return None
+
+
+class _Anytime:
+    """Ctrl-C and SIGTERM while ``plan --anytime`` searches: before the first plan as
+    always (the process ends, exit 130); once a plan is found, the search stops at its
+    next look at the clock and the best plan stands (exit 0), nothing half printed."""
+
+    def __init__(self) -> None:
+        self.found = False
+        self.saved: dict[int, Any] = {}
+
+    def _signalled(self, signum: int, frame: Any) -> None:
+        if not self.found:
+            previous = self.saved.get(signum)
+            if callable(previous):
+                previous(signum, frame)
+            raise KeyboardInterrupt
+        stop_searches()
+
+    def __enter__(self) -> None:
+        if threading.current_thread() is threading.main_thread():
+            for sig in (signal.SIGINT, signal.SIGTERM):
+                previous = signal.getsignal(sig)
+                if previous is not signal.SIG_IGN:
+                    self.saved[sig] = previous
+                    signal.signal(sig, self._signalled)
+
+    def __exit__(self, *exc: object) -> None:
+        for sig, previous in self.saved.items():
+            signal.signal(sig, previous)
+        stop_searches(False)
 
 
 def spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:
@@ -135,6 +203,7 @@ def _fast_parser() -> argparse.ArgumentParser:
     p.add_argument("--format", choices=FORMATS, default=None)
     p.add_argument("--timeout", type=seconds)
     p.add_argument("--search", choices=SEARCH_CHOICES)
+    p.add_argument("--anytime", action="store_true")
     return p
 
 

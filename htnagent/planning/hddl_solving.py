@@ -15,6 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from htnagent.hddl import model as m
+from htnagent.model.plans import Plan
 from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
 from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
 
@@ -126,4 +127,73 @@ def solve(
     return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
 
 
-__all__ = ["DFS_SECONDS", "DFS_SHARE", "HDDL_BUDGET", "SolveProgress", "Solved", "solve"]
+Better = Callable[[Plan], None]
+"""Told each plan :func:`solve_anytime` finds, each cheaper than the one before."""
+
+
+def solve_anytime(
+    domain: m.Domain,
+    problem: m.Problem,
+    better: Better,
+    *,
+    search: Search | None = None,
+    timeout: float | None = None,
+    budget: int = HDDL_BUDGET,
+    progress: SolveProgress | None = None,
+) -> Solved:
+    """:func:`solve`, then cheaper plans until the time runs out: each plan found, the
+    first and every cheaper one after it, is told to ``better`` at once.
+
+    The first plan comes as :func:`solve` finds it, as soon.  Then branch and bound
+    (:func:`~htnagent.planning.planner.plan`'s ``improving``): a search that follows only
+    nodes whose actions so far plus the least cost of their tasks stay under the cheapest
+    plan's cost, which falls with every plan it finds -- greedy best-first (or the
+    ``search`` given, depth-first for ``dfs``), so that a cheaper plan comes soon.  The
+    search ends when the time or the budget runs out, or when no node under the bound is
+    left: the last plan is then the cheapest there is (``result.exhausted``).  With
+    ``search`` A*, the first plan is already the cheapest: nothing follows it.
+    """
+    started = time.perf_counter()
+    first = solve(domain, problem, search=search, timeout=timeout, budget=budget, progress=progress)
+    best = first.result.best
+    if best is None or first.planning is None:
+        return first
+    better(best)
+    if first.search is Search.ASTAR:
+        return dataclasses.replace(first, result=dataclasses.replace(first.result, exhausted=True))
+    spent = first.result.expansions
+    left = None if timeout is None else timeout - (time.perf_counter() - started)
+    if best.cost <= 0 or spent >= budget or (left is not None and left <= 0):
+        return first
+    order = Search.DFS if search is Search.DFS else Search.GBFS
+    settings = PlannerSettings(
+        alternatives=1, budget=budget - spent, search=order, time_limit=left, cost_bound=best.cost
+    )
+    told = None if progress is None else _after(progress, order, spent, started)
+    planning = first.planning
+    found = plan(planning.domain, planning.state, planning.tasks, settings, progress=told, improving=better)
+    plans = found.plans or (best,)
+    total = PlanResult(
+        PlanStatus.SOLVED,
+        plans,
+        spent + found.expansions,
+        first.result.seconds + found.seconds,
+        found.exhausted,
+    )
+    return Solved(planning, order if found.plans else first.search, settings, total)
+
+
+def _after(progress: SolveProgress, search: Search, before: int, started: float) -> Progress:
+    return lambda n, _: progress(search, before + n, time.perf_counter() - started)
+
+
+__all__ = [
+    "DFS_SECONDS",
+    "DFS_SHARE",
+    "HDDL_BUDGET",
+    "Better",
+    "SolveProgress",
+    "Solved",
+    "solve",
+    "solve_anytime",
+]

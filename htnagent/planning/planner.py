@@ -122,6 +122,10 @@ class PlannerSettings:
     """Seconds the search may take (the clock is read every 256 nodes taken off the open
     list); past it the search ends with :attr:`PlanStatus.TIMED_OUT`, or with the plans
     found so far."""
+    cost_bound: float | None = None
+    """Only plans cheaper than this: a node whose cost so far plus the least cost of its
+    tasks (the domain's :attr:`~htnagent.model.domain.Domain.task_costs`, else nothing)
+    reaches it is not followed (branch and bound; see :func:`plan`'s ``improving``)."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -130,6 +134,8 @@ class PlannerSettings:
             raise SettingsError(f"planner settings: budget must be at least 1, not {self.budget}")
         if self.time_limit is not None and not self.time_limit > 0:
             raise SettingsError(f"planner settings: time_limit must be positive, not {self.time_limit}")
+        if self.cost_bound is not None and not self.cost_bound > 0:
+            raise SettingsError(f"planner settings: cost_bound must be positive, not {self.cost_bound}")
         if self.alternatives_effort < 0:
             raise SettingsError(
                 f"planner settings: alternatives_effort must not be negative, not {self.alternatives_effort}"
@@ -144,6 +150,9 @@ class PlanResult:
     plans: tuple[Plan, ...] = ()
     expansions: int = 0
     seconds: float = 0.0
+    exhausted: bool = False
+    """Every node under the cost bound was explored: with ``improving``, no plan is cheaper
+    than the last one found (none cheaper than the bound, if none was found)."""
 
     @property
     def best(self) -> Plan | None:
@@ -267,8 +276,16 @@ def plan(
     recover: bool = True,
     avoid: frozenset[Atom] = frozenset(),
     progress: Progress | None = None,
+    improving: Callable[[Plan], None] | None = None,
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``improving`` (K = 1 only): branch and bound.  Each complete plan cheaper than the
+    bound so far is told to ``improving`` at once and becomes the bound
+    (:attr:`PlannerSettings.cost_bound` the first), and the search goes on for a cheaper
+    one until its time, budget or nodes run out; a state and task list is expanded again
+    when it is reached at a lower cost.  The result holds the last plan found;
+    ``exhausted`` says it is the cheapest there is.
 
     ``progress(expansions, seconds)``, if given, hears how far the search has got, at most
     every :data:`PROGRESS_EVERY` seconds (it is called where the search reads its clock,
@@ -287,11 +304,13 @@ def plan(
     would scan them again and again (a search of 17,000 steps took twice as long
     with it).  The nodes form no cycles: reference counting frees them.
     """
+    if improving is not None and settings is not None and settings.alternatives != 1:
+        raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid, progress)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving)
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid, progress)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving)
     finally:
         gc.enable()
 
@@ -304,8 +323,11 @@ def _search(
     recover: bool,
     avoid: frozenset[Atom],
     progress: Progress | None = None,
+    improving: Callable[[Plan], None] | None = None,
 ) -> PlanResult:
     settings = settings or PlannerSettings()
+    if improving is not None and settings.alternatives != 1:
+        raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     started = time.perf_counter()
     entries: list[TaskEntry] = [(t, None) if isinstance(t, Atom) else t for t in tasks]
     for t, _ in entries:
@@ -374,6 +396,17 @@ def _search(
                 return cached
         return 0.0
 
+    # Branch and bound (plan's ``improving``, or a bound given): a node goes only where its
+    # cost so far plus the least cost of its tasks stays under the bound.
+    bound = settings.cost_bound if settings.cost_bound is not None else _INF
+    bounded = improving is not None or settings.cost_bound is not None
+    least = task_costs or {}
+
+    def lb(tasks: tuple[Atom, ...]) -> float:
+        return sum([least.get(t.name, 0.0) for t in tasks]) if least else 0.0
+
+    best_g: dict[_Key, float] = {}  # improving: the lowest cost at which each key was expanded
+    wanted = k if improving is None else _INF
     root_tasks = tuple(t for t, _ in entries)
     # A method that puts its own task back in front of more (t -> t t) grows the task list
     # by one at each expansion, and each node copies its list: a search that would take
@@ -452,7 +485,7 @@ def _search(
     # run of nodes already expanded (or of lazy ways) expands nothing.
     ticks = 0
     next_report = started + PROGRESS_EVERY
-    while heap and len(found) < k:
+    while heap and len(found) < wanted:
         ticks += 1
         if not ticks & every:
             if progress is not None and (now := time.perf_counter()) >= next_report:
@@ -494,10 +527,19 @@ def _search(
             continue
         node = popped_entry
         node_tasks = node.tasks
+        if bounded and -node.neg_g + lb(node_tasks) >= bound:
+            continue  # the bound fell since it was pushed
         if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
             # by their actions, so a repeat never takes an alternative's place.
             steps = tidy(domain, _steps(node, made))
+            if improving is not None:
+                better = Plan(steps)
+                if better.cost < bound:
+                    bound = better.cost
+                    found[:] = [better]
+                    improving(better)
+                continue
             actions = tuple(s.action for s in steps)
             if actions not in seen_plans:
                 seen_plans.add(actions)
@@ -508,12 +550,18 @@ def _search(
             continue
         dynamic = node.dynamic
         node_key = (dynamic, node_tasks)
-        count = popped.get(node_key, 0)
-        if count >= k:
-            continue
-        popped[node_key] = count + 1
-        expansions += 1
         g = -node.neg_g
+        if improving is not None:
+            # Again only if reached more cheaply: a cheaper plan may pass through it.
+            if best_g.get(node_key, _INF) <= g:
+                continue
+            best_g[node_key] = g
+        else:
+            count = popped.get(node_key, 0)
+            if count >= k:
+                continue
+            popped[node_key] = count + 1
+        expansions += 1
         task = node_tasks[0]
         record = node.records[0]
         rest_t = node_tasks[1:]
@@ -541,6 +589,8 @@ def _search(
                 if check_loops and _revisits(node, dyn, rest_t):
                     continue
                 child_g = g + c
+                if bounded and child_g + lb(rest_t) >= bound:
+                    continue
                 h = h_of(rest_t, dyn, None)
                 if h == _INF:
                     continue
@@ -566,6 +616,8 @@ def _search(
                 child_tasks = first_way + rest_t
                 if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
                     continue
+                if bounded and g + lb(child_tasks) >= bound:
+                    continue  # every way alike: the same names
                 h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
                 if h == _INF:
                     continue
@@ -593,6 +645,8 @@ def _search(
                 child_tasks = subtasks + rest_t
                 if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
                     continue
+                if bounded and g + lb(child_tasks) >= bound:
+                    continue
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
                     continue
@@ -609,8 +663,9 @@ def _search(
     elif heap or cut:
         status = PlanStatus.BUDGET_EXHAUSTED
     else:
-        status = PlanStatus.UNSOLVABLE
-    return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
+        status = PlanStatus.UNSOLVABLE  # (under the bound, if one was given)
+    exhausted = not heap and not cut
+    return PlanResult(status, tuple(found), expansions, time.perf_counter() - started, exhausted)
 
 
 def _apply_task(
