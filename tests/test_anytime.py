@@ -168,3 +168,32 @@ def test_a_signal_once_a_plan_is_printed_ends_at_once_with_that_plan(sig: signal
     assert text.rstrip().endswith("<==")
     assert text.count("==>") == text.count("<==") >= 1
     assert "Traceback" not in err
+
+
+def test_depth_first_search_keeps_a_share_of_the_time_however_long_it_takes() -> None:
+    from htnagent.planning import hddl_solving as hs
+
+    assert hs.dfs_allowance(0.1) == pytest.approx(0.1)  # alone
+    assert hs.dfs_allowance(hs.DFS_ALONE + 1.0) == pytest.approx(hs.DFS_ALONE + 0.5)  # half
+    end_of_halves = hs.DFS_ALONE + 2 * (hs.DFS_SECONDS - hs.DFS_ALONE)
+    assert hs.dfs_allowance(end_of_halves) == pytest.approx(hs.DFS_SECONDS)
+    # Never abandoned: a search that needs 8 s of work alone has them within 30 s.
+    assert hs.dfs_allowance(30.0) >= 8.0
+
+
+def test_the_portfolio_answers_from_either_search_when_both_run(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from htnagent.planning import hddl_solving as hs
+
+    monkeypatch.setattr(hs, "DFS_ALONE", 0.0)  # greedy search beside it at once
+    domain = read_domain(DOMAIN)
+    problem = read_problem(ring(tmp_path, rooms=30), domain)
+    solved = hs.solve(domain, problem, timeout=30)
+    assert solved.result.status is PlanStatus.SOLVED
+    assert solved.search in (Search.DFS, Search.GBFS)
+    best = solved.result.best
+    assert best is not None
+    from htnagent.planning.ipc_output import ipc_plan
+
+    assert [str(v) for v in check_plan(domain, problem, ipc_plan(best))] == []

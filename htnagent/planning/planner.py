@@ -277,8 +277,14 @@ def plan(
     avoid: frozenset[Atom] = frozenset(),
     progress: Progress | None = None,
     improving: Callable[[Plan], None] | None = None,
+    checkpoint: Callable[[], bool] | None = None,
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``checkpoint()``, if given, is called where the search reads its clock (every 256
+    nodes): True ends the search as :attr:`PlanStatus.INTERRUPTED` (with the plans found
+    so far).  A portfolio of searches run side by side stops one through it, or slows it
+    down (it may sleep there, letting another thread run).
 
     ``improving`` (K = 1 only): branch and bound.  Each complete plan cheaper than the
     bound so far is told to ``improving`` at once and becomes the bound
@@ -307,10 +313,10 @@ def plan(
     if improving is not None and settings is not None and settings.alternatives != 1:
         raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
     finally:
         gc.enable()
 
@@ -324,6 +330,7 @@ def _search(
     avoid: frozenset[Atom],
     progress: Progress | None = None,
     improving: Callable[[Plan], None] | None = None,
+    checkpoint: Callable[[], bool] | None = None,
 ) -> PlanResult:
     settings = settings or PlannerSettings()
     if improving is not None and settings.alternatives != 1:
@@ -479,7 +486,7 @@ def _search(
     made: dict[int, tuple[object, object]] = {}
     expansions = 0
     limit = settings.budget
-    timed_out = False
+    timed_out = halted = False
     stop = _STOP
     # The clock is read every 256 nodes taken off the open list -- not expansions: a long
     # run of nodes already expanded (or of lazy ways) expands nothing.
@@ -494,12 +501,15 @@ def _search(
             if stop.requested or (deadline is not None and time.perf_counter() > deadline):
                 limit = expansions  # out of time: end as when the budget runs out
                 timed_out = True
+            elif checkpoint is not None and checkpoint():
+                limit = expansions
+                timed_out = halted = True
         if expansions >= limit:
             if found and limit < settings.budget:
                 break  # the alternatives' share of the search is spent
             found.sort(key=lambda p: p.cost)
             out_of = PlanStatus.TIMED_OUT if timed_out else PlanStatus.BUDGET_EXHAUSTED
-            if timed_out and stop.requested:
+            if timed_out and (stop.requested or halted):
                 out_of = PlanStatus.INTERRUPTED
             status = PlanStatus.SOLVED if found else out_of
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
