@@ -140,8 +140,7 @@ def find_problems(
     if not suite.is_dir():
         raise UsageError(f"--suite {suite}: not a folder")
     folders = sorted(
-        (p for p in suite.iterdir() if p.is_dir() and (p / "domain.hddl").is_file()),
-        key=lambda p: natural_key(p.name),
+        (p for p in suite.iterdir() if p.is_dir() and _domain_folder(p)), key=lambda p: natural_key(p.name)
     )
     if not folders:
         raise UsageError(f"--suite {suite}: no domain folders (a folder with a domain.hddl) in it")
@@ -156,9 +155,8 @@ def find_problems(
         folders = [known[d.casefold()] for d in domains]
     found: list[Problem] = []
     for folder in folders:
-        domain_file = folder / "domain.hddl"
         files = sorted(
-            (f for f in folder.glob("*.hddl") if f.is_file() and f.name != "domain.hddl"),
+            (f for f in folder.glob("*.hddl") if f.is_file() and not _is_domain_file(f)),
             key=lambda f: natural_key(f.name),
         )
         if not picks:
@@ -166,8 +164,20 @@ def find_problems(
         else:
             upto = 0 if first is None else first
             chosen = [f for i, f in enumerate(files, 1) if i <= upto or i in picks]
-        found += [Problem(folder.name, domain_file, f) for f in chosen]
+        for f in chosen:
+            # Some IPC domains (Entertainment, Monroe) give each problem a domain of its own.
+            own = f.with_name(f"{f.stem}-domain.hddl")
+            found.append(Problem(folder.name, own if own.is_file() else folder / "domain.hddl", f))
     return found
+
+
+def _is_domain_file(f: Path) -> bool:
+    return f.name == "domain.hddl" or f.name.endswith("-domain.hddl")
+
+
+def _domain_folder(folder: Path) -> bool:
+    """A domain's folder: a ``domain.hddl``, or problems each with its ``NAME-domain.hddl``."""
+    return (folder / "domain.hddl").is_file() or any(folder.glob("*-domain.hddl"))
 
 
 def _read_lines(stream: IO[str], start: float, lines: list[str], plans: list[tuple[float, str]]) -> None:
