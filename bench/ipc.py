@@ -769,7 +769,7 @@ def parser() -> argparse.ArgumentParser:
         type=positions,
         default=(),
         metavar="I,...",
-        help="with --problems: these positions too (6,10)",
+        help="these positions (6,10), besides the first --problems N",
     )
     p.add_argument("--search", default=None, help="our planner's search strategy (--search NAME)")
     p.add_argument(
@@ -825,8 +825,6 @@ def main(argv: Sequence[str] | None = None) -> int:
     peers: tuple[str, ...] = args.peers or (("aries",) if args.peers_only else ())
     anchors = args.anchors or Path(os.environ.get("HTN_ANCHORS") or DEFAULT_ANCHORS)
     try:
-        if args.also and args.problems is None:
-            raise UsageError("--also takes --problems N (the first N, and these positions too)")
         domains = [d.strip() for d in args.domains.split(",") if d.strip()] if args.domains else None
         problems = find_problems(args.suite, domains, args.problems, args.also)
         if "aries" in peers and args.peer_cmd is None:
