@@ -310,8 +310,6 @@ def plan(
     would scan them again and again (a search of 17,000 steps took twice as long
     with it).  The nodes form no cycles: reference counting frees them.
     """
-    if improving is not None and settings is not None and settings.alternatives != 1:
-        raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     if not gc.isenabled():
         return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
     gc.disable()
