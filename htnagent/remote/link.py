@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import asyncio
 import json
-import logging
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from types import TracebackType
@@ -30,8 +29,9 @@ import anyio.to_thread
 import zenoh
 
 from htnagent.errors import RemoteError
+from htnagent.log import library_log
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 LEASE_MS = 1000
 """A peer that sends nothing for this long is gone (Zenoh's default is 10 s)."""

@@ -19,13 +19,13 @@ with ``peer lost`` and ``peer_lost`` is traced; until the token is back
 from __future__ import annotations
 
 import functools
-import logging
 from collections.abc import Callable
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.errors import RemoteError
+from htnagent.log import library_log
 from htnagent.model.domain import Domain
 from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
 from htnagent.remote.link import Keys, Link
@@ -49,7 +49,7 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Trace
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 PEER_LOST = "peer lost"
 """The start of the reason of every order that failed because its peer went."""

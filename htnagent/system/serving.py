@@ -14,13 +14,13 @@ crashes: what it ordered is dropped.  A parent may connect again later.
 from __future__ import annotations
 
 import functools
-import logging
 from collections.abc import Callable, Iterable
 
 import anyio
 
 from htnagent.errors import ScenarioError
 from htnagent.executors.robot import RobotWorld
+from htnagent.log import library_log
 from htnagent.model.terms import Atom
 from htnagent.remote.codec import CodecError, Item, RobotStatus, WorldChange, decode, encode
 from htnagent.remote.link import Keys, Link
@@ -47,7 +47,7 @@ from htnagent.scenario import Scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 
 def check_served(scenario: Scenario, agent: str) -> None:
