@@ -175,8 +175,16 @@ def _is_domain_file(f: Path) -> bool:
     return f.name == "domain.hddl" or f.name.endswith("-domain.hddl")
 
 
+NOT_DOMAINS = frozenset({"feature-tests", "tests"})
+"""Folders of parser tests (the IPC's ``feature-tests``), laid out as a domain whose problems
+have domains of their own, but not benchmark problems."""
+
+
 def _domain_folder(folder: Path) -> bool:
-    """A domain's folder: a ``domain.hddl``, or problems each with its ``NAME-domain.hddl``."""
+    """A domain's folder: a ``domain.hddl``, or problems each with its ``NAME-domain.hddl``
+    (not the feature tests)."""
+    if folder.name.casefold() in NOT_DOMAINS:
+        return False
     return (folder / "domain.hddl").is_file() or any(folder.glob("*-domain.hddl"))
 
 

@@ -86,6 +86,9 @@ def suite(tmp_path: Path) -> Path:
     (courier / "README.md").write_text("not a problem\n")
     (root / "feature-tests").mkdir()  # no domain.hddl: not a domain
     shutil.copy(HDDL / "courier.hddl", root / "feature-tests" / "x.hddl")
+    # The IPC's feature tests give each problem a domain of its own, as Entertainment does;
+    # they are not benchmark problems all the same.
+    shutil.copy(HDDL / "courier-domain.hddl", root / "feature-tests" / "x-domain.hddl")
     return root
 
 
@@ -555,6 +558,19 @@ def test_peers_are_a_list_of_known_names(suite: Path, tmp_path: Path) -> None:
     assert done.returncode == 2
     assert "no peer 'fastdownward' (known: panda, hypertension, lilotane, aries)" in done.stderr
     assert "Traceback" not in done.stderr
+
+
+def test_a_problem_with_a_domain_of_its_own_is_solved_with_it(suite: Path) -> None:
+    own = suite / "Own"
+    own.mkdir()
+    for name in ("p1", "p2"):
+        shutil.copy(HDDL / "courier.hddl", own / f"{name}.hddl")
+        shutil.copy(HDDL / "courier-domain.hddl", own / f"{name}-domain.hddl")
+    found = ipc.find_problems(suite, ["Own"])
+    assert [(p.name, p.domain_file.name) for p in found] == [
+        ("p1.hddl", "p1-domain.hddl"),
+        ("p2.hddl", "p2-domain.hddl"),
+    ]
 
 
 def test_also_adds_positions_to_the_first_problems(suite: Path) -> None:
