@@ -50,6 +50,7 @@ def main() -> int:
             "remote",
             "ipc",
             "ipc-interrupt",
+            "plan-start",
         ),
         help="a study (ipc, ipc-interrupt: python -m bench ipc --help, ... ipc-interrupt --help)",
     )
@@ -73,6 +74,10 @@ def main() -> int:
         parser.error(
             f"{args.study} takes its options after it: python -m bench {args.study} --suite DIR (see --help)"
         )
+    if args.study == "plan-start":
+        from bench import plan_start
+
+        return plan_start.main(args.suite / "Transport" if args.suite else None, runs=args.runs or 5)
     if args.study == "hddl-read":
         return hddl_read.main(args.suite)
     if args.study == "step":

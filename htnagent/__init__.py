@@ -13,10 +13,7 @@ heavy is loaded (see :mod:`htnagent.cli.launch`).
 from __future__ import annotations
 
 import importlib
-import logging
 from typing import TYPE_CHECKING, Any
-
-logging.getLogger("htnagent").addHandler(logging.NullHandler())
 
 # Every public name and the module it comes from: the one list (``__all__`` is made from it).
 _EXPORTS: dict[str, str] = {

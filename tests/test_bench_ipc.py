@@ -86,6 +86,9 @@ def suite(tmp_path: Path) -> Path:
     (courier / "README.md").write_text("not a problem\n")
     (root / "feature-tests").mkdir()  # no domain.hddl: not a domain
     shutil.copy(HDDL / "courier.hddl", root / "feature-tests" / "x.hddl")
+    # The IPC's feature tests give each problem a domain of its own, as Entertainment does;
+    # they are not benchmark problems all the same.
+    shutil.copy(HDDL / "courier-domain.hddl", root / "feature-tests" / "x-domain.hddl")
     return root
 
 
@@ -104,9 +107,10 @@ def fake_verifier(tmp_path: Path) -> Path:
     return path
 
 
-def run(tmp_path: Path, *args: str) -> tuple[int, list[dict[str, Any]]]:
+def run(tmp_path: Path, *args: str, resume: bool = False) -> tuple[int, list[dict[str, Any]]]:
+    """The bench on ``tmp_path/ipc.json``: afresh each time, unless ``resume``."""
     out = tmp_path / "ipc.json"
-    code = ipc.main([*args, "--out", str(out)])
+    code = ipc.main([*args, "--out", str(out), *([] if resume else ["--fresh"])])
     rows = json.loads(out.read_text()) if out.is_file() else []
     return code, rows
 
@@ -254,7 +258,7 @@ def test_peers_without_the_extra_is_one_clear_error(
     assert rows == []  # not even written
     err = capsys.readouterr().err.strip().splitlines()
     assert err == [
-        "python -m bench ipc: error: --peers needs unified_planning, up_aries: "
+        "python -m bench ipc: error: --peers aries needs unified_planning, up_aries: "
         "pip install -e '.[peers]' (the peers extra)"
     ]
 
@@ -290,9 +294,9 @@ def test_our_planners_command_line() -> None:
     argv = ipc.our_command(None, problem, 60.0, "gbfs")
     assert argv[1:] == [
         *("-m", "htnagent", "plan", "--hddl", "d/domain.hddl", "d/p1.hddl"),
-        *("--format", "ipc", "--timeout", "60", "--search", "gbfs"),
+        *("--format", "ipc", "--timeout", "60", "--search", "gbfs", "--anytime"),
     ]
-    assert ipc.our_command(None, problem, 2.5, None)[-2:] == ["--timeout", "2.5"]
+    assert ipc.our_command(None, problem, 2.5, None, anytime=False)[-2:] == ["--timeout", "2.5"]
 
 
 def test_the_search_strategy_names_the_planner(suite: Path, fake: Path, tmp_path: Path) -> None:
@@ -393,3 +397,182 @@ def test_ctrl_c_keeps_the_rows_and_leaves_no_planner_running(suite: Path, fake: 
     while time.monotonic() < deadline and _alive(child):
         time.sleep(0.05)
     assert not _alive(child), "the planner's own child outlived Ctrl-C"
+
+
+FAKE_ANCHOR = """\
+#!/bin/sh
+# a stand-in anchor: plan-NAME DOMAIN PROBLEM OUT, as the real wrappers are called
+case "$(basename "$0")" in
+  plan-panda) /bin/grep -v "<==" "{plan}" > "$3"; exit 0 ;;  # PANDA: no closing line
+  plan-lilotane) echo "no plan: out of layers" > "$3.log"; exit 1 ;;
+  plan-hypertension) /bin/cat "{plan}" > "$3"; exit 0 ;;
+esac
+exit 9
+"""
+
+
+@pytest.fixture
+def anchors(tmp_path: Path) -> Path:
+    folder = tmp_path / "anchors"
+    folder.mkdir()
+    for name in ("panda", "lilotane", "hypertension"):
+        wrapper = folder / f"plan-{name}"
+        wrapper.write_text(FAKE_ANCHOR.format(plan=HDDL / "valid.plan"))
+        wrapper.chmod(0o755)
+    return folder
+
+
+def test_the_anchors_run_one_at_a_time_beside_ours_and_are_verified_alike(
+    suite: Path,
+    fake: Path,
+    fake_verifier: Path,
+    anchors: Path,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # HyperTensioN needs a program this machine lacks: a row saying so, not a loss.
+    monkeypatch.setitem(ipc.ANCHOR_NEEDS, "hypertension", ("no-such-program-here",))
+    code, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "2", "--verifier", str(fake_verifier)),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'precondition-fails.plan'}"),
+        *("--peers", "panda,hypertension,lilotane", "--anchors", str(anchors)),
+    )
+    assert code == 0
+    assert [r["planner"] for r in rows] == ["htnagent", "panda", "hypertension", "lilotane"] * 2
+    panda = rows[1]
+    assert (panda["solved"], panda["valid"], panda["plan_length"]) == (True, True, 6)
+    assert panda["first_s"] == panda["seconds"]
+    hyper = rows[2]
+    assert hyper["available"] is False and hyper["solved"] is False
+    assert hyper["reason"] == "cannot run here: needs no-such-program-here on the PATH " + (
+        "(apt-get install -y no-such-program-here)"
+    )
+    lilotane = rows[3]
+    assert (lilotane["solved"], lilotane["reason"]) == (False, "exit 1: no plan: out of layers")
+    assert rows[0]["valid"] is False  # ours is judged by the same verifier
+    table = (tmp_path / "ipc.md").read_text()
+    assert "| Courier | hypertension | cannot run here |" in table
+    assert "| Courier | panda | 2/2 | 2/2 |" in table
+    assert "| **all** | hypertension | cannot run here (2) |" in table
+    # Against PANDA: both solved both problems, plans of the same length.
+    assert "| panda | 2 | 2 | 2 | 2 | 1.000 | 12 | 12 |" in table
+    # HyperTensioN never ran: no problems to compare on.
+    assert "| hypertension | 0 | 0 | 0 | 0 | — |" in table
+
+
+def test_an_anchor_folder_without_the_wrapper_is_a_row_saying_so(
+    suite: Path, fake: Path, tmp_path: Path
+) -> None:
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
+        *("--peers-only", "--peers", "lilotane", "--anchors", str(tmp_path / "nowhere")),
+    )
+    assert [r["planner"] for r in rows] == ["lilotane"]
+    assert rows[0]["available"] is False
+    assert rows[0]["reason"].startswith(f"cannot run here: no {tmp_path / 'nowhere' / 'plan-lilotane'}")
+
+
+def test_a_rerun_resumes_where_the_last_one_stopped(
+    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    common = ("--suite", str(suite), "--verifier", str(fake_verifier))
+    good = ("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}")
+    crash = ("--planner-cmd", f"{{python}} {fake} crash")
+    _, rows = run(tmp_path, *common, "--problems", "1", *good, resume=True)
+    assert [(r["problem"], r["solved"]) for r in rows] == [("p1.hddl", True)]
+    # Same limit: p1 is kept as it was, only p2 and p10 are attempted (and crash).
+    code, rows = run(tmp_path, *common, *crash, resume=True)
+    assert code == 0
+    assert [(r["problem"], r["solved"]) for r in rows] == [
+        ("p1.hddl", True),
+        ("p2.hddl", False),
+        ("p10.hddl", False),
+    ]
+    assert "resuming: 1 rows kept, 2 attempts to go" in capsys.readouterr().err
+    # Another limit, or --fresh: everything again.
+    _, rows = run(tmp_path, *common, "--timeout", "30", *good, resume=True)
+    assert [(r["solved"], r["timeout"]) for r in rows] == [(True, 30)] * 3
+    assert "3 rows of another limit dropped" in capsys.readouterr().err
+    _, rows = run(tmp_path, *common, "--timeout", "30", "--fresh", *crash, resume=True)
+    assert [r["solved"] for r in rows] == [False] * 3
+
+
+def test_a_verifier_time_out_leaves_the_plan_solved_unverified_and_said(
+    suite: Path, fake: Path, tmp_path: Path
+) -> None:
+    slow = tmp_path / "slow-verify.sh"
+    slow.write_text("#!/bin/sh\nexec sleep 30\n")
+    slow.chmod(0o755)
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(slow), "--verify-timeout", "0.3"),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
+    )
+    row = rows[0]
+    assert (row["solved"], row["valid"], row["verifier_timeout"]) == (True, None, True)
+    assert row["reason"] == "verifier: no verdict in 0.3 s (time-out)"
+    assert "(1 verifier time-out)" in (tmp_path / "ipc.md").read_text()
+
+
+ANYTIME_PLANNER = """\
+import sys, time
+plan = open(sys.argv[1]).read()
+longer = plan.replace("root", "9 noop\\nroot")
+print(longer, flush=True)
+time.sleep(0.4)
+print(plan, flush=True)
+if sys.argv[2] == "hang":
+    time.sleep(60)
+"""
+
+
+@pytest.mark.parametrize("ending", ["exit", "hang"])
+def test_anytime_times_the_first_plan_and_measures_the_last_in_time(
+    suite: Path, fake_verifier: Path, tmp_path: Path, ending: str
+) -> None:
+    script = tmp_path / "anytime.py"
+    script.write_text(ANYTIME_PLANNER)
+    _, rows = run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier)),
+        *("--timeout", "2", "--grace", "0.2"),
+        *("--planner-cmd", f"{{python}} {script} {HDDL / 'valid.plan'} {ending}"),
+    )
+    row = rows[0]
+    assert row["planner"] == "htnagent"
+    assert row["solved"] is True
+    assert row["plan_length"] == 6  # the last, shorter plan
+    assert row["first_s"] is not None and row["first_s"] + 0.3 < row["seconds"]
+
+
+def test_peers_are_a_list_of_known_names(suite: Path, tmp_path: Path) -> None:
+    done = subprocess.run(
+        [sys.executable, "-m", "bench", "ipc", "--suite", str(suite), "--peers", "panda,fastdownward"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=30,
+    )
+    assert done.returncode == 2
+    assert "no peer 'fastdownward' (known: panda, hypertension, lilotane, aries)" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+def test_a_problem_with_a_domain_of_its_own_is_solved_with_it(suite: Path) -> None:
+    own = suite / "Own"
+    own.mkdir()
+    for name in ("p1", "p2"):
+        shutil.copy(HDDL / "courier.hddl", own / f"{name}.hddl")
+        shutil.copy(HDDL / "courier-domain.hddl", own / f"{name}-domain.hddl")
+    found = ipc.find_problems(suite, ["Own"])
+    assert [(p.name, p.domain_file.name) for p in found] == [
+        ("p1.hddl", "p1-domain.hddl"),
+        ("p2.hddl", "p2-domain.hddl"),
+    ]
+
+
+def test_also_adds_positions_to_the_first_problems(suite: Path) -> None:
+    picked = ipc.find_problems(suite, None, 1, (3,))
+    assert [p.name for p in picked] == ["p1.hddl", "p10.hddl"]

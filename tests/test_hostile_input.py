@@ -23,7 +23,7 @@ from hypothesis import strategies as st
 from yaml.nodes import ScalarNode
 from yaml.resolver import Resolver
 
-from htnagent import limits, reading
+from htnagent import files, limits, reading
 from htnagent.cli.commands import main
 from htnagent.errors import ScenarioError, shown
 from htnagent.model.terms import parse
@@ -186,7 +186,7 @@ def test_a_file_growing_past_the_limit_while_read_is_refused(
     # stat() said small enough, the read finds more: the limit holds on what is read too.
     path = tmp_path / "growing.yaml"
     path.write_text("a: " + "x" * 500 + "\n")
-    monkeypatch.setattr(reading, "_check_kind", lambda *args: None)
+    monkeypatch.setattr(files, "_check_kind", lambda *args: None)
     with pytest.raises(ScenarioError, match="too big"):
         read_text(path, "scenario", max_bytes=100)
 

@@ -19,7 +19,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import errno
 import functools
 import io
 import json
@@ -42,17 +41,28 @@ from rich.table import Table
 from rich.text import Text
 from rich_argparse import RawDescriptionRichHelpFormatter
 
+from htnagent.cli.common import (
+    EXIT_FAILED,
+    EXIT_INTERRUPTED,
+    EXIT_INVALID,
+    EXIT_OK,
+    PROG,
+    guarded,
+    is_terminal,
+    one_line,
+    reader_gone,
+    seconds,
+)
+from htnagent.cli.common import fail as _fail
+from htnagent.cli.hddl_plan import SEARCH_CHOICES, plan_hddl, read_hddl
 from htnagent.errors import HtnAgentError, PlotError, ScenarioError, SettingsError, TextFormError
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.model import Domain, Problem
-from htnagent.hddl.plan_file import format_plan, object_spellings, read_plan, spellings
-from htnagent.hddl.reader import read_domain, read_problem
+from htnagent.hddl.plan_file import read_plan
 from htnagent.limits import MAX_SPEED, MIN_SPEED
 from htnagent.model.plans import Plan
-from htnagent.model.terms import Atom, parse
-from htnagent.planning.hddl_solving import Solved, solve
+from htnagent.model.terms import parse
 from htnagent.planning.hddl_translation import translate
-from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.planner import PlanStatus, Search, plan, stop_searches
 from htnagent.runtime.events import Summary, TraceEvent
 from htnagent.runtime.trace import Observer
@@ -67,12 +77,11 @@ from htnagent.views.console import (
     JsonLines,
     LiveTrace,
     OutputConsole,
-    SearchProgress,
     print_summary,
     print_whole,
     printable,
 )
-from htnagent.views.decomposition import hddl_tree, plan_tree, tree_json, tree_lines
+from htnagent.views.decomposition import plan_tree, tree_json, tree_lines
 from htnagent.views.history import History
 from htnagent.views.plot import check_plot_scenario, check_plot_target, draw_run
 from htnagent.views.report import check_report_target, write_report
@@ -81,13 +90,6 @@ from htnagent.views.trace_file import read_trace
 
 if TYPE_CHECKING:
     from htnagent.remote.link import Security
-
-PROG = "htnagent"
-
-EXIT_OK = 0
-EXIT_FAILED = 1
-EXIT_INVALID = 2
-EXIT_INTERRUPTED = 130
 
 
 class _UsageError(Exception):
@@ -102,7 +104,7 @@ class _HelpFormatter(RawDescriptionRichHelpFormatter):
 
     def __init__(self, prog: str, **kwargs: Any) -> None:
         kwargs.setdefault(
-            "console", Console(file=io.StringIO(), force_terminal=_is_terminal(sys.stdout) or None)
+            "console", Console(file=io.StringIO(), force_terminal=is_terminal(sys.stdout) or None)
         )
         super().__init__(prog, **kwargs)
 
@@ -130,17 +132,6 @@ def _speed(text: str) -> float:
             f"expected a number from {MIN_SPEED:g} to {MAX_SPEED:g} (simulated seconds per real second), "
             f"got {text!r}"
         )
-    return value
-
-
-def _seconds(text: str) -> float:
-    """``--timeout``: a positive, finite number of seconds."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number of seconds, got {text!r}") from None
-    if not 0 < value < 1e9:  # also refuses nan and inf
-        raise argparse.ArgumentTypeError(f"expected a positive number of seconds, got {text!r}")
     return value
 
 
@@ -202,12 +193,18 @@ def build_parser() -> argparse.ArgumentParser:
         default=None,
         help="with --hddl: the actions (text), one JSON line, or the IPC plan format (default text)",
     )
-    pl.add_argument("--timeout", type=_seconds, metavar="S", help="give up after S seconds (exit 1, timeout)")
+    pl.add_argument("--timeout", type=seconds, metavar="S", help="give up after S seconds (exit 1, timeout)")
     pl.add_argument(
         "--search",
-        choices=[*(s.value for s in Search), "auto"],
+        choices=SEARCH_CHOICES,
         help="the search order: astar (cost-optimal; a scenario's default), gbfs (greedy), dfs "
-        "(depth-first in method order), or with --hddl auto (its default: dfs for 2 s, then gbfs)",
+        "(depth-first in method order), or with --hddl auto (its default: dfs, then gbfs beside it)",
+    )
+    pl.add_argument(
+        "--anytime",
+        action="store_true",
+        help="with --hddl: after the first plan, search for cheaper ones until --timeout (or Ctrl-C); "
+        "--format ipc prints each as it is found, text and json the last",
     )
 
     check = sub.add_parser(
@@ -289,46 +286,7 @@ def main(argv: Sequence[str] | None = None, *, owns_process: bool = False) -> in
     the signal handlers a run installs stay until then instead of being put
     back -- a late Ctrl-C is then noted, never a traceback.
     """
-    if owns_process:
-        # Names come from the user's files: a terminal that cannot show a character gets
-        # an escape, never an encoding error.
-        for stream in (sys.stdout, sys.stderr):
-            if isinstance(stream, io.TextIOWrapper):
-                stream.reconfigure(errors="backslashreplace")
-        if sys.stdout is None:  # started with it closed: say so when output is written
-            sys.stdout = _ClosedOutput()
-        code = _main(argv, owns_process)
-        try:
-            sys.stdout.flush()  # what is still buffered: a full disk is said, not ignored
-        except BrokenPipeError:
-            _reader_gone()
-            return code  # the reader took what it wanted (| head): the command's result stands
-        except OSError as e:
-            failed = _output_failed(e)
-            return failed if code == EXIT_OK else code
-        return code
-    return _main(argv, owns_process)
-
-
-def _reader_gone() -> None:
-    """The reader of standard output went away (``| head``): what is still to be printed goes
-    nowhere, quietly (Python would otherwise complain again when it flushes at exit)."""
-    try:
-        devnull = os.open(os.devnull, os.O_WRONLY)
-        os.dup2(devnull, sys.stdout.fileno())
-        os.close(devnull)
-    except (OSError, ValueError):  # not a file descriptor (in-process): nothing to redirect
-        pass
-
-
-def _output_failed(error: OSError) -> int:
-    if isinstance(error, BrokenPipeError):
-        # A command's answer was being printed, its work done: it stands.
-        _reader_gone()
-        return EXIT_OK
-    if error.filename is not None:
-        return _fail(f"{error.filename}: {error.strerror or error}")
-    return _fail(f"cannot write the output: {error.strerror or error}")
+    return guarded(functools.partial(_main, argv, owns_process), owns_process)
 
 
 def _main(argv: Sequence[str] | None, owns_process: bool) -> int:
@@ -339,45 +297,21 @@ def _main(argv: Sequence[str] | None, owns_process: bool) -> int:
         return _fail(str(e))
     except SystemExit as e:  # --help and --version exit through argparse
         return e.code if isinstance(e.code, int) else EXIT_OK
-    try:
-        if args.command == "check":
-            return _check(args)
-        if args.command == "verify":
-            return _verify(args)
-        if args.command == "plan":
-            return _plan(args)
-        if args.command == "report":
-            return _report(args)
-        if args.command == "serve":
-            return _serve(args, restore_signals=not owns_process)
-        if args.command == "certs":
-            return _certs(args)
-        if args.command == "compare":
-            return _compare(args, restore_signals=not owns_process)
-        return _run(args, restore_signals=not owns_process)
-    except HtnAgentError as e:
-        return _fail(str(e))
-    except BaseExceptionGroup as group:  # an error of ours from inside a task group (serve, remote:)
-        error = _first_error(group)
-        if isinstance(error, HtnAgentError):
-            return _fail(str(error))
-        raise
-    except MemoryError:
-        return _fail("out of memory: the input is too large for the memory this process may use")
-    except KeyboardInterrupt:  # when called in-process, without the handlers of __main__
-        print(f"{PROG}: interrupted", file=sys.stderr)
-        return EXIT_INTERRUPTED
-    except OSError as e:  # writing the output (files read or written are checked on the way)
-        return _output_failed(e)
-
-
-def _fail(message: str, code: int = EXIT_INVALID) -> int:
-    print(f"{PROG}: error: {_one_line(message)}", file=sys.stderr)
-    return code
-
-
-def _one_line(text: str) -> str:
-    return " ".join(text.split())
+    if args.command == "check":
+        return _check(args)
+    if args.command == "verify":
+        return _verify(args)
+    if args.command == "plan":
+        return _plan(args)
+    if args.command == "report":
+        return _report(args)
+    if args.command == "serve":
+        return _serve(args, restore_signals=not owns_process)
+    if args.command == "certs":
+        return _certs(args)
+    if args.command == "compare":
+        return _compare(args, restore_signals=not owns_process)
+    return _run(args, restore_signals=not owns_process)
 
 
 def _check(args: argparse.Namespace) -> int:
@@ -387,7 +321,7 @@ def _check(args: argparse.Namespace) -> int:
             return _fail(
                 f"check --hddl takes DOMAIN PROBLEM, not {len(files)} files (see {PROG} check --help)"
             )
-        domain, problem = _read_hddl(files[0], files[1])
+        domain, problem = read_hddl(files[0], files[1])
         # What plan --hddl (and a scenario agent) refuses beyond the files' own checks, the
         # translation refuses (a formula that multiplies out too far): check runs it too.
         translate(domain, problem)
@@ -398,11 +332,6 @@ def _check(args: argparse.Namespace) -> int:
     load_scenario(scenario_file(files[0]))
     print("ok")
     return EXIT_OK
-
-
-def _read_hddl(domain_file: str, problem_file: str) -> tuple[Domain, Problem]:
-    domain = read_domain(domain_file)
-    return domain, read_problem(problem_file, domain)
 
 
 def _hddl_summary(domain: Domain, problem: Problem) -> str:
@@ -420,7 +349,7 @@ def _hddl_summary(domain: Domain, problem: Problem) -> str:
 
 
 def _verify(args: argparse.Namespace) -> int:
-    domain, problem = _read_hddl(args.domain, args.problem)
+    domain, problem = read_hddl(args.domain, args.problem)
     plan = read_plan(args.plan)
     problems = check_plan(domain, problem, plan)
     actions = f"{len(plan.steps)} action{'s' * (len(plan.steps) != 1)}"
@@ -431,7 +360,7 @@ def _verify(args: argparse.Namespace) -> int:
     print(f"invalid: {len(problems)} {noun} ({actions})")
     for p in problems:
         place = f"{args.plan}:{p.line}" if p.line else args.plan
-        print(f"  {place}: {_one_line(p.reason)}")
+        print(f"  {place}: {one_line(p.reason)}")
     return EXIT_FAILED
 
 
@@ -443,9 +372,11 @@ def _plan(args: argparse.Namespace) -> int:
             return _fail(f"plan --hddl takes DOMAIN PROBLEM, not {given} (see {PROG} plan --help)")
         if args.agent is not None or args.task is not None:
             return _fail("plan --hddl takes no --agent or --task: the problem gives the tasks")
-        return _plan_hddl(args, files[0], files[1])
+        return plan_hddl(args, files[0], files[1])
     if len(files) != 1:
         return _fail(f"plan takes one SCENARIO (or --hddl DOMAIN PROBLEM) (see {PROG} plan --help)")
+    if args.anytime:
+        return _fail(f"--anytime is for plan --hddl (see {PROG} plan --help)")
     for option in ("format", "timeout"):
         if getattr(args, option) is not None:
             return _fail(f"--{option} is for plan --hddl (see {PROG} plan --help)")
@@ -498,87 +429,6 @@ def _plan(args: argparse.Namespace) -> int:
         return EXIT_OK
     _print_plan(sys.stdout, scenario, args.agent, str(task), result.plans, tree=args.tree)
     return EXIT_OK
-
-
-def _plan_hddl(args: argparse.Namespace, domain_file: str, problem_file: str) -> int:
-    if args.json and args.format not in (None, "json"):
-        return _fail(f"--json and --format {args.format} disagree (see {PROG} plan --help)")
-    form = "json" if args.json else args.format or "text"
-    if args.tree and form == "ipc":
-        return _fail("--tree is for --format text or json: the ipc format lists the decomposition already")
-    search = Search(args.search) if args.search not in (None, "auto") else None
-    domain, problem = _read_hddl(domain_file, problem_file)
-    solved = _solve_showing_progress(domain, problem, search=search, timeout=args.timeout)
-    result = solved.result
-    best = result.best
-    if best is None:
-        if result.status is PlanStatus.TIMED_OUT:
-            why = f"timeout (no plan within {args.timeout:g} s)"
-        elif result.status is PlanStatus.BUDGET_EXHAUSTED:
-            why = f"budget (no plan within {solved.settings.budget:,} expansions)"
-        elif result.status is PlanStatus.UNSOLVABLE:
-            why = "unsolvable (the whole search space holds no plan)"
-        else:
-            why = result.status.value
-        print(f"{PROG}: no plan: {why}", file=sys.stderr)
-        return EXIT_FAILED
-    spelling = spellings(domain.source.text, problem.source.text)
-    objects = object_spellings(domain, problem)
-    if form == "ipc":
-        sys.stdout.write(format_plan(ipc_plan(best), spelling, objects))
-        return EXIT_OK
-    actions = [_spelled(a, spelling, objects) for a in actions_of(best)]
-    tree = (
-        hddl_tree(ipc_plan(best), functools.partial(_spelled_words, spelling, objects)) if args.tree else ()
-    )
-    if form == "json":
-        line: dict[str, object] = {
-            "plan": actions,
-            "cost": best.cost,
-            "alternatives": len(result.plans),
-            "search": solved.search.value,
-            "expansions": result.expansions,
-            "seconds": round(result.seconds, 3),
-        }
-        if args.tree:
-            line["tree"] = tree_json(tree)
-        print(json.dumps(line))
-        return EXIT_OK
-    for action in tree_lines(tree) if args.tree else actions:
-        print(action)
-    return EXIT_OK
-
-
-def _solve_showing_progress(
-    domain: Domain, problem: Problem, *, search: Search | None, timeout: float | None
-) -> Solved:
-    """:func:`solve`, its progress shown on stderr when stderr is a terminal (nothing otherwise)."""
-    shown = SearchProgress(sys.stderr) if _is_terminal(sys.stderr) else None
-    try:
-        return solve(domain, problem, search=search, timeout=timeout, progress=shown)
-    finally:
-        if shown is not None:
-            shown.close()
-
-
-def _is_terminal(stream: TextIO) -> bool:
-    try:
-        return stream.isatty()
-    except (OSError, ValueError):  # closed, or no file behind it
-        return False
-
-
-def _spelled(action: Atom, spelling: dict[str, str], objects: dict[str, str]) -> str:
-    """``name(arg,...)``, each name as the HDDL files spell it."""
-    return _spelled_words(spelling, objects, action.name, action.args)
-
-
-def _spelled_words(
-    spelling: dict[str, str], objects: dict[str, str], name: str, args: Sequence[object]
-) -> str:
-    words = [objects.get(str(a)) or spelling.get(str(a), str(a)) for a in args]
-    name = spelling.get(name, name)
-    return f"{name}({','.join(words)})" if words else name
 
 
 def _report(args: argparse.Namespace) -> int:
@@ -660,14 +510,14 @@ def _run(args: argparse.Namespace, restore_signals: bool = True) -> int:
         )
         report = anyio.run(_until_interrupted, run, signals)
         if isinstance(printer.error, BrokenPipeError):
-            _reader_gone()  # the run went on without a reader: its exit code stands
+            reader_gone()  # the run went on without a reader: its exit code stands
         elif printer.error is not None:
             raise printer.error  # the run went on without its trace: say so (main)
         if not args.json:
             try:
                 print_summary(console, report.summary)
             except BrokenPipeError:
-                _reader_gone()
+                reader_gone()
         if args.plot:
             _save(
                 "picture", args.plot, lambda: draw_run(scenario, report.events, args.plot), console, args.json
@@ -710,20 +560,13 @@ class _Printer:
                 self.error = e
 
 
-class _ClosedOutput(io.TextIOBase):
-    """Standard output when the process was started without one (``>&-``)."""
-
-    def write(self, text: str) -> int:
-        raise OSError(errno.EBADF, "standard output is closed")
-
-
 def _save(what: str, file: str, draw: Callable[[], None], console: Console, quiet: bool) -> None:
     """Draw a picture of the run that has ended.  The file was checked before the run; if
     drawing fails after all, say so in one line — the run's result stands."""
     try:
         draw()
     except HtnAgentError as e:
-        print(f"{PROG}: error: {_one_line(str(e))}", file=sys.stderr)
+        print(f"{PROG}: error: {one_line(str(e))}", file=sys.stderr)
     else:
         if not quiet:
             console.print(Text(printable(f"{what} saved to {file}")))
@@ -988,17 +831,6 @@ def _certs(args: argparse.Namespace) -> int:
     for path in written:
         print(path)
     return EXIT_OK
-
-
-def _first_error(group: BaseExceptionGroup[BaseException]) -> BaseException:
-    """The error of ours inside task groups' exception groups (else the group)."""
-    match, _ = group.split(HtnAgentError)
-    if match is None:
-        return group
-    first: BaseException = match
-    while isinstance(first, BaseExceptionGroup):
-        first = first.exceptions[0]
-    return first
 
 
 # -- compare: the scenario on-line and naive, side by side (docs/contracts.md "Command line")

@@ -3,6 +3,8 @@
 Ctrl-C or SIGTERM must end the command cleanly (exit 130, one line, no
 traceback) however early or late it comes:
 
+- ``plan --hddl`` imports only the HDDL reader and the planner (:mod:`.hddl_plan`):
+  a planner is timed from its start.
 - The handlers are installed first, with the standard library only, before the
   command line's heavy imports (rich, pydantic, anyio, the planner) — the
   package's ``__init__`` imports nothing heavy.  Until a run starts there is
@@ -31,10 +33,17 @@ def run() -> NoReturn:
     for sig in (signal.SIGINT, signal.SIGTERM):
         if signal.getsignal(sig) is not signal.SIG_IGN:
             signal.signal(sig, _interrupted)
-    from htnagent.cli.commands import main  # after the handlers, on purpose
+    import sys
+
+    # After the handlers, on purpose.  plan --hddl first: it needs none of the rest.
+    from htnagent.cli.hddl_plan import fast_main
 
     try:
-        code = main(owns_process=True)
+        code = fast_main(sys.argv[1:], owns_process=True)
+        if code is None:
+            from htnagent.cli.commands import main
+
+            code = main(owns_process=True)
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)

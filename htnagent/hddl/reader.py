@@ -2,7 +2,7 @@
 
 :func:`read_domain` and :func:`read_problem` read files the way scenario files
 are read (regular files only, the size bound of :mod:`htnagent.limits`;
-:func:`htnagent.reading.read_text`); :func:`parse_domain` and
+:func:`htnagent.files.read_text`); :func:`parse_domain` and
 :func:`parse_problem` take the text.  Each answers with a model that has passed
 the semantic checks of :mod:`htnagent.hddl.semantics`, or raises one
 :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
@@ -28,6 +28,7 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from htnagent.errors import HddlError, ScenarioError, shown
+from htnagent.files import gc_paused, read_text
 from htnagent.hddl.model import (
     NO_EFFECT,
     OBJECT,
@@ -60,7 +61,6 @@ from htnagent.hddl.model import (
 from htnagent.hddl.semantics import check_domain, check_problem
 from htnagent.hddl.sexpr import SExpr, SList, parse, text_of
 from htnagent.model.terms import Atom
-from htnagent.reading import gc_paused, read_text
 
 __all__ = ["parse_domain", "parse_problem", "read_domain", "read_file", "read_problem"]
 

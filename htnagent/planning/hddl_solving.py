@@ -10,11 +10,14 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import gc
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from htnagent.hddl import model as m
+from htnagent.model.plans import Plan
 from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
 from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
 
@@ -22,13 +25,15 @@ HDDL_BUDGET = 20_000_000
 """The expansions :func:`solve` allows by default: a limit on memory more than on time."""
 
 
-DFS_SHARE = 0.2
-"""The largest share of the time limit the default portfolio gives depth-first search
-before greedy best-first takes over."""
+DFS_ALONE = 0.25
+"""Seconds the portfolio's depth-first search runs alone before greedy best-first search
+starts beside it.  Where depth-first wins, it mostly wins at once (Barman's and Depots's
+largest problems take it under 0.2 s)."""
 DFS_SECONDS = 2.0
-"""The most seconds the portfolio's depth-first search may take.  Where it wins, it wins
-at once (Barman's and Depots's largest problems take it under 0.2 s); past that, the
-time is better spent on the greedy search."""
+"""The seconds of work depth-first search gets at half the time, beside greedy
+best-first search; past them it keeps a quarter (:func:`dfs_allowance`)."""
+DFS_SHARE = 0.25
+"""Depth-first search's share of the time once it has had :data:`DFS_SECONDS`."""
 
 
 SolveProgress = Callable[[Search, int, float], None]
@@ -61,8 +66,12 @@ def solve(
 ) -> Solved:
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
-    in method order for :data:`DFS_SECONDS` (or a fifth of a shorter time left), then greedy
-    best-first for the rest.
+    in method order alone for :data:`DFS_ALONE` seconds, then greedy best-first beside it,
+    the two taking turns (two threads, one at a time: the process uses one core) until one
+    of them has the answer.  Depth-first search is never abandoned -- a search that is
+    getting there gets there (one that needs 8 s alone answers within 30 s) -- but once it
+    has had :data:`DFS_SECONDS` of work it keeps only a quarter of the time
+    (:func:`dfs_allowance`): the greedy search is the one that scales.
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -71,9 +80,9 @@ def solve(
 
     Some domains are written for SHOP's order (Barman: depth-first solves at once what
     greedy search loses itself in), others need the estimate (Blocksworld): the portfolio
-    is never far from the better of the two.  Depth-first search that ends without a plan
+    is never far from the better of the two.  Either search that ends without a plan
     has explored every node (there are no cycles: each state and task list is expanded
-    once), so that answer is final.
+    once), so that answer is final.  Each search may take the whole ``budget``.
 
     ``progress(search, expansions, seconds)``, if given, hears how far the solve has got:
     the search under way, the expansions of every search so far and the seconds since the
@@ -105,25 +114,180 @@ def solve(
     if search is not None:
         settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
         return Solved(planning, search, settings, run(settings, progress=told(search, 0)))
-    left = time_left()
-    first = PlannerSettings(
-        alternatives=1,
-        budget=budget,
-        search=Search.DFS,
-        time_limit=min(left * DFS_SHARE, DFS_SECONDS) if left is not None else DFS_SECONDS,
-    )
-    tried = run(first, progress=told(Search.DFS, 0))
-    if tried.status in (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE) or tried.expansions >= budget:
-        return Solved(planning, Search.DFS, first, tried)
-    left = time_left()
-    then = PlannerSettings(
-        alternatives=1, budget=budget - tried.expansions, search=Search.GBFS, time_limit=left
-    )
-    found = run(then, progress=told(Search.GBFS, tried.expansions))
-    total = dataclasses.replace(
-        found, expansions=found.expansions + tried.expansions, seconds=found.seconds + tried.seconds
-    )
-    return Solved(planning, Search.GBFS, dataclasses.replace(then, budget=budget), total)
+    return _portfolio(planning, budget, time_left, progress, started)
 
 
-__all__ = ["DFS_SECONDS", "DFS_SHARE", "HDDL_BUDGET", "SolveProgress", "Solved", "solve"]
+def dfs_allowance(elapsed: float) -> float:
+    """The seconds of work depth-first search may have had ``elapsed`` seconds into the
+    portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then half until it
+    has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE` of the time after."""
+    if elapsed <= DFS_ALONE:
+        return elapsed
+    halves_end = DFS_ALONE + 2 * (DFS_SECONDS - DFS_ALONE)
+    if elapsed <= halves_end:
+        return DFS_ALONE + (elapsed - DFS_ALONE) / 2
+    return DFS_SECONDS + (elapsed - halves_end) * DFS_SHARE
+
+
+_FINAL = (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE)
+
+
+def _portfolio(
+    planning: HddlPlanning,
+    budget: int,
+    time_left: Callable[[], float | None],
+    progress: SolveProgress | None,
+    started: float,
+) -> Solved:
+    """Depth-first in a thread of its own, greedy best-first beside it after
+    :data:`DFS_ALONE` (see :func:`solve`); the first final answer ends both."""
+    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
+    dfs_settings = PlannerSettings(alternatives=1, budget=budget, search=Search.DFS, time_limit=time_left())
+    dfs_out: list[PlanResult] = []
+    ended = threading.Event()
+    stop_dfs = threading.Event()
+    greedy_on = threading.Event()
+    cpu_start: list[float] = []
+    begun = time.perf_counter()
+
+    def pace() -> bool:
+        """Depth-first search's checkpoint: it waits while it is ahead of its allowance."""
+        while greedy_on.is_set() and not stop_dfs.is_set():
+            used = time.thread_time() - cpu_start[0]
+            if used <= dfs_allowance(time.perf_counter() - begun):
+                break
+            time.sleep(0.005)  # the other thread runs meanwhile
+        return stop_dfs.is_set()
+
+    # Progress as one count: depth-first search's own while it runs alone, then, said by the
+    # greedy search, the two searches' expansions together (one thread writes at a time).
+    dfs_seen = [0]
+    said = [0]
+    saying = threading.Lock()
+
+    def say(search: Search, n: int) -> None:
+        if progress is not None:
+            with saying:
+                said[0] = max(said[0], n)  # never less than said before, whichever thread says it
+                progress(search, said[0], time.perf_counter() - started)
+
+    def dfs_told(n: int, _: float) -> None:
+        dfs_seen[0] = n
+        if not greedy_on.is_set():
+            say(Search.DFS, n)
+
+    def greedy_told(n: int, _: float) -> None:
+        say(Search.GBFS, dfs_seen[0] + n)
+
+    def depth_first() -> None:
+        cpu_start.append(time.thread_time())
+        try:
+            dfs_out.append(run(dfs_settings, checkpoint=pace, progress=dfs_told))
+        finally:
+            ended.set()
+
+    # One collector pause for both searches (each pauses it itself only when it runs).
+    collecting = gc.isenabled()
+    gc.disable()
+    worker = threading.Thread(target=depth_first, name="htnagent-dfs", daemon=True)
+    try:
+        worker.start()
+        ended.wait(DFS_ALONE)
+        if ended.is_set() and (dfs_out[0].status in _FINAL or dfs_out[0].expansions >= budget):
+            return Solved(planning, Search.DFS, dfs_settings, dfs_out[0])
+        greedy = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
+        greedy_on.set()
+
+        def dfs_answered() -> bool:
+            return ended.is_set() and bool(dfs_out) and dfs_out[0].status in _FINAL
+
+        found = run(greedy, progress=greedy_told, checkpoint=dfs_answered)
+        greedy_on.clear()
+        if found.status in _FINAL:
+            stop_dfs.set()
+        worker.join()
+    finally:
+        stop_dfs.set()
+        greedy_on.clear()
+        if collecting:
+            gc.enable()
+    tried = dfs_out[0] if dfs_out else PlanResult(PlanStatus.INTERRUPTED)
+    both = tried.expansions + found.expansions
+    seconds = time.perf_counter() - started
+    if found.status not in _FINAL and tried.status in _FINAL:
+        return Solved(planning, Search.DFS, dfs_settings, dataclasses.replace(tried, expansions=both))
+    # The greedy search's answer, or neither's: then why the greedy search stopped.
+    answer = dataclasses.replace(found, expansions=both, seconds=seconds)
+    return Solved(planning, Search.GBFS, greedy, answer)
+
+
+Better = Callable[[Plan], None]
+"""Told each plan :func:`solve_anytime` finds, each cheaper than the one before."""
+
+
+def solve_anytime(
+    domain: m.Domain,
+    problem: m.Problem,
+    better: Better,
+    *,
+    search: Search | None = None,
+    timeout: float | None = None,
+    budget: int = HDDL_BUDGET,
+    progress: SolveProgress | None = None,
+) -> Solved:
+    """:func:`solve`, then cheaper plans until the time runs out: each plan found, the
+    first and every cheaper one after it, is told to ``better`` at once.
+
+    The first plan comes as :func:`solve` finds it, as soon.  Then branch and bound
+    (:func:`~htnagent.planning.planner.plan`'s ``improving``): a search that follows only
+    nodes whose actions so far plus the least cost of their tasks stay under the cheapest
+    plan's cost, which falls with every plan it finds -- greedy best-first (or the
+    ``search`` given, depth-first for ``dfs``), so that a cheaper plan comes soon.  The
+    search ends when the time or the budget runs out, or when no node under the bound is
+    left: the last plan is then the cheapest there is (``result.exhausted``).  With
+    ``search`` A*, the first plan is already the cheapest: nothing follows it.
+    """
+    started = time.perf_counter()
+    first = solve(domain, problem, search=search, timeout=timeout, budget=budget, progress=progress)
+    best = first.result.best
+    if best is None or first.planning is None:
+        return first
+    better(best)
+    if first.search is Search.ASTAR:
+        return dataclasses.replace(first, result=dataclasses.replace(first.result, exhausted=True))
+    spent = first.result.expansions
+    left = None if timeout is None else timeout - (time.perf_counter() - started)
+    if best.cost <= 0 or spent >= budget or (left is not None and left <= 0):
+        return first
+    order = Search.DFS if search is Search.DFS else Search.GBFS
+    settings = PlannerSettings(
+        alternatives=1, budget=budget - spent, search=order, time_limit=left, cost_bound=best.cost
+    )
+    told = None if progress is None else _after(progress, order, spent, started)
+    planning = first.planning
+    found = plan(planning.domain, planning.state, planning.tasks, settings, progress=told, improving=better)
+    plans = found.plans or (best,)
+    total = PlanResult(
+        PlanStatus.SOLVED,
+        plans,
+        spent + found.expansions,
+        first.result.seconds + found.seconds,
+        found.exhausted,
+    )
+    return Solved(planning, order if found.plans else first.search, settings, total)
+
+
+def _after(progress: SolveProgress, search: Search, before: int, started: float) -> Progress:
+    return lambda n, _: progress(search, before + n, time.perf_counter() - started)
+
+
+__all__ = [
+    "DFS_SECONDS",
+    "DFS_SHARE",
+    "HDDL_BUDGET",
+    "Better",
+    "SolveProgress",
+    "Solved",
+    "solve",
+    "solve_anytime",
+]

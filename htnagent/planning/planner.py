@@ -18,9 +18,11 @@ planner also tries, before the first task, every applicable ``resume`` and
 
 from __future__ import annotations
 
+import collections
 import gc
 import heapq
 import itertools
+import operator
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
@@ -122,6 +124,10 @@ class PlannerSettings:
     """Seconds the search may take (the clock is read every 256 nodes taken off the open
     list); past it the search ends with :attr:`PlanStatus.TIMED_OUT`, or with the plans
     found so far."""
+    cost_bound: float | None = None
+    """Only plans cheaper than this: a node whose cost so far plus the least cost of its
+    tasks (the domain's :attr:`~htnagent.model.domain.Domain.task_costs`, else nothing)
+    reaches it is not followed (branch and bound; see :func:`plan`'s ``improving``)."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -130,6 +136,8 @@ class PlannerSettings:
             raise SettingsError(f"planner settings: budget must be at least 1, not {self.budget}")
         if self.time_limit is not None and not self.time_limit > 0:
             raise SettingsError(f"planner settings: time_limit must be positive, not {self.time_limit}")
+        if self.cost_bound is not None and not self.cost_bound > 0:
+            raise SettingsError(f"planner settings: cost_bound must be positive, not {self.cost_bound}")
         if self.alternatives_effort < 0:
             raise SettingsError(
                 f"planner settings: alternatives_effort must not be negative, not {self.alternatives_effort}"
@@ -144,6 +152,9 @@ class PlanResult:
     plans: tuple[Plan, ...] = ()
     expansions: int = 0
     seconds: float = 0.0
+    exhausted: bool = False
+    """Every node under the cost bound was explored: with ``improving``, no plan is cheaper
+    than the last one found (none cheaper than the bound, if none was found)."""
 
     @property
     def best(self) -> Plan | None:
@@ -202,6 +213,7 @@ _Record = Decomposition | _Pending | None
 
 
 _new = tuple.__new__
+_name = operator.attrgetter("name")
 
 
 def _revisits(parent: _Node, dynamic: frozenset[Atom], tasks: tuple[Atom, ...]) -> bool:
@@ -267,8 +279,22 @@ def plan(
     recover: bool = True,
     avoid: frozenset[Atom] = frozenset(),
     progress: Progress | None = None,
+    improving: Callable[[Plan], None] | None = None,
+    checkpoint: Callable[[], bool] | None = None,
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``checkpoint()``, if given, is called where the search reads its clock (every 256
+    nodes): True ends the search as :attr:`PlanStatus.INTERRUPTED` (with the plans found
+    so far).  A portfolio of searches run side by side stops one through it, or slows it
+    down (it may sleep there, letting another thread run).
+
+    ``improving`` (K = 1 only): branch and bound.  Each complete plan cheaper than the
+    bound so far is told to ``improving`` at once and becomes the bound
+    (:attr:`PlannerSettings.cost_bound` the first), and the search goes on for a cheaper
+    one until its time, budget or nodes run out; a state and task list is expanded again
+    when it is reached at a lower cost.  The result holds the last plan found;
+    ``exhausted`` says it is the cheapest there is.
 
     ``progress(expansions, seconds)``, if given, hears how far the search has got, at most
     every :data:`PROGRESS_EVERY` seconds (it is called where the search reads its clock,
@@ -288,10 +314,10 @@ def plan(
     with it).  The nodes form no cycles: reference counting frees them.
     """
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid, progress)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid, progress)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
     finally:
         gc.enable()
 
@@ -304,8 +330,12 @@ def _search(
     recover: bool,
     avoid: frozenset[Atom],
     progress: Progress | None = None,
+    improving: Callable[[Plan], None] | None = None,
+    checkpoint: Callable[[], bool] | None = None,
 ) -> PlanResult:
     settings = settings or PlannerSettings()
+    if improving is not None and settings.alternatives != 1:
+        raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     started = time.perf_counter()
     entries: list[TaskEntry] = [(t, None) if isinstance(t, Atom) else t for t in tasks]
     for t, _ in entries:
@@ -348,12 +378,21 @@ def _search(
 
     last: tuple[object, object, float] = (None, None, 0.0)  # the last look-up, by identity
 
+    # The task-cost sum in C: task lists run to hundreds of tasks (Blocksworld's 300 blocks),
+    # and h is worked out for every child.  A name without a cost counts 0, as before.
+    cost_of = collections.defaultdict(float, task_costs or {}).__getitem__
+    goal_set = frozenset(goal_facts)
+    distinct_goals = len(goal_set) == len(goal_facts)
+
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if task_costs is not None:
             # Each task's least cost whatever the state: their sum never over-estimates.
-            h = sum([task_costs.get(t.name, 0.0) for t in tasks])
+            h = sum(map(cost_of, map(_name, tasks)))
             if goal_facts:
-                h += sum([f not in dynamic for f in goal_facts])
+                if distinct_goals:
+                    h += len(goal_set.difference(dynamic))
+                else:
+                    h += sum([f not in dynamic for f in goal_facts])
             return h
         # The first compound task's estimate; the children of one node mostly share their
         # state and that task (often the very same objects), so it is worked out once for them.
@@ -374,6 +413,17 @@ def _search(
                 return cached
         return 0.0
 
+    # Branch and bound (plan's ``improving``, or a bound given): a node goes only where its
+    # cost so far plus the least cost of its tasks stays under the bound.
+    bound = settings.cost_bound if settings.cost_bound is not None else _INF
+    bounded = improving is not None or settings.cost_bound is not None
+    least = task_costs or {}
+
+    def lb(tasks: tuple[Atom, ...]) -> float:
+        return sum([least.get(t.name, 0.0) for t in tasks]) if least else 0.0
+
+    best_g: dict[_Key, float] = {}  # improving: the lowest cost at which each key was expanded
+    wanted = k if improving is None else _INF
     root_tasks = tuple(t for t, _ in entries)
     # A method that puts its own task back in front of more (t -> t t) grows the task list
     # by one at each expansion, and each node copies its list: a search that would take
@@ -446,13 +496,13 @@ def _search(
     made: dict[int, tuple[object, object]] = {}
     expansions = 0
     limit = settings.budget
-    timed_out = False
+    timed_out = halted = False
     stop = _STOP
     # The clock is read every 256 nodes taken off the open list -- not expansions: a long
     # run of nodes already expanded (or of lazy ways) expands nothing.
     ticks = 0
     next_report = started + PROGRESS_EVERY
-    while heap and len(found) < k:
+    while heap and len(found) < wanted:
         ticks += 1
         if not ticks & every:
             if progress is not None and (now := time.perf_counter()) >= next_report:
@@ -461,12 +511,15 @@ def _search(
             if stop.requested or (deadline is not None and time.perf_counter() > deadline):
                 limit = expansions  # out of time: end as when the budget runs out
                 timed_out = True
+            elif checkpoint is not None and checkpoint():
+                limit = expansions
+                timed_out = halted = True
         if expansions >= limit:
             if found and limit < settings.budget:
                 break  # the alternatives' share of the search is spent
             found.sort(key=lambda p: p.cost)
             out_of = PlanStatus.TIMED_OUT if timed_out else PlanStatus.BUDGET_EXHAUSTED
-            if timed_out and stop.requested:
+            if timed_out and (stop.requested or halted):
                 out_of = PlanStatus.INTERRUPTED
             status = PlanStatus.SOLVED if found else out_of
             return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
@@ -494,10 +547,19 @@ def _search(
             continue
         node = popped_entry
         node_tasks = node.tasks
+        if bounded and -node.neg_g + lb(node_tasks) >= bound:
+            continue  # the bound fell since it was pushed
         if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
             # by their actions, so a repeat never takes an alternative's place.
             steps = tidy(domain, _steps(node, made))
+            if improving is not None:
+                better = Plan(steps)
+                if better.cost < bound:
+                    bound = better.cost
+                    found[:] = [better]
+                    improving(better)
+                continue
             actions = tuple(s.action for s in steps)
             if actions not in seen_plans:
                 seen_plans.add(actions)
@@ -508,12 +570,18 @@ def _search(
             continue
         dynamic = node.dynamic
         node_key = (dynamic, node_tasks)
-        count = popped.get(node_key, 0)
-        if count >= k:
-            continue
-        popped[node_key] = count + 1
-        expansions += 1
         g = -node.neg_g
+        if improving is not None:
+            # Again only if reached more cheaply: a cheaper plan may pass through it.
+            if best_g.get(node_key, _INF) <= g:
+                continue
+            best_g[node_key] = g
+        else:
+            count = popped.get(node_key, 0)
+            if count >= k:
+                continue
+            popped[node_key] = count + 1
+        expansions += 1
         task = node_tasks[0]
         record = node.records[0]
         rest_t = node_tasks[1:]
@@ -541,6 +609,8 @@ def _search(
                 if check_loops and _revisits(node, dyn, rest_t):
                     continue
                 child_g = g + c
+                if bounded and child_g + lb(rest_t) >= bound:
+                    continue
                 h = h_of(rest_t, dyn, None)
                 if h == _INF:
                     continue
@@ -566,6 +636,8 @@ def _search(
                 child_tasks = first_way + rest_t
                 if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
                     continue
+                if bounded and g + lb(child_tasks) >= bound:
+                    continue  # every way alike: the same names
                 h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
                 if h == _INF:
                     continue
@@ -593,6 +665,8 @@ def _search(
                 child_tasks = subtasks + rest_t
                 if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
                     continue
+                if bounded and g + lb(child_tasks) >= bound:
+                    continue
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
                     continue
@@ -609,8 +683,9 @@ def _search(
     elif heap or cut:
         status = PlanStatus.BUDGET_EXHAUSTED
     else:
-        status = PlanStatus.UNSOLVABLE
-    return PlanResult(status, tuple(found), expansions, time.perf_counter() - started)
+        status = PlanStatus.UNSOLVABLE  # (under the bound, if one was given)
+    exhausted = not heap and not cut
+    return PlanResult(status, tuple(found), expansions, time.perf_counter() - started, exhausted)
 
 
 def _apply_task(

@@ -29,7 +29,6 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
-import logging
 import threading
 import weakref
 from collections import deque
@@ -44,8 +43,9 @@ import zenoh
 
 from htnagent.errors import RemoteError
 from htnagent.limits import MAX_PAYLOAD_BYTES
+from htnagent.log import library_log
 
-log = logging.getLogger("htnagent")
+log = library_log()
 T = TypeVar("T")
 
 LEASE_MS = 1000

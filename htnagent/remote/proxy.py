@@ -22,13 +22,13 @@ sender.  Start-up waits
 from __future__ import annotations
 
 import functools
-import logging
 from collections.abc import Callable, Sequence
 
 import anyio
 from anyio.abc import TaskStatus
 
 from htnagent.errors import RemoteError
+from htnagent.log import library_log
 from htnagent.model.domain import Domain
 from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
@@ -53,7 +53,7 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Trace
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 PEER_LOST = "peer lost"
 """The start of the reason of every order that failed because its peer went."""

@@ -9,11 +9,12 @@ every event.
 
 from __future__ import annotations
 
-import logging
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
-log = logging.getLogger("htnagent")
+from htnagent.log import library_log
+
+log = library_log()
 
 T = TypeVar("T")
 

@@ -16,12 +16,13 @@ from typing import Self
 import anyio
 
 from htnagent.errors import SettingsError
+from htnagent.log import library_log
 from htnagent.runtime.clock import Clock
 from htnagent.runtime.events import EventsDropped, TraceEvent
 
 Observer = Callable[[TraceEvent], None]
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 WALL_CLOCK_FIELDS = frozenset({"replan_ms", "planning_ms", "window_ms", "ms"})
 """Fields measured on the wall clock: they differ from run to run."""

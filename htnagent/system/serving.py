@@ -31,7 +31,6 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import functools
-import logging
 from collections.abc import Callable, Iterable, Sequence
 
 import anyio
@@ -39,6 +38,7 @@ from anyio.abc import TaskStatus
 
 from htnagent.errors import ScenarioError
 from htnagent.executors.robot import RobotWorld
+from htnagent.log import library_log
 from htnagent.model.terms import Atom
 from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
@@ -67,7 +67,7 @@ from htnagent.system.fleet import share_domains
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
-log = logging.getLogger("htnagent")
+log = library_log()
 
 
 def check_served(scenario: Scenario, agent: str) -> None:
