@@ -134,7 +134,7 @@ def test_network_task_is_one_compound_task_made_once() -> None:
 
 @pytest.mark.parametrize("mode", ["online", "naive"])
 def test_an_emergency_in_the_middle_of_a_network_suspends_and_resumes_it_whole(mode: str) -> None:
-    goals = [
+    goals: list[dict[str, Any]] = [
         {"agent": "agent", "tasks": ["deliver(p1,lab)", "deliver(p2,kitchen)"]},
         # The emergency moves p2 away from the hall, where the network's second task was to
         # pick it up: the kept plan must be kept valid (repaired), not merely resumed.
@@ -161,7 +161,7 @@ def test_an_emergency_in_the_middle_of_a_network_suspends_and_resumes_it_whole(m
 
 
 def test_online_and_naive_end_a_network_with_an_emergency_alike() -> None:
-    goals = [
+    goals: list[dict[str, Any]] = [
         {"agent": "agent", "tasks": "problem"},
         {
             "agent": "agent",
