@@ -68,7 +68,9 @@ def run_checked(scenario: Scenario, mode: str = "online") -> tuple[RunReport, li
                     differences.append(f"{name} after {event.action}: {sorted(map(str, belief ^ world))}")
 
     report = anyio.run(
-        functools.partial(run_scenario, scenario, replanning=mode, observers=[check], on_start=runtimes.append)
+        functools.partial(
+            run_scenario, scenario, replanning=mode, observers=[check], on_start=runtimes.append
+        )
     )
     assert differences == []
     return report, events
@@ -84,7 +86,9 @@ def goal_rows(report: RunReport) -> list[tuple[str, str]]:
 def test_keys_planned_task_by_task_fail_and_as_one_network_succeed() -> None:
     # Expect: open-box(b1) alone takes the key (its cheapest way), so open-door(d1) has none.
     separate = hddl_scenario(
-        KEYS, "p01.hddl", [{"agent": "agent", "task": "open-box(b1)"}, {"agent": "agent", "task": "open-door(d1)"}]
+        KEYS,
+        "p01.hddl",
+        [{"agent": "agent", "task": "open-box(b1)"}, {"agent": "agent", "task": "open-door(d1)"}],
     )
     report, _ = run_checked(separate)
     assert goal_rows(report) == [("open-box(b1)", "success"), ("open-door(d1)", "failure")]
@@ -149,14 +153,20 @@ def test_an_emergency_in_the_middle_of_a_network_suspends_and_resumes_it_whole(m
     report, events = run_checked(s, mode)
     network = "tasks(deliver(p1,lab),deliver(p2,kitchen))"
     assert goal_rows(report) == [(network, "success"), ("deliver(p2,office)", "success")]
-    kinds = [(e.event, getattr(e, "goal", None)) for e in events if e.event in ("goal_suspended", "goal_resumed")]
+    kinds = [
+        (e.event, getattr(e, "goal", None)) for e in events if e.event in ("goal_suspended", "goal_resumed")
+    ]
     assert kinds == [("goal_suspended", network), ("goal_resumed", network)]
     summary = summary_of(report)
     assert len(summary["goals"][0]["resumes"]) == 1
     # The network is done whole at the end: p1 in the lab, then p2 fetched from the office
     # (where the emergency left it) to the kitchen.
     done = [e.action for e in events if isinstance(e, ActionFinished) and e.result == "success"]
-    assert done.index("drop(r1,p2,office)") < done.index("pick(r1,p2,office)") < done.index("drop(r1,p2,kitchen)")
+    assert (
+        done.index("drop(r1,p2,office)")
+        < done.index("pick(r1,p2,office)")
+        < done.index("drop(r1,p2,kitchen)")
+    )
     assert "drop(r1,p1,lab)" in done
 
 
