@@ -19,7 +19,9 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    plan; a task of the domain, grounded with the problem's objects, whose plan from there
    undoes a fact the rest of the suspended plan needs, after which the rest can still be
    mended -- or, where no candidate does, the one whose plan changes the most facts
-   (``emergency_kind: most changes``; the table says so).
+   while it leaves the rest valid (``emergency_kind: most changes``; the table says so),
+   or, where every candidate breaks the rest beyond repair, the one that changes the most
+   (``not mended``: the network cannot be finished after it, and the table says so).
 4. **Suspension.** Every action of the domain that
    :func:`htnagent.planning.hddl_translation.unsuspendable` accepts is declared suspendable
    (``agents[].suspendable``): the acting action is stopped half way, has had no
@@ -44,13 +46,15 @@ with its process group past its wall-clock limit: ``--timeout`` plus
 ``--run-timeout`` (default 60 s) for steps 1–3, ``--run-timeout`` for each mode
 (all its runs).
 A killed or failed run is a row with ``success: false`` and its ``reason``.
-Progress is one line per problem on stderr.
+Problems are taken round robin over the domains (each domain's first, then each one's
+second, ...), so that a run stopped part way has rows of every domain; progress is one line
+per problem on stderr.
 
 Rows (``bench/results/ipc_interrupt.json``, rewritten after every problem; a run given
 the same ``--out`` again keeps the rows of the problems already done there and goes on):
 ``{domain, problem, mode, resume_ms, replan_ms, planning_ms, cost, success}``
 (docs/contracts.md) plus ``beliefs_match``, ``reason``, ``runs``, ``actions`` (the plan's),
-``emergency``, ``emergency_kind`` (``breaks`` or ``most changes``), ``changed`` (facts its
+``emergency``, ``emergency_kind`` (``breaks``, ``most changes`` or ``not mended``), ``changed`` (facts its
 plan changes), ``trigger``, ``search``, ``timeout``.  A skipped problem is one row with
 ``mode: null``, ``success: null`` and its ``reason``.  ``ipc_interrupt.md``: per
 domain, runs in each mode, successes, the medians of ``replan_ms``, the window and
@@ -61,6 +65,7 @@ from __future__ import annotations
 
 import argparse
 import functools
+import itertools
 import json
 import statistics
 import sys
@@ -164,8 +169,8 @@ def prepare(problem: Problem, timeout: float, max_actions: int = MAX_ACTIONS) ->
     if first.best is None:
         return {"skip": f"the agent's {search} search finds no plan for the network: {first.status.value}"}
     actions = sum(1 for s in first.best.steps if not is_marker(s.action))
-    if actions < 2:
-        return {"skip": f"the agent's plan has {actions} action(s): nothing to interrupt half way"}
+    if actions < 1:
+        return {"skip": "the agent's plan has no action: nothing to interrupt"}
     chosen = choose_interruption(agent_domain, state, goal, first.best, domain, hddl, scenario.settings)
     if chosen.emergency is None:
         return {
@@ -173,7 +178,7 @@ def prepare(problem: Problem, timeout: float, max_actions: int = MAX_ACTIONS) ->
         }
     return {
         "emergency": str(chosen.emergency),
-        "emergency_kind": "breaks" if chosen.breaks else "most changes",
+        "emergency_kind": "breaks" if chosen.breaks else "most changes" if chosen.solvable else "not mended",
         "changed": chosen.changed,
         "tried": chosen.tried,
         "trigger": str(chosen.trigger),
@@ -363,6 +368,7 @@ def markdown(
     run_timeout: float,
     machine: str,
     max_actions: int = MAX_ACTIONS,
+    not_run: int = 0,
 ) -> str:
     """Per domain: runs, successes, medians of replanning, window and planning time, costs compared."""
     out = [
@@ -374,17 +380,23 @@ def markdown(
         f"{max_actions:,} actions. `replan_ms` is the agent's own replanning when the network "
         "resumes (the paper's measure), the window the wall clock from the emergency's end to the "
         "resumed goal's first order; each a problem's median of its measured runs, then the median "
-        "over the problems where both modes resumed the network (replan, window) or both succeeded "
-        f"(planning, cost). Target: naive / on-line `replan_ms` ≥ {TARGET:g}× in every domain. "
+        "over the problems where both modes resumed the network (replan; naive's counts a resumption "
+        "where it found no plan for the network too; window where an order followed) or both "
+        f"succeeded (planning, cost). Target: naive / on-line `replan_ms` ≥ {TARGET:g}× in every domain. "
         "Beliefs are counted over the runs that ended (one killed at its limit compared nothing). "
         f"Machine: {machine}.",
         "",
         "| domain | problems | skipped | emergency breaks the rest | succeeded on-line "
         "| succeeded naive | on-line replan ms | naive replan ms | naive / on-line | target "
         "| on-line window ms | naive window ms | on-line planning ms | naive planning ms "
-        "| cost on-line ≤ naive | beliefs match |",
-        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---|",
+        "| cost on-line ≤ naive | total cost on-line / naive | beliefs match |",
+        "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|",
     ]
+    if not_run:
+        out[2] += (
+            f" **{not_run} problems of the suite were not run** (the run was stopped part way; "
+            "problems are taken round robin over the domains)."
+        )
     domains: dict[str, list[dict[str, Any]]] = {}
     for row in rows:
         domains.setdefault(row["domain"], []).append(row)
@@ -408,6 +420,7 @@ def markdown(
         plan_on = _median([p["online"]["planning_ms"] for p in both_ok])
         plan_nv = _median([p["naive"]["planning_ms"] for p in both_ok])
         cheaper = sum(1 for p in both_ok if p["online"]["cost"] <= p["naive"]["cost"])
+        total = {m: sum(p[m]["cost"] for p in both_ok) for m in MODES}
         runs = [r for r in found if r["mode"] is not None]
         # A run killed at its time limit compared nothing: it is not counted here.
         checked = [r for r in runs if r["beliefs_match"] is not None]
@@ -419,17 +432,30 @@ def markdown(
             f"| {domain} | {len(problems)} | {skipped} | {breaks}/{ran} | {won['online']}/{ran} "
             f"| {won['naive']}/{ran} | {_ms(on)} | {_ms(nv)} | {shown} | {target} "
             f"| {_ms(win_on)} | {_ms(win_nv)} "
-            f"| {_ms(plan_on)} | {_ms(plan_nv)} | {cheaper}/{len(both_ok)} | {matched}/{len(checked)} runs |"
+            f"| {_ms(plan_on)} | {_ms(plan_nv)} | {cheaper}/{len(both_ok)} "
+            f"| {total['online']} / {total['naive']} | {matched}/{len(checked)} runs |"
         )
     fallback = [r for r in rows if r["mode"] == "online" and r.get("emergency_kind") == "most changes"]
     if fallback:
         out += [
             "",
-            "Where no candidate task undid a fact the rest of the plan needs (and left it mendable), "
-            "the emergency is the one whose plan changes the most facts:",
+            "Where no candidate task undid a fact the rest of the plan needs and left it mendable, "
+            "the emergency is the one whose plan changes the most facts while the rest stays valid:",
             "",
         ]
         out += [f"- {r['domain']}/{r['problem']}: {r['emergency']} ({r['changed']} facts)" for r in fallback]
+    unmendable = [r for r in rows if r["mode"] == "online" and r.get("emergency_kind") == "not mended"]
+    if unmendable:
+        out += [
+            "",
+            "Where every candidate task broke the rest of the plan and the check found no repair "
+            "within its bounds (the network may not be finishable after it), the one that changes "
+            "the most facts:",
+            "",
+        ]
+        out += [
+            f"- {r['domain']}/{r['problem']}: {r['emergency']} ({r['changed']} facts)" for r in unmendable
+        ]
     naive_only = []
     for r in rows:
         if r["mode"] == "naive" and r["success"]:
@@ -486,6 +512,9 @@ def parser() -> argparse.ArgumentParser:
         action="store_true",
         help="keep the rows --out already holds and run only the problems not in it",
     )
+    p.add_argument(
+        "--table", action="store_true", help="only write the .md table of the rows --out holds (run nothing)"
+    )
     p.add_argument("--grace", type=float, default=GRACE_S, help=argparse.SUPPRESS)
     return p
 
@@ -514,18 +543,30 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2
-    rows = _kept(args.out) if args.resume else []
+    # Round robin over the domains (each one's first problem, then each one's second, ...): a
+    # run stopped part way has rows of every domain.
+    by_domain: dict[str, list[Problem]] = {}
+    for problem in problems:
+        by_domain.setdefault(problem.domain, []).append(problem)
+    problems = [p for batch in itertools.zip_longest(*by_domain.values()) for p in batch if p is not None]
+    rows = _kept(args.out) if args.resume or args.table else []
     done = {(r["domain"], r["problem"]) for r in rows}
     print(
         f"{len(problems)} problems ({len(done)} done before, kept); rows to {args.out}",
         file=sys.stderr,
         flush=True,
     )
-    write(args.out, rows)
     md = args.out.with_suffix(".md")
+    if not args.table:
+        write(args.out, rows)
 
     def table() -> str:
-        return markdown(rows, args.timeout, args.run_timeout, machine_line(), args.max_actions)
+        left = len({(p.domain, p.name) for p in problems} - {(r["domain"], r["problem"]) for r in rows})
+        return markdown(rows, args.timeout, args.run_timeout, machine_line(), args.max_actions, left)
+
+    if args.table:
+        md.write_text(table())
+        return 0
 
     try:
         for i, problem in enumerate(problems, 1):

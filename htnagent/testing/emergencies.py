@@ -28,8 +28,9 @@ emergency is found here from the domain, the problem and the plan alone
   does, the candidate whose plan changes the most facts (ties to the first) is taken
   instead, and :attr:`Interruption.breaks` says so.
 
-Everything is bounded by counts (candidates, expansions), never by the clock: the
-choice is the same on every machine.
+Everything is bounded by counts (candidates, expansions): the choice is the same on every
+machine -- unless a search hits :data:`SEARCH_SECONDS`, a backstop on the clock for the
+searches that run long without counting expansions.
 """
 
 from __future__ import annotations
@@ -65,9 +66,12 @@ MAX_GROUNDINGS = 2_000
 """The most groundings of one task looked at (the rest's objects first) before ranking."""
 CANDIDATE_BUDGET = 20_000
 """Expansions a candidate's plan may take."""
-REPAIR_BUDGET = 200_000
+REPAIR_BUDGET = 20_000
 """Expansions the check that the rest is still solvable may take (the repair's re-plan of
 the whole goal, its last resort, included)."""
+SEARCH_SECONDS = 2.0
+"""A backstop on each search's time: a search can run long without counting expansions
+(nodes it already expanded, ways of a method it skips), and the choice must end."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -89,6 +93,9 @@ class Interruption:
     """How many facts of the world its plan changes."""
     tried: int
     """How many candidates were planned."""
+    solvable: bool
+    """Whether the rest of the suspended plan is known solvable after it (mended, or left
+    valid); False only for a fallback when every candidate broke the rest beyond repair."""
 
 
 def is_marker(action: Atom) -> bool:
@@ -139,8 +146,8 @@ def choose_interruption(
     done: Done | None = None
     for s in steps[:at]:
         done = Done(s, done)
-    one = replace(settings, alternatives=1, budget=CANDIDATE_BUDGET, time_limit=None)
-    fallback: tuple[int, Atom] | None = None
+    one = replace(settings, alternatives=1, budget=CANDIDATE_BUDGET, time_limit=SEARCH_SECONDS)
+    fallback: tuple[tuple[bool, int], Atom] | None = None
     tried = 0
     for candidate in candidates(hddl, problem, rest):
         if tried >= MAX_CANDIDATES:
@@ -155,13 +162,17 @@ def choose_interruption(
         changed = len(_world(end) ^ _world(struck))
         if changed == 0:
             continue
-        if fallback is None or changed > fallback[0]:
-            fallback = (changed, candidate)
-        if _breaks_but_mends(domain, goal, settings, end, trigger, rest, done):
-            return Interruption(trigger, index, count, candidate, True, changed, tried)
+        breaks, mends = _breaks_but_mends(domain, goal, settings, end, trigger, rest, done)
+        if breaks and mends:
+            return Interruption(trigger, index, count, candidate, True, changed, tried, True)
+        # The fallback leaves the rest as it is (so the network stays solvable), if any does.
+        rank = (not breaks, changed)
+        if fallback is None or rank > fallback[0]:
+            fallback = (rank, candidate)
     if fallback is None:
-        return Interruption(trigger, index, count, None, False, 0, tried)
-    return Interruption(trigger, index, count, fallback[1], False, fallback[0], tried)
+        return Interruption(trigger, index, count, None, False, 0, tried, False)
+    (keeps, changed), emergency = fallback
+    return Interruption(trigger, index, count, emergency, False, changed, tried, keeps)
 
 
 def candidates(hddl: m.Domain, problem: m.Problem, rest: Sequence[Step]) -> Iterator[Atom]:
@@ -206,9 +217,9 @@ def _breaks_but_mends(
     trigger: Atom,
     rest: Sequence[Step],
     done: Done | None,
-) -> bool:
+) -> tuple[bool, bool]:
     """Whether the rest of the suspended plan (its first action whole) fails from ``end``,
-    and the plan upkeep's repair mends it from there."""
+    and whether the plan upkeep's repair mends it from there."""
     start = domain.clear(end, trigger) if end.holds(suspended_fact(trigger)) else end
     states = [start]
     broken = None
@@ -219,14 +230,14 @@ def _breaks_but_mends(
             break
         states.append(after)
     if broken is None:
-        return False
+        return False, True
     repairer = Repairer(
         domain,
         goal,
-        replace(settings, alternatives=1, budget=REPAIR_BUDGET, time_limit=None),
+        replace(settings, alternatives=1, budget=REPAIR_BUDGET, time_limit=SEARCH_SECONDS),
         PlanningStats(),
         lambda _: frozenset(),
         SearchMemo(),
         local_budget=LOCAL_BUDGET,
     )
-    return repairer.repair(Plan(tuple(rest)), broken, states, done) is not None
+    return True, repairer.repair(Plan(tuple(rest)), broken, states, done) is not None
