@@ -10,5 +10,7 @@ robot's physical state, and compare with shortest paths computed here.
 - :mod:`htnagent.testing.differential` — random scenarios run in both
   replanning modes and compared;
 - :mod:`htnagent.testing.storms` — random and extreme scenarios, run and checked;
-- :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite, and a large generated one.
+- :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite, and a large generated one;
+- :mod:`htnagent.testing.emergencies` — an emergency for an HDDL problem, chosen from the
+  problem (the IPC interruption benchmark's).
 """
