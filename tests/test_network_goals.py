@@ -249,3 +249,19 @@ def test_a_domain_with_its_own_task_named_tasks_cannot_take_a_network() -> None:
     domain.method("tasks(?x)", "mine", do=[])
     with pytest.raises(Exception, match="has a task of its own named tasks"):
         network_task(domain, [parse("open-box(b1)")])
+
+
+def test_check_tells_a_bad_network_in_one_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from htnagent.cli.commands import main
+
+    scenario = tmp_path / "keys.yaml"
+    scenario.write_text(
+        "name: keys\nrobot: {}\n"
+        f"agents: [{{name: agent, domain: {{hddl: {KEYS / 'domain.hddl'}, problem: {KEYS / 'p01.hddl'}}}, "
+        "executor: robot}]\n"
+        "goals: [{agent: agent, task: open-box(b1), tasks: [open-door(d1)]}]\n"
+    )
+    assert main(["check", str(scenario)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert f"{scenario}: goals[0]: give exactly one of task (one task) and tasks (a task network), not both" in err
