@@ -264,4 +264,7 @@ def test_check_tells_a_bad_network_in_one_line(tmp_path: Path, capsys: pytest.Ca
     assert main(["check", str(scenario)]) == 2
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "Traceback" not in err
-    assert f"{scenario}: goals[0]: give exactly one of task (one task) and tasks (a task network), not both" in err
+    assert (
+        f"{scenario}: goals[0]: give exactly one of task (one task) and tasks (a task network), not both"
+        in err
+    )
