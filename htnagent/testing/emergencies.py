@@ -13,7 +13,8 @@ emergency is found here from the domain, the problem and the plan alone
 - **Which.** Candidates are the domain's compound tasks grounded with the problem's
   objects (and the domain's constants) of each parameter's type; the objects the rest of
   the plan names come first, so that the tasks most likely to touch what the rest needs
-  are tried first.  At most :data:`MAX_CANDIDATES` are planned, each by the same search
+  are tried first.  At most :data:`MAX_CANDIDATES` are planned (when none of them changes
+  a fact, up to as many again, the tasks taken in turn, until one does), each by the same search
   within :data:`CANDIDATE_BUDGET` expansions, from the belief at the emergency (the
   suspended action's record in it).  A candidate is taken when its plan
   1. changes some fact of the world,
@@ -149,8 +150,13 @@ def choose_interruption(
     one = replace(settings, alternatives=1, budget=CANDIDATE_BUDGET, time_limit=SEARCH_SECONDS)
     fallback: tuple[tuple[bool, int], Atom] | None = None
     tried = 0
-    for candidate in candidates(hddl, problem, rest):
-        if tried >= MAX_CANDIDATES:
+    ranked = list(candidates(hddl, problem, rest))
+    # When none of the first MAX_CANDIDATES changes a fact (the best-ranked groundings of one
+    # task can fill them all), as many again, each task's best untried in turn.
+    order = ranked[:MAX_CANDIDATES]
+    second = _round_robin(ranked[MAX_CANDIDATES:])
+    for candidate in itertools.chain(order, second):
+        if tried >= MAX_CANDIDATES and (fallback is not None or tried >= 2 * MAX_CANDIDATES):
             break
         tried += 1
         found = plan(domain, struck, [candidate], one)
@@ -202,6 +208,15 @@ def candidates(hddl: m.Domain, problem: m.Problem, rest: Sequence[Step]) -> Iter
             ranked.append((-named, t, g, Atom(task.name, tuple(args))))
     ranked.sort(key=lambda r: r[:3])
     return (r[3] for r in ranked)
+
+
+def _round_robin(ranked: Sequence[Atom]) -> Iterator[Atom]:
+    """``ranked`` with the tasks taken in turn: each task's first, then each one's second, ..."""
+    by_task: dict[str, list[Atom]] = {}
+    for atom in ranked:
+        by_task.setdefault(atom.name, []).append(atom)
+    for batch in itertools.zip_longest(*by_task.values()):
+        yield from (a for a in batch if a is not None)
 
 
 def _world(state: State) -> frozenset[Atom]:
