@@ -392,6 +392,9 @@ def markdown(
         "| cost on-line ≤ naive | total cost on-line / naive | beliefs match |",
         "|---|---:|---:|---:|---:|---:|---:|---:|---:|---|---:|---:|---:|---:|---:|---:|---|",
     ]
+    counts = sorted({r["runs"] for r in rows if r.get("runs")})
+    if counts:
+        out[2] += f" Measured runs a mode, after one warm-up run: {', '.join(map(str, counts))}."
     if not_run:
         out[2] += (
             f" **{not_run} problems of the suite were not run** (the run was stopped part way; "
