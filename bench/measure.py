@@ -92,12 +92,16 @@ async def measure_run(
         scenario, replanning=mode, observers=[observe, *observers], on_start=on_start, look_ahead=look_ahead
     )
     first = next(iter(report.resumptions(top)), None)
+    if first is not None:
+        # The replanning is the agents' work at the resumption whether or not it found a plan
+        # (naive mode may find none for a network it must plan again whole); the window
+        # needs an order after it.
+        figures.parent_replan_ms = first.replan_ms.get(top, 0.0)
+        figures.child_replan_ms = first.total_ms - figures.parent_replan_ms
     if first is not None and first.order_ms is not None:
         window = first.window_ms if first.window_ms is not None else first.order_ms
         figures.parent_ms = window if len(names) == 1 else first.order_ms
         figures.child_ms = 0.0 if len(names) == 1 else window - first.order_ms
-        figures.parent_replan_ms = first.replan_ms.get(top, 0.0)
-        figures.child_replan_ms = first.total_ms - figures.parent_replan_ms
     figures.distance = report.summary.distance
     figures.planning_ms = sum(report.summary.planning_ms.values())
     figures.succeeded = report.succeeded

@@ -50,8 +50,8 @@ async def close_run(seed: int) -> tuple[int, int, int]:
 
     with anyio.fail_after(HANG):
         async with anyio.create_task_group() as waiters, runtime:
-            for goal in scenario.goals:
-                ticket = runtime.submit(top, goal.task, emergency=goal.emergency)
+            for i, goal in enumerate(scenario.goals):
+                ticket = runtime.submit(top, scenario.goal_task(i), emergency=goal.emergency)
                 tickets.append(ticket)
                 waiters.start_soon(wait, ticket)
             leave = anyio.Event()

@@ -10,7 +10,12 @@ change).  We measure the total (parent plus child) resume replanning time and
 the whole run's planning time, in both modes.  Also: nested emergencies on the
 museum map, up to depth 5.
 
-Writes ``bench/results/scaling.json``, ``scaling.png`` and ``nested.json``.
+Each row gives ``replan_ms`` (the agents' own replanning at the resumption, parent plus
+child: the paper's measure, :attr:`bench.measure.RunFigures.replan_ms`) beside
+``resume_ms`` (the end-to-end window, runtime's fixed path included).
+
+Writes ``bench/results/scaling.json`` (after every measurement), ``scaling.md``,
+``scaling.png`` and ``nested.json``.
 """
 
 from __future__ import annotations
@@ -67,6 +72,10 @@ def generated_scenario(cols: int, rows: int, variant: str = "next area", seed: i
     return parse_scenario(data, f"<generated {cols}x{rows}>")
 
 
+def _median_of(values: list[float | None]) -> float:
+    return round(statistics.median([v or 0.0 for v in values]), 4)
+
+
 async def _runs(scenario: Scenario, mode: str, runs: int) -> list[RunFigures]:
     await measure_run(scenario, mode)  # warm-up
     return [await measure_run(scenario, mode) for _ in range(runs)]
@@ -95,6 +104,7 @@ def main(runs: int | None = None, quick: bool = False) -> int:
                 figures = anyio.run(_runs, scenario, mode, n)
                 if not all(f.succeeded for f in figures):
                     failures.append(f"{cols * rws} areas {variant} {mode}")
+                replan = statistics.median([f.replan_ms or 0.0 for f in figures])
                 resume = statistics.median([f.total_ms or 0.0 for f in figures])
                 parent = statistics.median([f.parent_ms or 0.0 for f in figures])
                 child = statistics.median([f.child_ms or 0.0 for f in figures])
@@ -106,6 +116,13 @@ def main(runs: int | None = None, quick: bool = False) -> int:
                         "emergency": variant,
                         "mode": mode,
                         "resume_ms": round(resume, 4),
+                        "replan_ms": round(replan, 4),
+                        "parent_replan_ms": round(
+                            statistics.median([f.parent_replan_ms or 0.0 for f in figures]), 4
+                        ),
+                        "child_replan_ms": round(
+                            statistics.median([f.child_replan_ms or 0.0 for f in figures]), 4
+                        ),
                         "parent_ms": round(parent, 4),
                         "child_ms": round(child, 4),
                         "planning_ms": round(planning, 3),
@@ -113,14 +130,18 @@ def main(runs: int | None = None, quick: bool = False) -> int:
                         "runs": n,
                     }
                 )
+                # Written after every measurement: a stopped run keeps what it measured.
+                (RESULTS / "scaling.json").write_text(json.dumps(rows, indent=2) + "\n")
                 print(
-                    f"      {mode:<6} resume {resume:9.3f} ms (parent {parent:.3f}, child {child:.3f})  "
+                    f"      {mode:<6} replan {replan:9.3f} ms, window {resume:9.3f} ms "
+                    f"(parent {parent:.3f}, child {child:.3f})  "
                     f"planning {planning:9.2f} ms  distance {figures[0].distance:.1f} m  "
                     f"[{n} runs, {time.perf_counter() - t:.1f} s]",
                     file=sys.stderr,
                     flush=True,
                 )
     (RESULTS / "scaling.json").write_text(json.dumps(rows, indent=2) + "\n")
+    (RESULTS / "scaling.md").write_text(markdown(rows))
     _chart(rows)
     nested = nested_study(runs or 10)
     (RESULTS / "nested.json").write_text(json.dumps(nested, indent=2) + "\n")
@@ -178,6 +199,43 @@ def nested_study(runs: int) -> list[dict[str, Any]]:
                 flush=True,
             )
     return out
+
+
+TARGET = 100.0
+"""The naive / on-line ratio of ``replan_ms`` asked for at 10,000 nodes and more, per emergency kind."""
+TARGET_NODES = 10_000
+
+
+def markdown(rows: list[dict[str, Any]]) -> str:
+    """Per size and emergency kind: replan_ms and the window in both modes, their ratios."""
+    out = [
+        "# How the advantage scales (`python -m bench scaling`)",
+        "",
+        "Generated museums; `replan_ms` is the agents' own replanning when the suspended goal "
+        "resumes (parent plus child, the paper's measure), the window the end-to-end time from "
+        "the emergency's end to the resumed goal's first order at the robot. Medians, wall clock. "
+        f"Target: naive / on-line `replan_ms` ≥ {TARGET:g}× at ≥ {TARGET_NODES:,} nodes, each kind.",
+        "",
+        "| nodes | emergency | on-line replan ms | naive replan ms | naive / on-line | on-line window ms "
+        "| naive window ms | window ratio | target |",
+        "|---:|---|---:|---:|---:|---:|---:|---:|---|",
+    ]
+    pairs: dict[tuple[int, str], dict[str, dict[str, Any]]] = {}
+    for r in rows:
+        pairs.setdefault((r["nodes"], r["emergency"]), {})[r["mode"]] = r
+    for (nodes, kind), by in pairs.items():
+        if "online" not in by or "naive" not in by:
+            continue
+        on, nv = by["online"], by["naive"]
+        ratio = nv["replan_ms"] / on["replan_ms"] if on["replan_ms"] else float("inf")
+        window = nv["resume_ms"] / on["resume_ms"] if on["resume_ms"] else float("inf")
+        target = "—" if nodes < TARGET_NODES else ("met" if ratio >= TARGET else "**missed**")
+        out.append(
+            f"| {nodes:,} | {kind} | {on['replan_ms']:.3f} | {nv['replan_ms']:.3f} | {ratio:.1f}× "
+            f"| {on['resume_ms']:.3f} | {nv['resume_ms']:.3f} | {window:.1f}× | {target} |"
+        )
+    out.append("")
+    return "\n".join(out)
 
 
 def _chart(rows: list[dict[str, Any]]) -> None:

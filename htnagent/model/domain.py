@@ -234,8 +234,11 @@ class Domain:
         self._dynamic = self._read = None
         self.actions.forget()
 
-    def method(self, head: str, name: str, *, when: Iterable[str] = (), do: Iterable[str] = ()) -> Method:
-        """Add a method: to do ``head``, when ``when`` holds, do the tasks ``do`` in order."""
+    def method(
+        self, head: str | Atom, name: str, *, when: Iterable[str] = (), do: Iterable[str | Atom] = ()
+    ) -> Method:
+        """Add a method: to do ``head``, when ``when`` holds, do the tasks ``do`` in order
+        (each task in the text form or as an atom)."""
         h = atom(head)
         if h.name in self.operators:
             raise DomainError(f"domain {self.name}: {h.name} is already a primitive task")

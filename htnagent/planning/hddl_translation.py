@@ -140,6 +140,24 @@ def translate(
     return _Translator(domain, problem, frozenset(suspendable), dict(started or {}), deadline).run()
 
 
+def initial_network(planning: HddlPlanning) -> tuple[Atom, ...]:
+    """The problem's initial task network as the tasks a network goal does in order
+    (docs/contracts.md ``tasks: problem``): the network's own tasks when the translation
+    made them one ground list with nothing to check first, else ``__top()`` (its
+    parameters bound by the planner); then ``__goal()`` when the problem has a ``:goal``,
+    so that the network is done only where the goal holds."""
+    roots = planning.domain.methods.get(TOP, [])
+    tasks: tuple[Atom, ...] = (Atom(TOP),)
+    if (
+        len(roots) == 1
+        and not roots[0].pre
+        and roots[0].subtasks
+        and all(t.is_ground for t in roots[0].subtasks)
+    ):
+        tasks = roots[0].subtasks
+    return tasks + tuple(t for t in planning.tasks if t.name == GOAL)
+
+
 def unsuspendable(domain: m.Domain, name: str) -> str | None:
     """Why the domain's action ``name`` cannot be declared suspendable; None when it can.
 
@@ -848,6 +866,7 @@ __all__ = [
     "OutOfTime",
     "Started",
     "StartedError",
+    "initial_network",
     "suspended_fact",
     "translate",
     "unsuspendable",

@@ -22,10 +22,12 @@ from pathlib import Path
 from htnagent.domains import ROBOT_TRAVEL, DomainInfo
 from htnagent.domains.maps import WorldMap
 from htnagent.domains.user import resolve_domain
-from htnagent.errors import ScenarioError
+from htnagent.errors import DomainError, ScenarioError
 from htnagent.model.actions import RECOVERY
 from htnagent.model.domain import Domain
+from htnagent.model.networks import network_task
 from htnagent.model.terms import Atom
+from htnagent.planning.hddl_translation import initial_network
 from htnagent.scenario.hddl_agent import (
     DEFAULT_DURATION,
     RESERVED,
@@ -34,7 +36,7 @@ from htnagent.scenario.hddl_agent import (
     check_hddl_task,
     load_hddl_agent,
 )
-from htnagent.scenario.schema import ROBOT, Scenario, Trigger, no_agent
+from htnagent.scenario.schema import PROBLEM_NETWORK, ROBOT, Scenario, Trigger, no_agent
 
 __all__ = ["check_task", "cross_check"]
 
@@ -96,6 +98,7 @@ def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) 
     _check_timeout(s)
     names = s.agent_names
     here = {a.name for a in s.chain_from()[0]}
+    goal_tasks: list[Atom] = []
     for i, g in enumerate(s.goals):
         if g.agent not in names:
             raise ScenarioError(file, f"goals[{i}].agent", no_agent(g.agent, names))
@@ -106,9 +109,10 @@ def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) 
                 f"agent {g.agent!r} is served by another process (remote); give goals to "
                 f"{', '.join(a.name for a in s.chain_from()[0])}",
             )
-        check_task(s, g.agent, g.task, f"goals[{i}].task")
+        goal_tasks.append(_goal_task(s, i))
         if g.when is not None:
             _check_trigger(s, g.when, f"goals[{i}].when")
+    s._goal_tasks = tuple(goal_tasks)
     for i, ev in enumerate(s.events):
         _check_trigger(s, ev.when, f"events[{i}].when")
         if ev.changes_facts:
@@ -117,6 +121,35 @@ def cross_check(s: Scenario, base_dir: Path, max_file_bytes: int | None = None) 
         key = "close" if ev.closes else "open"
         if ev.arc not in world.arcs:
             raise ScenarioError(file, f"events[{i}].{key}", f"unknown arc {ev.arc!r}; it is not on the map")
+
+
+def _goal_task(s: Scenario, i: int) -> Atom:
+    """What ``goals[i]``'s agent plans: its task, or its network (every task of it checked
+    as a goal's task) as one compound task (docs/design.md §4)."""
+    g = s.goals[i]
+    if g.task is not None:
+        check_task(s, g.agent, g.task, f"goals[{i}].task")
+        return g.task
+    where = f"goals[{i}].tasks"
+    if g.tasks == PROBLEM_NETWORK:
+        planning = s.hddl_for(g.agent)
+        if planning is None:
+            raise ScenarioError(
+                s.file,
+                where,
+                f"{PROBLEM_NETWORK!r} is an HDDL problem's own network, and agent {g.agent}'s domain "
+                "is not HDDL; list the tasks: [t1, t2, ...]",
+            )
+        tasks = initial_network(planning)
+    else:
+        assert isinstance(g.tasks, tuple)  # the schema allows a list of tasks or PROBLEM_NETWORK
+        tasks = g.tasks
+        for j, task in enumerate(tasks):
+            check_task(s, g.agent, task, f"{where}[{j}]")
+    try:
+        return network_task(s.domain_for(g.agent), tasks)
+    except DomainError as e:
+        raise ScenarioError(s.file, where, str(e)) from None
 
 
 def _check_facts(s: Scenario, i: int) -> None:

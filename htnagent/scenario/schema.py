@@ -29,7 +29,7 @@ from pydantic import (
 from htnagent.domains import DomainInfo
 from htnagent.domains.maps import WorldMap
 from htnagent.domains.user import ResolvedDomain
-from htnagent.errors import ScenarioError
+from htnagent.errors import ScenarioError, TextFormError, shown
 from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
 from htnagent.model.actions import RECOVERY
 from htnagent.model.domain import Domain, State
@@ -37,10 +37,11 @@ from htnagent.model.terms import Atom
 from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario.hddl_agent import HddlDomainSpec
-from htnagent.scenario.specs import Name, Spec, TextForm
+from htnagent.scenario.specs import Name, Spec, TextForm, parse_text_form
 from htnagent.scenario.wording import ENDPOINT_PATTERN, kind_of
 
 __all__ = [
+    "PROBLEM_NETWORK",
     "ROBOT",
     "AgentSpec",
     "GoalSpec",
@@ -50,6 +51,7 @@ __all__ = [
     "RemoteLink",
     "RobotSpec",
     "Scenario",
+    "TaskNetwork",
     "TextForm",
     "Trigger",
     "WorldEvent",
@@ -271,15 +273,58 @@ class Trigger(Spec):
         return self
 
 
+PROBLEM_NETWORK = "problem"
+"""``tasks: problem``: an HDDL agent's goal is its problem's own initial task network."""
+
+
+def _task_network(value: object) -> tuple[Atom, ...] | str:
+    """``tasks``: a non-empty list of tasks, each ``name(arg,...)``, or ``problem``."""
+    if value == PROBLEM_NETWORK:
+        return PROBLEM_NETWORK
+    if isinstance(value, str):
+        raise ValueError(
+            f"expected a list of tasks [t1, t2, ...] or {PROBLEM_NETWORK!r} (an HDDL problem's own "
+            f"network), got {shown(value)}"
+        )
+    if not isinstance(value, (list, tuple)):
+        raise ValueError(f"expected a list of tasks [t1, t2, ...], got {kind_of(value)}")
+    if not value:
+        raise ValueError("an empty task network: give at least one task")
+    tasks: list[Atom] = []
+    for i, item in enumerate(value):
+        try:
+            tasks.append(parse_text_form(item))
+        except TextFormError as e:
+            raise ValueError(f"[{i}]: {e}") from None
+    return tuple(tasks)
+
+
+TaskNetwork = Annotated[tuple[Atom, ...] | str, PlainValidator(_task_network)]
+"""A goal's task network as written: its tasks in order, or ``problem``."""
+
+
 class GoalSpec(Spec):
-    """A task given to an agent: at the start, or when its trigger fires."""
+    """A task, or a network of tasks, given to an agent: at the start, or when its trigger fires."""
 
     agent: Name
-    task: TextForm
+    task: TextForm | None = None
+    """The goal's one task; exactly one of ``task`` and :attr:`tasks` is given."""
+    tasks: TaskNetwork | None = None
+    """A task network planned as one ordered whole (docs/design.md §4), or ``problem``: an
+    HDDL agent's problem's own initial network, its ``:goal`` checked at the end."""
     emergency: Annotated[bool, Strict()] = False
     """Whether the goal interrupts (suspends) what the agent is doing."""
     when: Trigger | None = None
     """None: given at time 0, in file order."""
+
+    @model_validator(mode="after")
+    def _one_goal(self) -> GoalSpec:
+        if (self.task is None) == (self.tasks is None):
+            raise ValueError(
+                "give exactly one of task (one task) and tasks (a task network), "
+                + ("not both" if self.task is not None else "got neither")
+            )
+        return self
 
 
 class WorldEvent(Spec):
@@ -355,6 +400,7 @@ class Scenario(Spec):
     _world: WorldMap | None = PrivateAttr(default=None)
     _domains: dict[str, ResolvedDomain] = PrivateAttr(default_factory=dict)
     _hddl: dict[str, HddlPlanning] = PrivateAttr(default_factory=dict)
+    _goal_tasks: tuple[Atom, ...] = PrivateAttr(default=())
 
     @property
     def file(self) -> str:
@@ -442,6 +488,14 @@ class Scenario(Spec):
                 self._domains[spec.name] = theirs[spec.domain]
                 shared += 1
         return shared
+
+    def goal_task(self, index: int) -> Atom:
+        """What the agent plans for ``goals[index]``: its ``task``, or its network as the one
+        compound task ``tasks(t1,...,tn)`` (:func:`~htnagent.model.networks.network_task`),
+        which is also how traces and the summary name it."""
+        if len(self._goal_tasks) != len(self.goals):
+            raise self._not_built()
+        return self._goal_tasks[index]
 
     def domain_for(self, agent_name: str) -> Domain:
         """The agent's domain, built from the map (once; later calls return the same object)."""

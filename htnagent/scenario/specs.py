@@ -14,7 +14,7 @@ from pydantic import BaseModel, ConfigDict, Field, PlainSerializer, PlainValidat
 from htnagent.errors import TextFormError
 from htnagent.model.terms import Atom, parse
 
-__all__ = ["Name", "Spec", "TextForm"]
+__all__ = ["Name", "Spec", "TextForm", "parse_text_form"]
 
 
 class Spec(BaseModel):
@@ -28,7 +28,8 @@ class Spec(BaseModel):
     model_config = ConfigDict(frozen=True, extra="forbid")
 
 
-def _parse_atom(value: object) -> Atom:
+def parse_text_form(value: object) -> Atom:
+    """A task or action as the file writes it (``name(arg,...)``); TextFormError if it is not one."""
     if isinstance(value, Atom):
         return value
     if isinstance(value, str):
@@ -36,7 +37,7 @@ def _parse_atom(value: object) -> Atom:
     raise TextFormError(f"expected text like name(arg,...), got {type(value).__name__}")
 
 
-TextForm = Annotated[Atom, PlainValidator(_parse_atom), PlainSerializer(str)]
+TextForm = Annotated[Atom, PlainValidator(parse_text_form), PlainSerializer(str)]
 """A task or action written ``name(arg,...)`` in the file, held as an :class:`Atom`."""
 
 Name = Annotated[str, Field(min_length=1)]

@@ -132,7 +132,10 @@ class GoalClock:
     @classmethod
     def of(cls, scenario: Scenario) -> GoalClock:
         """A clock for the goals of ``scenario``, its agents in their chain."""
-        return cls(scenario.agent_names, ((g.agent, str(g.task), g.emergency) for g in scenario.goals))
+        return cls(
+            scenario.agent_names,
+            ((g.agent, str(scenario.goal_task(i)), g.emergency) for i, g in enumerate(scenario.goals)),
+        )
 
     def given(self, index: int, ticket: int) -> None:
         """The scenario's goal ``index`` was submitted with ``ticket``."""

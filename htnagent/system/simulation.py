@@ -264,7 +264,9 @@ async def run_scenario(
         runtime.trace.emit(header)
 
         def give(index: int, goal: GoalSpec) -> None:
-            ticket = tickets[index] = runtime.submit(goal.agent, goal.task, emergency=goal.emergency)
+            ticket = tickets[index] = runtime.submit(
+                goal.agent, scenario.goal_task(index), emergency=goal.emergency
+            )
             goal_clock.given(index, ticket)
 
         def change_facts(add: tuple[Atom, ...], delete: tuple[Atom, ...]) -> None:
@@ -450,7 +452,7 @@ def _summary(
     scenario: Scenario, runtime: Runtime, world: RobotWorld, tickets: list[int | None], times: GoalClock
 ) -> Summary:
     goals = []
-    for goal, ticket, noted in zip(scenario.goals, tickets, times.goals, strict=True):
+    for index, (goal, ticket, noted) in enumerate(zip(scenario.goals, tickets, times.goals, strict=True)):
         status: GoalStatus = GoalStatus.FAILURE
         reason = NEVER_TRIGGERED
         if ticket is not None:
@@ -461,7 +463,7 @@ def _summary(
         goals.append(
             GoalRow(
                 agent=goal.agent,
-                goal=str(goal.task),
+                goal=str(scenario.goal_task(index)),
                 status="success" if success else "failure",
                 reason="" if success else reason,
                 emergency=goal.emergency,
