@@ -6,7 +6,6 @@ import argparse
 import sys
 from pathlib import Path
 
-from bench import differential, fleet, fuzz, hddl_read, reaction, reliability, replanning, scaling, step
 from bench.machine import recording_machine
 
 
@@ -27,11 +26,16 @@ def main() -> int:
 
         return ipc.main(sys.argv[2:])
     if sys.argv[1:2] == ["fuzz"]:  # its own options: python -m bench fuzz --help
+        from bench import fuzz
+
         return fuzz.cli(sys.argv[2:])
     if sys.argv[1:2] == ["ipc-interrupt"]:  # its own options: python -m bench ipc-interrupt --help
         from bench import ipc_interrupt
 
         return ipc_interrupt.main(sys.argv[2:])
+    # The studies imported only now: ``ipc`` and the others above start without them.
+    from bench import differential, fleet, hddl_read, reaction, reliability, replanning, scaling, step
+
     parser = argparse.ArgumentParser(prog="python -m bench", description=__doc__)
     parser.add_argument(
         "study",

@@ -57,7 +57,6 @@ import importlib.util
 import json
 import math
 import os
-import re
 import shlex
 import shutil
 import signal
@@ -73,6 +72,10 @@ from pathlib import Path
 from typing import IO, Any
 
 from bench.machine import machine_line
+from htnagent.errors import HddlError
+from htnagent.hddl.plan_file import parse_plan, plan_block
+from htnagent.testing.hddl_inputs import SuiteError, find_problems
+from htnagent.testing.hddl_inputs import SuiteProblem as Problem
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "bench" / "results"
@@ -102,17 +105,6 @@ class UsageError(Exception):
     """A bad option or suite: one line on stderr, exit 2."""
 
 
-@dataclass(frozen=True)
-class Problem:
-    domain: str
-    domain_file: Path
-    problem_file: Path
-
-    @property
-    def name(self) -> str:
-        return self.problem_file.name
-
-
 @dataclass
 class Outcome:
     """What a process did: exit code (None: killed at the limit), seconds, its output, and
@@ -125,67 +117,15 @@ class Outcome:
     plans: list[tuple[float, str]] = field(default_factory=list)
 
 
-def natural_key(name: str) -> list[Any]:
-    """``p2`` before ``p10``: digits compared as numbers."""
-    return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", name)]
-
-
-def find_problems(
-    suite: Path, domains: Sequence[str] | None = None, first: int | None = None, picks: Sequence[int] = ()
+def suite_problems(
+    suite: Path, domains: Sequence[str] | None, first: int | None, picks: Sequence[int] = ()
 ) -> list[Problem]:
-    """The suite's benchmark problems, by domain (natural order): the ``first`` of each
-    (all when None) and the ``picks`` (1-based positions, e.g. the 6th and the 10th)."""
-    if not suite.exists():
-        raise UsageError(f"--suite {suite}: no such folder")
-    if not suite.is_dir():
-        raise UsageError(f"--suite {suite}: not a folder")
-    folders = sorted(
-        (p for p in suite.iterdir() if p.is_dir() and _domain_folder(p)), key=lambda p: natural_key(p.name)
-    )
-    if not folders:
-        raise UsageError(f"--suite {suite}: no domain folders (a folder with a domain.hddl) in it")
-    if domains:
-        known = {p.name.casefold(): p for p in folders}
-        unknown = [d for d in domains if d.casefold() not in known]
-        if unknown:
-            raise UsageError(
-                f"--domains: no domain {', '.join(unknown)} in {suite} "
-                f"(there: {', '.join(p.name for p in folders)})"
-            )
-        folders = [known[d.casefold()] for d in domains]
-    found: list[Problem] = []
-    for folder in folders:
-        files = sorted(
-            (f for f in folder.glob("*.hddl") if f.is_file() and not _is_domain_file(f)),
-            key=lambda f: natural_key(f.name),
-        )
-        if not picks:
-            chosen = files[:first]
-        else:
-            upto = 0 if first is None else first
-            chosen = [f for i, f in enumerate(files, 1) if i <= upto or i in picks]
-        for f in chosen:
-            # Some IPC domains (Entertainment, Monroe) give each problem a domain of its own.
-            own = f.with_name(f"{f.stem}-domain.hddl")
-            found.append(Problem(folder.name, own if own.is_file() else folder / "domain.hddl", f))
-    return found
-
-
-def _is_domain_file(f: Path) -> bool:
-    return f.name == "domain.hddl" or f.name.endswith("-domain.hddl")
-
-
-NOT_DOMAINS = frozenset({"feature-tests", "tests"})
-"""Folders of parser tests (the IPC's ``feature-tests``), laid out as a domain whose problems
-have domains of their own, but not benchmark problems."""
-
-
-def _domain_folder(folder: Path) -> bool:
-    """A domain's folder: a ``domain.hddl``, or problems each with its ``NAME-domain.hddl``
-    (not the feature tests)."""
-    if folder.name.casefold() in NOT_DOMAINS:
-        return False
-    return (folder / "domain.hddl").is_file() or any(folder.glob("*-domain.hddl"))
+    """:func:`htnagent.testing.hddl_inputs.find_problems`, its refusal a :class:`UsageError`
+    naming the option."""
+    try:
+        return find_problems(suite, domains, first, picks)
+    except SuiteError as e:
+        raise UsageError(f"--domains: {e}" if e.about == "domains" else f"--suite {e}") from None
 
 
 def _read_lines(stream: IO[str], start: float, lines: list[str], plans: list[tuple[float, str]]) -> None:
@@ -239,18 +179,6 @@ def run_process(argv: Sequence[str], limit: float, grace: float = GRACE_S) -> Ou
         return Outcome(code, seconds, "".join(lines), err.read(), plans)
 
 
-def plan_block(text: str) -> str | None:
-    """The plan between the lines ``==>`` and ``<==`` (both kept), or None."""
-    lines = text.splitlines()
-    starts = [i for i, line in enumerate(lines) if line.strip() == "==>"]
-    if not starts:
-        return None
-    for j in range(starts[0] + 1, len(lines)):
-        if lines[j].strip() == "<==":
-            return "\n".join(lines[starts[0] : j + 1]) + "\n"
-    return None
-
-
 def file_block(text: str) -> str | None:
     """The plan in an anchor's output file: from ``==>`` to ``<==``, or to the end of the
     file (PANDA's plans have no closing line, and the verifier takes them so)."""
@@ -264,16 +192,14 @@ def file_block(text: str) -> str | None:
     return "\n".join(lines[starts[0] :]) + "\n"
 
 
-def plan_length(block: str) -> int:
-    """Primitive actions: the ``ID name arg...`` lines before ``root``."""
-    count = 0
-    for line in block.splitlines()[1:]:
-        words = line.split()
-        if not words or words[0] == "<==" or words[0] == "root":
-            break
-        if words[0].isdigit():
-            count += 1
-    return count
+def plan_length(block: str) -> int | None:
+    """Primitive actions of the plan, as the package reads IPC plans (PANDA's output has
+    no closing ``<==``: one is added to count); None when it cannot be read."""
+    closed = block if plan_block(block) is not None else block + "<==\n"
+    try:
+        return len(parse_plan(closed).steps)
+    except HddlError:
+        return None
 
 
 def last_line(text: str) -> str:
@@ -326,32 +252,36 @@ class Checker:
         row["verifier_timeout"] = row["valid"] is None and "(time-out)" in (row["reason"] or "")
 
 
-def _filled(template: str, problem: Problem, timeout: float) -> list[str]:
-    return [
-        word.format(
-            domain=problem.domain_file,
-            problem=problem.problem_file,
-            timeout=f"{timeout:g}",
-            python=sys.executable,
+def _filled(template: str, problem: Problem, timeout: float, ours: Sequence[str] = ()) -> list[str]:
+    """The template's words filled in; the word ``{ours}`` stands for all of ``ours``."""
+    argv: list[str] = []
+    for word in shlex.split(template):
+        if word == "{ours}":
+            argv += ours
+            continue
+        argv.append(
+            word.format(
+                domain=problem.domain_file,
+                problem=problem.problem_file,
+                timeout=f"{timeout:g}",
+                python=sys.executable,
+            )
         )
-        for word in shlex.split(template)
-    ]
+    return argv
 
 
 def our_command(
     template: str | None, problem: Problem, timeout: float, search: str | None, anytime: bool = True
 ) -> list[str]:
     """Our planner's command line (``--planner-cmd`` replaces it: ``{domain}``, ``{problem}``,
-    ``{timeout}``, ``{python}`` filled in)."""
-    if template is not None:
-        return _filled(template, problem, timeout)
+    ``{timeout}``, ``{python}`` filled in, and ``{ours}`` the command it replaces, word by word)."""
     argv = [sys.executable, "-m", "htnagent", "plan", "--hddl", str(problem.domain_file)]
     argv += [str(problem.problem_file), "--format", "ipc", "--timeout", f"{timeout:g}"]
     if search:
         argv += ["--search", search]
     if anytime:
         argv += ["--anytime"]
-    return argv
+    return argv if template is None else _filled(template, problem, timeout, argv)
 
 
 def ours(
@@ -834,7 +764,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     anchors = args.anchors or Path(os.environ.get("HTN_ANCHORS") or DEFAULT_ANCHORS)
     try:
         domains = [d.strip() for d in args.domains.split(",") if d.strip()] if args.domains else None
-        problems = find_problems(args.suite, domains, args.problems, args.also)
+        problems = suite_problems(args.suite, domains, args.problems, args.also)
         if "aries" in peers and args.peer_cmd is None:
             missing = [m for m in ("unified_planning", "up_aries") if importlib.util.find_spec(m) is None]
             if missing:

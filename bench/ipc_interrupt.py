@@ -1,7 +1,7 @@
 """Emergencies on the IPC domains (``python -m bench ipc-interrupt --suite DIR``).
 
 For each problem of the suite (found as ``python -m bench ipc`` finds them:
-:func:`bench.ipc.find_problems`), one agent plans on the HDDL domain and executes
+:func:`htnagent.testing.hddl_inputs.find_problems`), one agent plans on the HDDL domain and executes
 on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
 
 1. **Solved?** ``htnagent.planning.hddl_solving.solve`` on the whole problem within
@@ -73,9 +73,10 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-from bench.ipc import GRACE_S, Problem, UsageError, at_least_one, find_problems, positive, run_process, write
+from bench.ipc import GRACE_S, UsageError, at_least_one, positive, run_process, suite_problems, write
 from bench.machine import machine_line
 from htnagent.planning.hddl_solving import HDDL_BUDGET
+from htnagent.testing.hddl_inputs import SuiteProblem as Problem
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = ROOT / "bench" / "results"
@@ -542,7 +543,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser().parse_args(args_in)
     try:
         domains = [d.strip() for d in args.domains.split(",") if d.strip()] if args.domains else None
-        problems = find_problems(args.suite, domains, args.problems)
+        problems = suite_problems(args.suite, domains, args.problems)
     except UsageError as e:
         print(f"{PROG}: error: {e}", file=sys.stderr)
         return 2

@@ -9,8 +9,8 @@ process, knows whether it was still reading), then one JSON line: ``status``
 (``solved``, ``timeout``, ``unsolvable``, ``refused``, ``unsupported``, ``error``,
 ...), ``plan_length`` (primitive actions), ``read_s``, ``solve_s``, ``reason`` and
 ``plan``: the plan in the IPC format (docs/contracts.md "Command line"), written here
-from unified-planning's ``HierarchicalPlan`` (its flat plan for the order of the
-actions, its decomposition for the rest), so that the bench verifies it as it
+from unified-planning's ``HierarchicalPlan`` (by
+:func:`htnagent.testing.peer_plans.ipc_plan`), so that the bench verifies it as it
 verifies ours.  unified-planning lower-cases what it reads; the names are written
 back as the HDDL files spell them.  Exit 0 when a plan was found, 1 otherwise.
 
@@ -23,12 +23,14 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import re
 import sys
 import time
 import warnings
 from pathlib import Path
 from typing import Any
+
+from htnagent.hddl import plan_file
+from htnagent.testing.peer_plans import flat_actions, ipc_plan
 
 START = time.perf_counter()
 
@@ -44,67 +46,7 @@ def _first_line(e: BaseException) -> str:
 
 def spellings(*files: str) -> dict[str, str]:
     """Each name of the files, lower-cased, to its first spelling there."""
-    out: dict[str, str] = {}
-    for file in files:
-        text = re.sub(r";[^\n]*", " ", Path(file).read_text(encoding="utf-8-sig"))
-        for word in re.findall(r"[^\s()]+", text):
-            out.setdefault(word.lower(), word)
-    return out
-
-
-def flat_actions(plan: Any) -> list[Any]:
-    """The plan's primitive actions in execution order (Aries returns an empty plan as a
-    ``TimeTriggeredPlan``, the others as a ``SequentialPlan``)."""
-    flat = getattr(plan, "action_plan", plan)
-    if hasattr(flat, "timed_actions"):
-        return [a for _, a, _ in sorted(flat.timed_actions, key=lambda timed: timed[0])]
-    return list(flat.actions)
-
-
-def ipc_plan(problem: Any, plan: Any, spelling: dict[str, str]) -> str:
-    """A unified-planning ``HierarchicalPlan`` in the IPC 2020 plan format."""
-
-    def name(text: str) -> str:
-        return spelling.get(text, text)
-
-    def arg(node: Any) -> str:
-        return name(node.object().name if node.is_object_exp() else str(node))
-
-    def order(network: Any) -> list[str]:
-        total = network.total_order()
-        return list(total) if total is not None else [s.identifier for s in network.subtasks]
-
-    actions = flat_actions(plan)
-    ids = {id(a): i for i, a in enumerate(actions)}
-    lines = ["==>"]
-    lines += [
-        " ".join([str(i), name(a.action.name), *map(arg, a.actual_parameters)]) for i, a in enumerate(actions)
-    ]
-    decompositions: list[str] = []
-    next_id = len(actions)
-
-    def number(node: Any) -> int:
-        nonlocal next_id
-        if id(node) in ids:  # an action of the flat plan
-            return ids[id(node)]
-        method = node.method
-        binding = {p.name: v for p, v in zip(method.parameters, node.parameters, strict=True)}
-        task = method.achieved_task
-        me = next_id
-        next_id += 1
-        subtasks = node.decomposition.subtasks
-        children = [number(subtasks[ident]) for ident in order(method) if ident in subtasks]
-        words = [str(me), name(task.task.name), *(arg(binding[p.name]) for p in task.parameters)]
-        words += ["->", name(method.name), *map(str, children)]
-        decompositions.append(" ".join(words))
-        return me
-
-    top = plan.decomposition.subtasks
-    roots = [number(top[ident]) for ident in order(problem.task_network) if ident in top]
-    lines.append(" ".join(["root", *map(str, roots)]))
-    lines += sorted(decompositions, key=lambda line: int(line.split()[0]))
-    lines.append("<==")
-    return "\n".join(lines) + "\n"
+    return plan_file.spellings(*(Path(f).read_text(encoding="utf-8-sig") for f in files))
 
 
 def main(argv: list[str] | None = None) -> int:

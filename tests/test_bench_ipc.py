@@ -3,12 +3,13 @@
 A small suite is made here from the courier files of ``tests/hddl/``; the planner is
 a little script that prints a known plan, sleeps, or says why it found none.  The
 verifier is a stand-in too (exit 0 or 1), and the real one (``hddl-verify``) where it
-has been built.
+has been built.  The bench runs as users run it, ``python -m bench ipc`` in a process of its
+own; what it finds and reads with the package's functions (the suite's problems, the plan in
+a planner's output, a peer's plan in the IPC format) is tested on those functions.
 """
 
 from __future__ import annotations
 
-import importlib.util
 import json
 import os
 import shutil
@@ -17,15 +18,17 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import pytest
 
-from bench import ipc
+from htnagent.hddl.plan_file import parse_plan, plan_block
+from htnagent.testing.hddl_inputs import SuiteError, find_problems
+from htnagent.testing.peer_plans import ipc_plan
 
 HDDL = Path(__file__).resolve().parent / "hddl"
 ROOT = Path(__file__).resolve().parent.parent
-VERIFY = ipc.DEFAULT_VERIFIER
+VERIFY = ROOT.parent / "shared" / "tools" / "hddl-verify" / "hddl-verify"  # the bench's default
 VERIFIER_BUILT = (
     Path(os.environ.get("HDDL_VERIFY_HOME", Path.home() / ".cache" / "hddl-verify")) / "pandaPIparser"
 )
@@ -68,7 +71,7 @@ elif mode == "slow-read":
 FAKE_VERIFIER = """\
 #!/bin/sh
 # a stand-in verifier: tests/hddl/valid.plan is valid, precondition-fails.plan (hall to office first) not
-if grep -q "switch-off" "$3" && ! grep -q "2 move r1 hall office" "$3"; then echo VALID; exit 0; fi
+if /bin/grep -q "switch-off" "$3" && ! /bin/grep -q "2 move r1 hall office" "$3"; then echo VALID; exit 0; fi
 echo INVALID; exit 1
 """
 
@@ -107,29 +110,56 @@ def fake_verifier(tmp_path: Path) -> Path:
     return path
 
 
-def run(tmp_path: Path, *args: str, resume: bool = False) -> tuple[int, list[dict[str, Any]]]:
-    """The bench on ``tmp_path/ipc.json``: afresh each time, unless ``resume``."""
+class Run(NamedTuple):
+    """What a run of the bench gave: its exit code, the rows it wrote, its stderr."""
+
+    code: int
+    rows: list[dict[str, Any]]
+    err: str
+
+
+def run(tmp_path: Path, *args: str, resume: bool = False, env: dict[str, str] | None = None) -> Run:
+    """``python -m bench ipc`` on ``tmp_path/ipc.json``: afresh each time, unless ``resume``."""
     out = tmp_path / "ipc.json"
-    code = ipc.main([*args, "--out", str(out), *([] if resume else ["--fresh"])])
+    done = subprocess.run(
+        [sys.executable, "-m", "bench", "ipc", *args, "--out", str(out), *([] if resume else ["--fresh"])],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=60,
+        env=None if env is None else {**os.environ, **env},
+    )
+    assert "Traceback" not in done.stderr, done.stderr
     rows = json.loads(out.read_text()) if out.is_file() else []
-    return code, rows
+    return Run(done.returncode, rows, done.stderr)
 
 
 def test_the_problems_are_the_domain_folders_files_in_natural_order(suite: Path) -> None:
-    found = ipc.find_problems(suite)
+    found = find_problems(suite)
     assert [(p.domain, p.name) for p in found] == [
         ("Courier", "p1.hddl"),
         ("Courier", "p2.hddl"),
         ("Courier", "p10.hddl"),
     ]
     assert all(p.domain_file == suite / "Courier" / "domain.hddl" for p in found)
-    assert [p.name for p in ipc.find_problems(suite, ["courier"], 2)] == ["p1.hddl", "p2.hddl"]
+    assert [p.name for p in find_problems(suite, ["courier"], 2)] == ["p1.hddl", "p2.hddl"]
+
+
+def test_a_suite_without_the_problems_asked_for_is_a_suite_error(suite: Path, tmp_path: Path) -> None:
+    with pytest.raises(SuiteError, match="no such folder") as missing:
+        find_problems(tmp_path / "missing")
+    assert missing.value.about == "suite"
+    with pytest.raises(SuiteError, match="no domain folders"):
+        find_problems(suite / "feature-tests")
+    with pytest.raises(SuiteError, match=r"no domain Nope in .* \(there: Courier\)") as unknown:
+        find_problems(suite, ["Nope"])
+    assert unknown.value.about == "domains"
 
 
 def test_a_valid_plan_is_solved_measured_and_verified(
-    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path
 ) -> None:
-    code, rows = run(
+    code, rows, err = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "2", "--verifier", str(fake_verifier)),
         *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
@@ -145,7 +175,6 @@ def test_a_valid_plan_is_solved_measured_and_verified(
         assert 0 < row["seconds"] < 30
         assert row["reason"] is None
         assert row["timeout"] == 60
-    err = capsys.readouterr().err
     assert "[1/2] Courier/p1.hddl htnagent: solved" in err
     assert "[2/2] Courier/p2.hddl htnagent: solved" in err
     table = (tmp_path / "ipc.md").read_text()
@@ -155,7 +184,7 @@ def test_a_valid_plan_is_solved_measured_and_verified(
 def test_an_invalid_plan_is_solved_but_not_valid(
     suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path
 ) -> None:
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier)),
         *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'precondition-fails.plan'}"),
@@ -168,14 +197,14 @@ def test_an_invalid_plan_is_solved_but_not_valid(
 
 def test_no_plan_found_is_recorded_with_the_planners_reason(suite: Path, fake: Path, tmp_path: Path) -> None:
     common = ("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none"))
-    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} unsolvable")
+    _, rows, _ = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} unsolvable")
     assert rows[0]["solved"] is False
     assert rows[0]["reason"] == "unsolvable"
     assert rows[0]["plan_length"] is None
-    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} noplan")
+    _, rows, _ = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} noplan")
     assert rows[0]["solved"] is False
     assert "no plan between ==> and <==" in rows[0]["reason"]
-    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} crash")
+    _, rows, _ = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} crash")
     assert rows[0]["reason"] == "exit 3: ValueError: boom"
 
 
@@ -184,7 +213,7 @@ def test_a_planner_past_the_limit_is_killed_with_what_it_started(
 ) -> None:
     pid_file = tmp_path / "child.pid"
     start = time.perf_counter()
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
         *("--timeout", "1", "--grace", "0.5", "--planner-cmd", f"{{python}} {fake} sleep {pid_file}"),
@@ -209,9 +238,9 @@ def _alive(pid: int) -> bool:
 
 
 def test_the_verifier_missing_is_said_and_the_plan_left_unverified(
-    suite: Path, fake: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    suite: Path, fake: Path, tmp_path: Path
 ) -> None:
-    _, rows = run(
+    _, rows, err = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "nowhere")),
         *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
@@ -219,7 +248,7 @@ def test_the_verifier_missing_is_said_and_the_plan_left_unverified(
     assert rows[0]["solved"] is True
     assert rows[0]["valid"] is None
     assert rows[0]["reason"] == "not verified: no verifier"
-    assert f"no verifier at {tmp_path / 'nowhere'}" in capsys.readouterr().err
+    assert f"no verifier at {tmp_path / 'nowhere'}" in err
 
 
 def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path) -> None:
@@ -227,7 +256,7 @@ def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: P
     peer.write_text(FAKE_PEER)
     common = ("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier))
     ours = ("--planner-cmd", f"{{python}} {fake} unsolvable")
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path, *common, *ours, "--peers", "--peer-cmd", f"{{python}} {peer} solved {HDDL / 'valid.plan'}"
     )
     assert [r["planner"] for r in rows] == ["htnagent", "aries"]
@@ -236,11 +265,11 @@ def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: P
     assert aries["plan_length"] == 6
     assert aries["valid"] is True
     assert aries["read_s"] == 0.01
-    _, rows = run(tmp_path, *common, "--peers-only", "--peer-cmd", f"{{python}} {peer} refused")
+    _, rows, _ = run(tmp_path, *common, "--peers-only", "--peer-cmd", f"{{python}} {peer} refused")
     assert [r["planner"] for r in rows] == ["aries"]
     assert rows[0]["solved"] is False
     assert rows[0]["reason"] == "refused by unified-planning: UPException: no"
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *common,
         *("--peers-only", "--timeout", "0.5", "--grace", "0.5"),
@@ -249,15 +278,18 @@ def test_the_peer_rows(suite: Path, fake: Path, fake_verifier: Path, tmp_path: P
     assert rows[0]["reason"] == "timeout while reading (unified-planning)"
 
 
-def test_peers_without_the_extra_is_one_clear_error(
-    suite: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
-) -> None:
-    monkeypatch.setattr(importlib.util, "find_spec", lambda name: None)
-    code, rows = run(tmp_path, "--suite", str(suite), "--peers")
+def test_peers_without_the_extra_is_one_clear_error(suite: Path, tmp_path: Path) -> None:
+    # The extra made absent whether it is installed or not: importlib finds no spec for a
+    # module that is None in sys.modules (sitecustomize runs before the bench).
+    hide = tmp_path / "hide"
+    hide.mkdir()
+    (hide / "sitecustomize.py").write_text(
+        "import sys\nsys.modules['unified_planning'] = None\nsys.modules['up_aries'] = None\n"
+    )
+    code, rows, err = run(tmp_path, "--suite", str(suite), "--peers", env={"PYTHONPATH": str(hide)})
     assert code == 2
     assert rows == []  # not even written
-    err = capsys.readouterr().err.strip().splitlines()
-    assert err == [
+    assert err.strip().splitlines() == [
         "python -m bench ipc: error: --peers aries needs unified_planning, up_aries: "
         "pip install -e '.[peers]' (the peers extra)"
     ]
@@ -289,18 +321,34 @@ def test_a_bad_suite_is_one_line_and_exit_2(
     assert "Traceback" not in done.stderr
 
 
-def test_our_planners_command_line() -> None:
-    problem = ipc.Problem("D", Path("d/domain.hddl"), Path("d/p1.hddl"))
-    argv = ipc.our_command(None, problem, 60.0, "gbfs")
-    assert argv[1:] == [
-        *("-m", "htnagent", "plan", "--hddl", "d/domain.hddl", "d/p1.hddl"),
-        *("--format", "ipc", "--timeout", "60", "--search", "gbfs", "--anytime"),
+RECORDER = """\
+import json, sys
+open(sys.argv[1], "w").write(json.dumps(sys.argv[2:]))
+print("unsolvable", file=sys.stderr)
+sys.exit(1)
+"""
+
+
+def test_our_planners_command_line(suite: Path, tmp_path: Path) -> None:
+    # A stand-in that records the command the bench would run ({ours}) and finds no plan.
+    recorder = tmp_path / "recorder.py"
+    recorder.write_text(RECORDER)
+    said = tmp_path / "argv.json"
+    common = ("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none"))
+    record = ("--planner-cmd", f"{{python}} {recorder} {said} {{ours}}")
+    run(tmp_path, *common, "--search", "gbfs", *record)
+    courier = suite / "Courier"
+    assert json.loads(said.read_text()) == [
+        *(sys.executable, "-m", "htnagent", "plan", "--hddl", str(courier / "domain.hddl")),
+        *(str(courier / "p1.hddl"), "--format", "ipc", "--timeout", "60", "--search", "gbfs", "--anytime"),
     ]
-    assert ipc.our_command(None, problem, 2.5, None, anytime=False)[-2:] == ["--timeout", "2.5"]
+    _, rows, _ = run(tmp_path, *common, "--timeout", "2.5", "--first-plan", *record)
+    assert json.loads(said.read_text())[-2:] == ["--timeout", "2.5"]
+    assert rows[0]["planner"] == "htnagent-first"
 
 
 def test_the_search_strategy_names_the_planner(suite: Path, fake: Path, tmp_path: Path) -> None:
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
         *("--search", "gbfs", "--planner-cmd", f"{{python}} {fake} unsolvable"),
@@ -308,21 +356,22 @@ def test_the_search_strategy_names_the_planner(suite: Path, fake: Path, tmp_path
     assert rows[0]["planner"] == "htnagent-gbfs"
 
 
-def test_plan_length_counts_the_primitive_actions() -> None:
-    block = ipc.plan_block("noise\n" + (HDDL / "valid.plan").read_text() + "more noise\n")
+def test_the_plan_is_found_in_a_planners_output() -> None:
+    block = plan_block("noise\n" + (HDDL / "valid.plan").read_text() + "more noise\n")
     assert block is not None
     assert block.startswith("==>\n") and block.endswith("<==\n")
-    assert ipc.plan_length(block) == 6
-    assert ipc.plan_block("==>\n0 a\n") is None
+    assert len(parse_plan(block).steps) == 6  # the bench's plan_length
+    assert plan_block("==>\n0 a\n") is None
+    assert plan_block("0 a\n<==\n") is None
 
 
 @pytest.mark.skipif(not VERIFIER_BUILT.is_file() or not VERIFY.is_file(), reason="hddl-verify is not built")
 def test_the_real_verifier_judges_the_plans(suite: Path, fake: Path, tmp_path: Path) -> None:
     common = ("--suite", str(suite), "--problems", "1", "--verifier", str(VERIFY))
-    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}")
+    _, rows, _ = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}")
     assert (rows[0]["solved"], rows[0]["valid"]) == (True, True)
     bad = HDDL / "precondition-fails.plan"
-    _, rows = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {bad}")
+    _, rows, _ = run(tmp_path, *common, "--planner-cmd", f"{{python}} {fake} plan {bad}")
     assert (rows[0]["solved"], rows[0]["valid"]) == (True, False)
 
 
@@ -331,8 +380,6 @@ def test_a_unified_planning_plan_is_written_in_the_ipc_format() -> None:
     # (the real ones need the peers extra): the courier's deliver p1 as m-deliver, its gotos
     # as m-goto-step / m-goto-here.
     from types import SimpleNamespace as NS
-
-    from bench.ipc_peer import ipc_plan
 
     def obj(name: str) -> NS:
         return NS(is_object_exp=lambda: True, object=lambda: NS(name=name))
@@ -369,7 +416,7 @@ def test_a_unified_planning_plan_is_written_in_the_ipc_format() -> None:
         "2 deliver p1 kitchen -> m-deliver 3 1\n3 goto R1 kitchen -> m-goto-step 0 4\n"
         "4 goto R1 kitchen -> m-goto-here\n<==\n"
     )
-    assert ipc.plan_length(text) == 2
+    assert len(parse_plan(text).steps) == 2
 
 
 def test_ctrl_c_keeps_the_rows_and_leaves_no_planner_running(suite: Path, fake: Path, tmp_path: Path) -> None:
@@ -402,10 +449,10 @@ def test_ctrl_c_keeps_the_rows_and_leaves_no_planner_running(suite: Path, fake: 
 FAKE_ANCHOR = """\
 #!/bin/sh
 # a stand-in anchor: plan-NAME DOMAIN PROBLEM OUT, as the real wrappers are called
-case "$(basename "$0")" in
-  plan-panda) /bin/grep -v "<==" "{plan}" > "$3"; exit 0 ;;  # PANDA: no closing line
-  plan-lilotane) echo "no plan: out of layers" > "$3.log"; exit 1 ;;
-  plan-hypertension) /bin/cat "{plan}" > "$3"; exit 0 ;;
+case "$0" in  # (no basename: the PATH may be empty)
+  */plan-panda) /bin/grep -v "<==" "{plan}" > "$3"; exit 0 ;;  # PANDA: no closing line
+  */plan-lilotane) echo "no plan: out of layers" > "$3.log"; exit 1 ;;
+  */plan-hypertension) /bin/cat "{plan}" > "$3"; exit 0 ;;
 esac
 exit 9
 """
@@ -428,15 +475,17 @@ def test_the_anchors_run_one_at_a_time_beside_ours_and_are_verified_alike(
     fake_verifier: Path,
     anchors: Path,
     tmp_path: Path,
-    monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    # HyperTensioN needs a program this machine lacks: a row saying so, not a loss.
-    monkeypatch.setitem(ipc.ANCHOR_NEEDS, "hypertension", ("no-such-program-here",))
-    code, rows = run(
+    # HyperTensioN needs Ruby, which an empty PATH lacks: a row saying so, not a loss.
+    # (Everything else the bench runs here is named by its full path.)
+    empty = tmp_path / "empty"
+    empty.mkdir()
+    code, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "2", "--verifier", str(fake_verifier)),
         *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'precondition-fails.plan'}"),
         *("--peers", "panda,hypertension,lilotane", "--anchors", str(anchors)),
+        env={"PATH": str(empty)},
     )
     assert code == 0
     assert [r["planner"] for r in rows] == ["htnagent", "panda", "hypertension", "lilotane"] * 2
@@ -445,9 +494,7 @@ def test_the_anchors_run_one_at_a_time_beside_ours_and_are_verified_alike(
     assert panda["first_s"] == panda["seconds"]
     hyper = rows[2]
     assert hyper["available"] is False and hyper["solved"] is False
-    assert hyper["reason"] == "cannot run here: needs no-such-program-here on the PATH " + (
-        "(apt-get install -y no-such-program-here)"
-    )
+    assert hyper["reason"] == "cannot run here: needs ruby on the PATH (apt-get install -y ruby)"
     lilotane = rows[3]
     assert (lilotane["solved"], lilotane["reason"]) == (False, "exit 1: no plan: out of layers")
     assert rows[0]["valid"] is False  # ours is judged by the same verifier
@@ -464,7 +511,7 @@ def test_the_anchors_run_one_at_a_time_beside_ours_and_are_verified_alike(
 def test_an_anchor_folder_without_the_wrapper_is_a_row_saying_so(
     suite: Path, fake: Path, tmp_path: Path
 ) -> None:
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(tmp_path / "none")),
         *("--peers-only", "--peers", "lilotane", "--anchors", str(tmp_path / "nowhere")),
@@ -475,27 +522,27 @@ def test_an_anchor_folder_without_the_wrapper_is_a_row_saying_so(
 
 
 def test_a_rerun_resumes_where_the_last_one_stopped(
-    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+    suite: Path, fake: Path, fake_verifier: Path, tmp_path: Path
 ) -> None:
     common = ("--suite", str(suite), "--verifier", str(fake_verifier))
     good = ("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}")
     crash = ("--planner-cmd", f"{{python}} {fake} crash")
-    _, rows = run(tmp_path, *common, "--problems", "1", *good, resume=True)
+    _, rows, _ = run(tmp_path, *common, "--problems", "1", *good, resume=True)
     assert [(r["problem"], r["solved"]) for r in rows] == [("p1.hddl", True)]
     # Same limit: p1 is kept as it was, only p2 and p10 are attempted (and crash).
-    code, rows = run(tmp_path, *common, *crash, resume=True)
+    code, rows, err = run(tmp_path, *common, *crash, resume=True)
     assert code == 0
     assert [(r["problem"], r["solved"]) for r in rows] == [
         ("p1.hddl", True),
         ("p2.hddl", False),
         ("p10.hddl", False),
     ]
-    assert "resuming: 1 rows kept, 2 attempts to go" in capsys.readouterr().err
+    assert "resuming: 1 rows kept, 2 attempts to go" in err
     # Another limit, or --fresh: everything again.
-    _, rows = run(tmp_path, *common, "--timeout", "30", *good, resume=True)
+    _, rows, err = run(tmp_path, *common, "--timeout", "30", *good, resume=True)
     assert [(r["solved"], r["timeout"]) for r in rows] == [(True, 30)] * 3
-    assert "3 rows of another limit dropped" in capsys.readouterr().err
-    _, rows = run(tmp_path, *common, "--timeout", "30", "--fresh", *crash, resume=True)
+    assert "3 rows of another limit dropped" in err
+    _, rows, _ = run(tmp_path, *common, "--timeout", "30", "--fresh", *crash, resume=True)
     assert [r["solved"] for r in rows] == [False] * 3
 
 
@@ -505,7 +552,7 @@ def test_a_verifier_time_out_leaves_the_plan_solved_unverified_and_said(
     slow = tmp_path / "slow-verify.sh"
     slow.write_text("#!/bin/sh\nexec sleep 30\n")
     slow.chmod(0o755)
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(slow), "--verify-timeout", "0.3"),
         *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
@@ -534,7 +581,7 @@ def test_anytime_times_the_first_plan_and_measures_the_last_in_time(
 ) -> None:
     script = tmp_path / "anytime.py"
     script.write_text(ANYTIME_PLANNER)
-    _, rows = run(
+    _, rows, _ = run(
         tmp_path,
         *("--suite", str(suite), "--problems", "1", "--verifier", str(fake_verifier)),
         *("--timeout", "2", "--grace", "0.2"),
@@ -566,7 +613,7 @@ def test_a_problem_with_a_domain_of_its_own_is_solved_with_it(suite: Path) -> No
     for name in ("p1", "p2"):
         shutil.copy(HDDL / "courier.hddl", own / f"{name}.hddl")
         shutil.copy(HDDL / "courier-domain.hddl", own / f"{name}-domain.hddl")
-    found = ipc.find_problems(suite, ["Own"])
+    found = find_problems(suite, ["Own"])
     assert [(p.name, p.domain_file.name) for p in found] == [
         ("p1.hddl", "p1-domain.hddl"),
         ("p2.hddl", "p2-domain.hddl"),
@@ -574,5 +621,5 @@ def test_a_problem_with_a_domain_of_its_own_is_solved_with_it(suite: Path) -> No
 
 
 def test_also_adds_positions_to_the_first_problems(suite: Path) -> None:
-    picked = ipc.find_problems(suite, None, 1, (3,))
+    picked = find_problems(suite, None, 1, (3,))
     assert [p.name for p in picked] == ["p1.hddl", "p10.hddl"]

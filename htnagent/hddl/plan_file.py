@@ -22,6 +22,8 @@ parentheses, ``0 (move a b)``.  Names are case-insensitive as in HDDL
 an ID that is not a whole number or is given twice, no ``==>``, no ``root``
 or no ``<==`` (a plan cut short) -- as one :class:`~htnagent.errors.HddlError`, ``FILE:LINE:COL: reason``.
 Whether the plan is a *valid* one is :mod:`htnagent.hddl.check`'s business.
+:func:`plan_block` finds the plan in a planner's output without reading it (a
+bench times and verifies it as the planner printed it).
 :func:`format_plan` writes a plan in the format, with the names spelled as the
 HDDL files spell them (:func:`spellings`).
 """
@@ -45,6 +47,7 @@ __all__ = [
     "format_plan",
     "object_spellings",
     "parse_plan",
+    "plan_block",
     "read_plan",
     "spellings",
 ]
@@ -90,10 +93,29 @@ _INT = re.compile(r"0|[1-9][0-9]{0,17}")
 _WORD = re.compile(r"[^\s()]+")
 
 
+def _bounds(lines: list[str]) -> tuple[int | None, int | None]:
+    """The indexes of the first ``==>`` line and of the first ``<==`` line after it (None: no such line)."""
+    start = next((i for i, line in enumerate(lines) if line.strip().startswith("==>")), None)
+    if start is None:
+        return None, None
+    end = next((i for i in range(start + 1, len(lines)) if lines[i].strip().startswith("<==")), None)
+    return start, end
+
+
+def plan_block(text: str) -> str | None:
+    """The plan in ``text`` (a planner's output), from its ``==>`` line to its ``<==`` line,
+    both kept, ending in a newline; None when there is no such pair of lines."""
+    lines = text.splitlines()
+    start, end = _bounds(lines)
+    if start is None or end is None:
+        return None
+    return "\n".join(lines[start : end + 1]) + "\n"
+
+
 def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
     """The plan written in ``text`` (``file`` names it in messages)."""
     lines = text.splitlines()
-    start = next((i for i, line in enumerate(lines) if line.strip().startswith("==>")), None)
+    start, end = _bounds(lines)
     if start is None:
         raise HddlError(file, "no '==>' line; a plan in the IPC format starts with '==>'")
     steps: list[IpcStep] = []
@@ -101,14 +123,10 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
     root: tuple[int, ...] | None = None
     root_line = 0
     ids: dict[int, int] = {}
-    ended = False
-    for i in range(start + 1, len(lines)):
+    for i in range(start + 1, len(lines) if end is None else end):
         number = i + 1
         line = lines[i]
         stripped = line.strip()
-        if stripped.startswith("<=="):
-            ended = True
-            break
         if not stripped or stripped.startswith(";"):
             continue
         words = [(m.group(), m.start()) for m in _WORD.finditer(line.lower())]
@@ -150,7 +168,7 @@ def parse_plan(text: str, file: str = "<plan>") -> IpcPlan:
         decompositions.append(IpcDecomposition(ident, task, method, subtasks, number))
     if root is None:
         raise HddlError(file, "no 'root' line after the actions (it lists the root task IDs)")
-    if not ended:
+    if end is None:
         raise HddlError(file, "no '<==' line after the plan; was it cut short?", len(lines))
     return IpcPlan(file, tuple(steps), root, tuple(decompositions), root_line)
 

@@ -11,7 +11,10 @@ robot's physical state, and compare with shortest paths computed here.
   replanning modes and compared;
 - :mod:`htnagent.testing.storms` — random and extreme scenarios, run and checked;
 - :mod:`htnagent.testing.hostile_inputs` — hostile inputs for the command line, and their judge;
-- :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite, and a large generated one;
+- :mod:`htnagent.testing.hddl_inputs` — HDDL problems of a suite (and its benchmark
+  problems, as the IPC benches attempt them), and a large generated one;
+- :mod:`htnagent.testing.peer_plans` — a unified-planning plan (a peer planner's) in the IPC
+  plan format;
 - :mod:`htnagent.testing.emergencies` — an emergency for an HDDL problem, chosen from the
   problem (the IPC interruption benchmark's).
 """

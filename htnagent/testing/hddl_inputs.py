@@ -1,8 +1,12 @@
-"""HDDL inputs for tests and benches: every problem of an IPC-style suite, and a large
-generated one.
+"""HDDL inputs for tests and benches: every problem of an IPC-style suite, its benchmark
+problems, and a large generated one.
 
 - :func:`suite_pairs` -- each folder's ``domain.hddl`` with its other ``.hddl`` files (in
-  subfolders too), and feature tests named ``X.hddl`` beside ``X-domain.hddl``;
+  subfolders too), and feature tests named ``X.hddl`` beside ``X-domain.hddl`` (every file
+  to read, as the reading tests want);
+- :func:`find_problems` -- the suite's *benchmark* problems, domain by domain in natural
+  order (``p2`` before ``p10``), as ``python -m bench ipc`` and ``ipc-interrupt`` attempt
+  them: no subfolders, no feature tests;
 - :func:`synthetic` -- a small domain and a problem of a given size (objects, facts and
   tasks in their thousands), for reading speed and limits.
 """
@@ -10,10 +14,13 @@ generated one.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterator
+import re
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
-__all__ = ["suite_pairs", "synthetic"]
+__all__ = ["SuiteError", "SuiteProblem", "find_problems", "natural_key", "suite_pairs", "synthetic"]
 
 
 def suite_pairs(root: Path) -> Iterator[tuple[str, Path, Path]]:
@@ -29,6 +36,93 @@ def suite_pairs(root: Path) -> Iterator[tuple[str, Path, Path]]:
             paired = problem.with_name(problem.stem + "-domain.hddl")
             if not problem.stem.endswith("-domain") and paired.is_file():
                 yield folder.name, paired, problem
+
+
+class SuiteError(ValueError):
+    """A suite that is not there or has no such domain; ``about`` says which option was wrong."""
+
+    def __init__(self, message: str, about: Literal["suite", "domains"] = "suite") -> None:
+        super().__init__(message)
+        self.about = about
+
+
+@dataclass(frozen=True)
+class SuiteProblem:
+    """A benchmark problem: its domain folder's name, its domain file and its problem file."""
+
+    domain: str
+    domain_file: Path
+    problem_file: Path
+
+    @property
+    def name(self) -> str:
+        return self.problem_file.name
+
+
+def natural_key(name: str) -> list[int | str]:
+    """``p2`` before ``p10``: digits compared as numbers."""
+    return [int(part) if part.isdigit() else part.lower() for part in re.split(r"(\d+)", name)]
+
+
+NOT_DOMAINS = frozenset({"feature-tests", "tests"})
+"""Folders of parser tests (the IPC's ``feature-tests``), laid out as a domain whose problems
+have domains of their own, but not benchmark problems."""
+
+
+def find_problems(
+    suite: Path, domains: Sequence[str] | None = None, first: int | None = None, picks: Sequence[int] = ()
+) -> list[SuiteProblem]:
+    """The suite's benchmark problems, by domain (natural order): the ``first`` of each
+    (all when None) and the ``picks`` (1-based positions, e.g. the 6th and the 10th).
+
+    A domain folder holds a ``domain.hddl``, or problems each with its ``NAME-domain.hddl``
+    (Entertainment, Monroe); its problems are its other ``.hddl`` files, not those of its
+    subfolders.  ``domains`` picks folders by name (any case).  A suite that is missing,
+    not a folder or without domain folders, or a domain not in it: :class:`SuiteError`.
+    """
+    if not suite.exists():
+        raise SuiteError(f"{suite}: no such folder")
+    if not suite.is_dir():
+        raise SuiteError(f"{suite}: not a folder")
+    folders = sorted(
+        (p for p in suite.iterdir() if p.is_dir() and _domain_folder(p)), key=lambda p: natural_key(p.name)
+    )
+    if not folders:
+        raise SuiteError(f"{suite}: no domain folders (a folder with a domain.hddl) in it")
+    if domains:
+        known = {p.name.casefold(): p for p in folders}
+        unknown = [d for d in domains if d.casefold() not in known]
+        if unknown:
+            raise SuiteError(
+                f"no domain {', '.join(unknown)} in {suite} (there: {', '.join(p.name for p in folders)})",
+                "domains",
+            )
+        folders = [known[d.casefold()] for d in domains]
+    found: list[SuiteProblem] = []
+    for folder in folders:
+        files = sorted(
+            (f for f in folder.glob("*.hddl") if f.is_file() and not _is_domain_file(f)),
+            key=lambda f: natural_key(f.name),
+        )
+        if not picks:
+            chosen = files[:first]
+        else:
+            upto = 0 if first is None else first
+            chosen = [f for i, f in enumerate(files, 1) if i <= upto or i in picks]
+        for f in chosen:
+            own = f.with_name(f"{f.stem}-domain.hddl")
+            found.append(SuiteProblem(folder.name, own if own.is_file() else folder / "domain.hddl", f))
+    return found
+
+
+def _is_domain_file(f: Path) -> bool:
+    return f.name == "domain.hddl" or f.name.endswith("-domain.hddl")
+
+
+def _domain_folder(folder: Path) -> bool:
+    if folder.name.casefold() in NOT_DOMAINS:
+        return False
+    return (folder / "domain.hddl").is_file() or any(folder.glob("*-domain.hddl"))
 
 
 def synthetic(target_bytes: int = 4_000_000) -> tuple[str, str]:
