@@ -7,6 +7,7 @@ locally it explores new examples each time.
 from __future__ import annotations
 
 import os
+import signal
 from collections.abc import Callable
 from pathlib import Path
 
@@ -22,6 +23,12 @@ from htnagent.scenario import parse_map
 settings.register_profile("ci", derandomize=True, database=None)
 if os.environ.get("CI"):
     settings.load_profile("ci")
+
+# A suite started in the background by a non-interactive shell (``pytest &``) inherits SIGINT
+# ignored, and so would every command the tests start; a command keeps an ignored signal
+# ignored (on purpose), so the tests that interrupt one would wait in vain.
+if signal.getsignal(signal.SIGINT) is signal.SIG_IGN:
+    signal.signal(signal.SIGINT, signal.default_int_handler)
 
 REPO = Path(__file__).resolve().parents[1]
 MUSEUM_MAP = REPO / "scenarios" / "museum_map.yaml"
