@@ -263,8 +263,8 @@ def _chart(rows: list[dict[str, Any]]) -> None:
         )
         axes[2].plot(xs, [r["planning_ms"] for r in pts], style, color=color, label=label)
     titles = (
-        "resume replanning, emergency in the same area",
-        "resume replanning, emergency in the next area",
+        "window at resumption (parent + child), emergency in the same area",
+        "window at resumption (parent + child), emergency in the next area",
         "planning over the whole run",
     )
     for ax, title in zip(axes, titles, strict=True):
