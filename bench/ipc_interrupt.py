@@ -16,11 +16,12 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    :func:`htnagent.testing.emergencies.choose_interruption` (its docstring and
    docs/benchmarks.md say how; no list per domain): it arrives half way
    (``when: {action: A, progress: 0.5}``) through the action half way along the agent's
-   plan; a task of the domain, grounded with the problem's objects, whose plan from there
-   undoes a fact the rest of the suspended plan needs, after which the rest can still be
-   mended -- or, where no candidate does, the one whose plan changes the most facts
-   while it leaves the rest valid (``emergency_kind: most changes``; the table says so),
-   or, where every candidate breaks the rest beyond repair, the one that changes the most
+   plan; a task of the domain (a compound task, or one of its actions where none will
+   do), grounded with the problem's objects, whose plan from there breaks what the
+   agent keeps of the rest, after which the agent still has a plan for the network --
+   or, where no candidate does, the one whose plan changes the most facts while it leaves
+   the network finishable (``emergency_kind: most changes``; the table says so), or,
+   where every candidate leaves it unfinishable, the one that changes the most
    (``not mended``: the network cannot be finished after it, and the table says so).
 4. **Suspension.** Every action of the domain that
    :func:`htnagent.planning.hddl_translation.unsuspendable` accepts is declared suspendable

@@ -10,22 +10,26 @@ emergency is chosen is tested in-process on the package's own
 
 from __future__ import annotations
 
+import functools
 import json
 import subprocess
 import sys
 from pathlib import Path
 from typing import Any
 
+import anyio
 import pytest
 
 from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import plan
 from htnagent.scenario import parse_scenario
+from htnagent.system.simulation import run_scenario
 from htnagent.testing.emergencies import choose_interruption, half_way
 from htnagent.upkeep.repair import one_plan
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = Path(__file__).resolve().parent / "data" / "ipc-tiny"
+SUSPENDABLE = {"Courier": ["move"], "Lamps": ["walk"]}
 
 
 def bench(*args: str) -> subprocess.CompletedProcess[str]:
@@ -41,24 +45,41 @@ def bench(*args: str) -> subprocess.CompletedProcess[str]:
 
 def test_every_problem_gets_its_network_and_an_emergency_that_breaks_the_rest(tmp_path: Path) -> None:
     out = tmp_path / "rows.json"
-    done = bench("--suite", str(TINY), "--domains", "Keys", "--runs", "1", "--out", str(out))
+    done = bench("--suite", str(TINY), "--domains", "Keys,Lamps", "--runs", "1", "--out", str(out))
     assert done.returncode == 0, done.stderr
     rows: list[dict[str, Any]] = json.loads(out.read_text())
     by = {(r["domain"], r["problem"], r["mode"]): r for r in rows}
-    assert set(by) == {("Keys", "p01.hddl", m) for m in ("online", "naive")}
+    assert set(by) == {(d, "p01.hddl", m) for d in ("Keys", "Lamps") for m in ("online", "naive")}
     for row in rows:
         assert {"resume_ms", "replan_ms", "planning_ms", "cost", "success", "beliefs_match"} <= set(row)
         assert row["success"] is True and row["beliefs_match"] is True and row["reason"] is None
-        assert row["emergency_kind"] == "breaks" and row["replan_ms"] > 0 and row["resume_ms"] > 0
+        assert row["replan_ms"] > 0 and row["resume_ms"] > 0
+    lamps = by[("Lamps", "p01.hddl", "online")]
+    # The plan: walk(s1,s2), switch-on(s2), walk(s2,s3), switch-on(s3); half way is the walk
+    # to s3.  The domain's one compound task only lights the lamp where the walker stands:
+    # the emergency is one of its actions, a walk back that the rest must be mended after.
+    assert (lamps["trigger"], lamps["emergency"], lamps["emergency_kind"]) == (
+        "walk(s2,s3)",
+        "walk(s2,s1)",
+        "breaks",
+    )
     keys = by[("Keys", "p01.hddl", "online")]
-    # The plan: fetch-crowbar, pry(b1), unlock-door(d1); half way is pry(b1).  Opening the
-    # door then uses the key the rest of the plan needs for it: the rest is mended (the
-    # door is open already, so the network's open-door(d1) has nothing left to do).
-    assert (keys["trigger"], keys["emergency"], keys["actions"]) == ("pry(b1)", "open-door(d1)", 3)
-    # Progress: a line per problem; the table: a row per domain.
-    assert "[1/1] Keys/p01.hddl: 3 actions, emergency open-door(d1) (breaks): online replan" in done.stderr
+    # The plan: fetch-crowbar, pry(b1), unlock-door(d1); half way is pry(b1).  Whatever
+    # undoes what the rest needs (the key, used on the box) leaves the door shut for good;
+    # opening the door does the rest's own next step.  The emergency is then the task
+    # that changes the most facts and leaves the network finishable, and the table says so.
+    assert (keys["trigger"], keys["emergency"], keys["emergency_kind"], keys["actions"]) == (
+        "pry(b1)",
+        "open-door(d1)",
+        "most changes",
+        3,
+    )
+    # Progress: a line per problem; the table: a row per domain, and the fallback named.
+    assert "Keys/p01.hddl: 3 actions, emergency open-door(d1) (most changes): online replan" in done.stderr
     table = (tmp_path / "rows.md").read_text()
-    assert "| Keys | 1 | 0 | 1/1 | 1/1 | 1/1 |" in table
+    assert "| Keys | 1 | 0 | 0/1 | 1/1 | 1/1 |" in table
+    assert "| Lamps | 1 | 0 | 1/1 | 1/1 | 1/1 |" in table
+    assert "- Keys/p01.hddl: open-door(d1) (3 facts)" in table
 
 
 def test_the_bench_resumes_where_a_stopped_run_left_off(tmp_path: Path) -> None:
@@ -109,29 +130,50 @@ def test_a_bad_suite_is_one_line_and_exit_2(tmp_path: Path) -> None:
 # -- the choice, in-process ----------------------------------------------------------------------
 
 
-def scenario_of(folder: str, problem: str) -> Any:
+def scenario_of(
+    folder: str,
+    problem: str,
+    suspendable: list[str] | None = None,
+    emergency: Any = None,
+    search: str = "astar",
+) -> Any:
+    """One agent on a tiny domain's problem, its network the goal; ``emergency``'s task (an
+    :class:`Interruption`) given half way through its trigger, as the bench gives it."""
     path = TINY / folder
+    goals: list[dict[str, Any]] = [{"agent": "agent", "tasks": "problem"}]
+    if emergency is not None:
+        when = {"action": str(emergency.trigger), "progress": 0.5}
+        goals.append({"agent": "agent", "task": str(emergency.emergency), "emergency": True, "when": when})
     data = {
         "name": "choice",
         "robot": {},
+        "planner": {"search": search},
         "agents": [
             {
                 "name": "agent",
                 "domain": {"hddl": str(path / "domain.hddl"), "problem": str(path / problem)},
                 "executor": "robot",
-                "suspendable": ["move"] if folder == "Courier" else [],
+                "suspendable": suspendable if suspendable is not None else SUSPENDABLE.get(folder, []),
             }
         ],
-        "goals": [{"agent": "agent", "tasks": "problem"}],
+        "goals": goals,
     }
     return parse_scenario(data, "<choice>", path)
 
 
+def succeeds_with(folder: str, problem: str, chosen: Any, mode: str) -> bool:
+    """Whether every goal succeeds when the network runs with ``chosen``'s emergency."""
+    scenario = scenario_of(folder, problem, emergency=chosen)
+    report = anyio.run(functools.partial(run_scenario, scenario, replanning=mode))
+    return all(g["status"] == "success" for g in report.summary.as_dict()["goals"])
+
+
 @pytest.mark.parametrize(
-    ("folder", "problem"), [("Courier", "p01.hddl"), ("Courier", "p02.hddl"), ("Keys", "p01.hddl")]
+    ("folder", "problem", "kind"),
+    [("Courier", "p01.hddl", "tasks"), ("Courier", "p02.hddl", "tasks"), ("Lamps", "p01.hddl", "actions")],
 )
 def test_the_chosen_emergency_breaks_the_rest_of_the_plan_and_is_the_same_every_time(
-    folder: str, problem: str
+    folder: str, problem: str, kind: str
 ) -> None:
     s = scenario_of(folder, problem)
     domain, state, goal = s.domain_for("agent"), s.initial_state("agent"), s.goal_task(0)
@@ -142,8 +184,8 @@ def test_the_chosen_emergency_breaks_the_rest_of_the_plan_and_is_the_same_every_
     again = choose_interruption(domain, state, goal, first, planning.hddl, planning.problem, s.settings)
     assert chosen == again
     assert chosen.breaks and chosen.solvable and chosen.emergency is not None and chosen.changed > 0
-    # An emergency is a task of the domain, never one of its actions nor the translation's.
-    assert chosen.emergency.name in planning.hddl.tasks
+    # A compound task of the domain where one will do; one of its actions only where none does.
+    assert chosen.emergency.name in getattr(planning.hddl, kind)
     # Replayed after the emergency's plan, the rest of the plan fails somewhere.
     at = first.steps.index(next(s for s in first.steps if s.action == chosen.trigger))
     before = state
@@ -160,6 +202,25 @@ def test_the_chosen_emergency_breaks_the_rest_of_the_plan_and_is_the_same_every_
     for step in first.steps[at:]:
         replayed = domain.apply(replayed, step.action) if replayed is not None else None
     assert replayed is None
+    # ... and the agent finishes the network after it (a run of its own: the emergency comes
+    # as the bench gives it).
+    assert succeeds_with(folder, problem, chosen, "online")
+
+
+def test_an_emergency_that_only_does_the_rests_own_next_step_breaks_nothing() -> None:
+    every = ["unlock-box", "fetch-crowbar", "pry", "unlock-door"]
+    s = scenario_of("Keys", "p01.hddl", suspendable=every, search="dfs")
+    domain, state, goal = s.domain_for("agent"), s.initial_state("agent"), s.goal_task(0)
+    first = plan(domain, state, [goal], one_plan(s.settings)).best
+    assert first is not None
+    planning = s.hddl_for("agent")
+    chosen = choose_interruption(domain, state, goal, first, planning.hddl, planning.problem, s.settings)
+    # Every action suspendable, depth-first search (as the bench runs Keys): struck half way
+    # through pry(b1), the emergency's plan finishes it first; opening the door then is the
+    # plan's own next step, which the kept plan moves past (§2.1): the
+    # rest is not broken.  Taking the key for the box would break it beyond repair.
+    assert chosen.emergency == parse("open-door(d1)")
+    assert (chosen.breaks, chosen.solvable) == (False, True)
 
 
 def test_half_way_is_the_middle_action_first_met_there() -> None:

@@ -263,6 +263,36 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
     assert searched == [["goto(n1)"]]
 
 
+def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # §2.4: a repaired plan gives way only to a cheaper fresh plan, so the comparison's
+    # search follows no node that cannot end cheaper (branch and bound at the repaired
+    # plan's cost): where no plan from scratch is cheaper -- or none exists, as for an IPC
+    # network whose done tasks cannot be done again -- it ends without spending the budget.
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    bounds: list[tuple[list[str], float | None]] = []
+    real_plan = plan
+
+    def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
+        settings = args[0] if args else kw["settings"]
+        assert isinstance(settings, PlannerSettings)
+        bounds.append(([str(t[0] if isinstance(t, tuple) else t) for t in tasks], settings.cost_bound))
+        return real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(repair_module, "plan", recording)
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    # The repair (a walk to area3's dead end and back) is searched as any repair is; the
+    # comparison looks for a plan cheaper than it, finds one and takes it.
+    assert ps.stats.repairs == 1 and ps.stats.fresher == 1
+    comparison = [bound for tasks, bound in bounds if tasks == ["goto(n1)"] and bound is not None]
+    assert len(comparison) == 1 and ps.best is not None and ps.best.cost < comparison[0]
+
+
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")

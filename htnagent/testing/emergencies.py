@@ -10,24 +10,36 @@ emergency is found here from the domain, the problem and the plan alone
   plan, since a scenario trigger fires on the first occurrence of its action.  The
   emergency arrives half way through it: the action is suspended (it has had no effect,
   docs/design.md §7.1).
-- **Which.** Candidates are the domain's compound tasks grounded with the problem's
-  objects (and the domain's constants) of each parameter's type; the objects the rest of
-  the plan names come first, so that the tasks most likely to touch what the rest needs
-  are tried first.  At most :data:`MAX_CANDIDATES` are planned (when none of them changes
-  a fact, up to as many again, the tasks taken in turn, until one does), each by the same search
-  within :data:`CANDIDATE_BUDGET` expansions, from the belief at the emergency (the
-  suspended action's record in it).  A candidate is taken when its plan
+- **Which.** Candidates are the domain's tasks grounded with the problem's objects (and the
+  domain's constants) of each parameter's type, tried in rounds: its compound tasks first,
+  then -- only when none of them will do -- its primitive tasks (actions; an HDDL network
+  may name them too).  In a round the tasks are taken in turn (each one's best grounding,
+  then each one's second, ...), a task's groundings ranked by how many objects the rest of
+  the plan names, most first, so that the tasks most likely to touch what the rest needs
+  are tried first.  Each candidate is planned by the same search within
+  :data:`CANDIDATE_BUDGET` expansions, from the belief at the emergency (the suspended
+  action's record in it); a round ends after :data:`MAX_CANDIDATES` candidates whose plan
+  changes a fact, or when its searches have spent :data:`CANDIDATES_BUDGET` expansions.
+  A candidate is taken when its plan
   1. changes some fact of the world,
-  2. **breaks the rest of the suspended plan**: replayed after it (the suspended action
-     first, whole), some action of the rest finds its precondition false -- the
+  2. **breaks the rest of the suspended plan**: the agent's own on-line plan keeping
+     (:class:`~htnagent.upkeep.online.OnlinePlanSet`, docs/design.md §2-§3), taken through
+     the plan's first half and the suspension as the agent takes it there, then given the
+     emergency's actions as the agent gives them (§2.1: a plan that meant to do one moves
+     on), keeps no plan whose every action still finds its precondition true -- the
      emergency undid a fact the rest needs (or made true one it needs false), so the
-     suspended plan must be kept valid, not merely resumed -- and
-  3. leaves the **rest still solvable**: the plan upkeep's own repair
-     (:class:`~htnagent.upkeep.repair.Repairer`, docs/design.md §2.4) mends the rest
-     from the belief after it, within :data:`REPAIR_BUDGET` expansions.
-  The first candidate in that order that passes all three is the emergency.  When none
-  does, the candidate whose plan changes the most facts (ties to the first) is taken
-  instead, and :attr:`Interruption.breaks` says so.
+     suspended plan must be kept valid, not merely resumed (an emergency that only
+     finishes the suspended action breaks nothing) -- and
+  3. leaves the **rest still solvable**: that plan keeping still has a plan for the goal
+     when it resumes (repaired, §2.4, or made afresh, §2.7), within :data:`REPAIR_BUDGET`
+     expansions a search.
+  The first candidate that passes all three is the emergency.  When none does, the
+  candidate seen whose plan changes the most facts while it leaves the rest solvable is
+  taken instead (one that leaves the rest valid before one that breaks it; ties to the
+  first), and :attr:`Interruption.breaks` says so.  When every candidate so far leaves the
+  goal with no plan, a last round takes all the tasks, the groundings naming fewest objects
+  of the rest first, to find one that does not; only when none does is one taken that
+  leaves the goal with no plan (:attr:`Interruption.solvable` False).
 
 Everything is bounded by counts (candidates, expansions): the choice is the same on every
 machine -- unless a search hits :data:`SEARCH_SECONDS`, a backstop on the clock for the
@@ -37,20 +49,20 @@ searches that run long without counting expansions.
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
 from htnagent.hddl import model as m
 from htnagent.model.domain import Domain
-from htnagent.model.plans import Done, Plan, Step
+from htnagent.model.plans import Plan, Step
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
-from htnagent.planning.hddl_translation import MARKERS, RESERVED, suspended_fact
+from htnagent.planning.hddl_translation import MARKERS, RESERVED
 from htnagent.planning.planner import PlannerSettings, PlanStatus, plan
-from htnagent.upkeep.repair import LOCAL_BUDGET, Repairer, SearchMemo
-from htnagent.upkeep.stats import PlanningStats
+from htnagent.upkeep.online import OnlinePlanSet
 
 __all__ = [
+    "CANDIDATES_BUDGET",
     "CANDIDATE_BUDGET",
     "MAX_CANDIDATES",
     "MAX_GROUNDINGS",
@@ -62,14 +74,16 @@ __all__ = [
 ]
 
 MAX_CANDIDATES = 40
-"""The most candidate emergency tasks planned for one problem."""
+"""The most candidates whose plan changes a fact judged in each round of the choice."""
 MAX_GROUNDINGS = 2_000
 """The most groundings of one task looked at (the rest's objects first) before ranking."""
 CANDIDATE_BUDGET = 20_000
 """Expansions a candidate's plan may take."""
+CANDIDATES_BUDGET = 200_000
+"""Expansions all the candidates' plans of one round of the choice may take."""
 REPAIR_BUDGET = 20_000
-"""Expansions the check that the rest is still solvable may take (the repair's re-plan of
-the whole goal, its last resort, included)."""
+"""Expansions each search of the check that the rest is still solvable may take (the
+repair's re-plan of the whole goal, its last resort, included)."""
 SEARCH_SECONDS = 2.0
 """A backstop on each search's time: a search can run long without counting expansions
 (nodes it already expanded, ways of a method it skips), and the choice must end."""
@@ -95,8 +109,9 @@ class Interruption:
     tried: int
     """How many candidates were planned."""
     solvable: bool
-    """Whether the rest of the suspended plan is known solvable after it (mended, or left
-    valid); False only for a fallback when every candidate broke the rest beyond repair."""
+    """Whether the goal is known to have a plan when it resumes after it (the agent's plan
+    keeping mends the rest, or plans it afresh); False only for a fallback when no candidate
+    left it one."""
 
 
 def is_marker(action: Atom) -> bool:
@@ -136,55 +151,89 @@ def choose_interruption(
     steps = the_plan.steps
     at, index, count = half_way(steps)
     trigger = steps[at].action
-    before = state
-    for s in steps[:at]:
-        after = domain.apply(before, s.action)
-        if after is None:
-            raise ValueError(f"the plan is not valid from the state: {s.action} at step {steps.index(s)}")
-        before = after
-    struck = domain.suspend(before, trigger) if domain.can_suspend(trigger) else before
+    keeper, struck = _struck(domain, goal, settings, state, steps[:at], trigger)
     rest = steps[at:]
-    done: Done | None = None
-    for s in steps[:at]:
-        done = Done(s, done)
-    one = replace(settings, alternatives=1, budget=CANDIDATE_BUDGET, time_limit=SEARCH_SECONDS)
-    fallback: tuple[tuple[bool, int], Atom] | None = None
-    tried = 0
-    ranked = list(candidates(hddl, problem, rest))
-    # When none of the first MAX_CANDIDATES changes a fact (the best-ranked groundings of one
-    # task can fill them all), as many again, each task's best untried in turn.
-    order = ranked[:MAX_CANDIDATES]
-    second = _round_robin(ranked[MAX_CANDIDATES:])
-    for candidate in itertools.chain(order, second):
-        if tried >= MAX_CANDIDATES and (fallback is not None or tried >= 2 * MAX_CANDIDATES):
-            break
-        tried += 1
-        found = plan(domain, struck, [candidate], one)
-        if found.status is not PlanStatus.SOLVED or found.best is None:
-            continue
-        end = struck
-        for s in found.best.steps:
-            end = domain.progress(end, s.action)
-        changed = len(_world(end) ^ _world(struck))
-        if changed == 0:
-            continue
-        breaks, mends = _breaks_but_mends(domain, goal, settings, end, trigger, rest, done)
-        if breaks and mends:
-            return Interruption(trigger, index, count, candidate, True, changed, tried, True)
-        # The fallback leaves the rest as it is (so the network stays solvable), if any does.
-        rank = (not breaks, changed)
-        if fallback is None or rank > fallback[0]:
-            fallback = (rank, candidate)
-    if fallback is None:
-        return Interruption(trigger, index, count, None, False, 0, tried, False)
-    (keeps, changed), emergency = fallback
-    return Interruption(trigger, index, count, emergency, False, changed, tried, keeps)
+    trial = _Trial(domain, settings, keeper, struck)
+    for kind in (hddl.tasks.values(), hddl.actions.values()):
+        found = trial.first_breaking(_round_robin(candidates(kind, hddl, problem, rest)))
+        if found is not None:
+            return Interruption(trigger, index, count, found[0], True, found[1], trial.tried, True)
+    if trial.fallback is None or not trial.fallback[0][0]:
+        # Every candidate so far leaves the goal with no plan: look among those that touch
+        # the rest least for one that leaves it solvable.
+        least = candidates([*hddl.tasks.values(), *hddl.actions.values()], hddl, problem, rest, fewest=True)
+        trial.first_breaking(iter(least))
+    if trial.fallback is None:
+        return Interruption(trigger, index, count, None, False, 0, trial.tried, False)
+    (mends, _, changed), emergency = trial.fallback
+    return Interruption(trigger, index, count, emergency, False, changed, trial.tried, mends)
 
 
-def candidates(hddl: m.Domain, problem: m.Problem, rest: Sequence[Step]) -> Iterator[Atom]:
-    """The domain's compound tasks grounded with objects of their parameters' types: the
-    groundings naming most objects of ``rest`` first, then the tasks' order, then each
-    task's groundings in order (the rest's objects first, by first mention)."""
+class _Trial:
+    """Candidates planned from the belief at the emergency and judged (the module's steps
+    1-3); the best fallback seen so far is kept."""
+
+    def __init__(
+        self,
+        domain: Domain,
+        settings: PlannerSettings,
+        keeper: OnlinePlanSet,
+        struck: State,
+    ) -> None:
+        self.domain, self.settings, self.keeper, self.struck = domain, settings, keeper, struck
+        self.tried = 0
+        """Candidates planned, in all."""
+        self.fallback: tuple[tuple[bool, bool, int], Atom] | None = None
+        """``((rest solvable, rest valid, facts changed), task)``: the best candidate that
+        does not break the rest and leave it solvable both."""
+
+    def first_breaking(self, order: Iterator[Atom]) -> tuple[Atom, int] | None:
+        """The first candidate of ``order`` whose plan changes a fact, breaks the rest and
+        leaves it solvable, with the facts it changes; None when none of the first
+        :data:`MAX_CANDIDATES` with a plan that changes a fact does (or the order's
+        searches have spent :data:`CANDIDATES_BUDGET` expansions)."""
+        judged = spent = 0
+        for candidate in order:
+            if judged >= MAX_CANDIDATES or spent >= CANDIDATES_BUDGET:
+                return None
+            budget = min(CANDIDATE_BUDGET, CANDIDATES_BUDGET - spent)
+            found = plan(self.domain, self.struck, [candidate], self._one(budget))
+            self.tried += 1
+            spent += found.expansions
+            if found.status is not PlanStatus.SOLVED or found.best is None:
+                continue
+            actions = [s.action for s in found.best.steps]
+            end = self.struck
+            for action in actions:
+                end = self.domain.progress(end, action)
+            changed = len(_world(end) ^ _world(self.struck))
+            if changed == 0:
+                continue
+            judged += 1
+            breaks, mends = _judge(self.keeper, self.struck, actions)
+            if breaks and mends:
+                return candidate, changed
+            rank = (mends, not breaks, changed)
+            if self.fallback is None or rank > self.fallback[0]:
+                self.fallback = (rank, candidate)
+        return None
+
+    def _one(self, budget: int) -> PlannerSettings:
+        return replace(self.settings, alternatives=1, budget=budget, time_limit=SEARCH_SECONDS)
+
+
+def candidates(
+    tasks: Iterable[m.Task | m.Action],
+    hddl: m.Domain,
+    problem: m.Problem,
+    rest: Sequence[Step],
+    *,
+    fewest: bool = False,
+) -> list[Atom]:
+    """``tasks`` (of ``hddl``: its compound tasks, its actions, or both) grounded with
+    objects of their parameters' types: the groundings naming most objects of ``rest`` first
+    (``fewest``: least first), then the tasks' order, then each task's groundings in order
+    (the rest's objects first, by first mention); at most :data:`MAX_GROUNDINGS` a task."""
     mentioned: dict[str, int] = {}
     for s in rest:
         for arg in s.action.args:
@@ -192,7 +241,7 @@ def candidates(hddl: m.Domain, problem: m.Problem, rest: Sequence[Step]) -> Iter
                 mentioned.setdefault(arg, len(mentioned))
     objects = [*hddl.constants, *problem.objects]
     ranked: list[tuple[int, int, int, Atom]] = []
-    for t, task in enumerate(hddl.tasks.values()):
+    for t, task in enumerate(tasks):
         if task.name.startswith(RESERVED):
             continue
         choices: list[list[str]] = []
@@ -205,9 +254,9 @@ def candidates(hddl: m.Domain, problem: m.Problem, rest: Sequence[Step]) -> Iter
             choices.append(fit)
         for g, args in enumerate(itertools.islice(itertools.product(*choices), MAX_GROUNDINGS)):
             named = sum(1 for a in set(args) if a in mentioned)
-            ranked.append((-named, t, g, Atom(task.name, tuple(args))))
+            ranked.append((named if fewest else -named, t, g, Atom(task.name, tuple(args))))
     ranked.sort(key=lambda r: r[:3])
-    return (r[3] for r in ranked)
+    return [r[3] for r in ranked]
 
 
 def _round_robin(ranked: Sequence[Atom]) -> Iterator[Atom]:
@@ -224,35 +273,61 @@ def _world(state: State) -> frozenset[Atom]:
     return frozenset(f for f in state.dynamic if not f.name.startswith(RESERVED))
 
 
-def _breaks_but_mends(
+def _struck(
     domain: Domain,
     goal: Atom,
     settings: PlannerSettings,
-    end: State,
+    state: State,
+    before: Sequence[Step],
     trigger: Atom,
-    rest: Sequence[Step],
-    done: Done | None,
-) -> tuple[bool, bool]:
-    """Whether the rest of the suspended plan (its first action whole) fails from ``end``,
-    and whether the plan upkeep's repair mends it from there."""
-    start = domain.clear(end, trigger) if end.holds(suspended_fact(trigger)) else end
-    states = [start]
-    broken = None
-    for i, s in enumerate(rest):
-        after = domain.apply(states[-1], s.action)
+) -> tuple[OnlinePlanSet, State]:
+    """The agent's on-line plan keeping of ``goal`` taken through the steps ``before`` the
+    emergency and the suspension of ``trigger``, as the agent takes it there, and the belief
+    then; the plans wait on the stack from there (``lazy``, Algorithm 3)."""
+    keeper = OnlinePlanSet(domain, goal, replace(settings, budget=REPAIR_BUDGET, time_limit=SEARCH_SECONDS))
+    if not keeper.ensure(state):
+        raise ValueError(f"no plan for {goal} from the state")
+    for s in before:
+        after = domain.apply(state, s.action)
         if after is None:
-            broken = i
-            break
-        states.append(after)
-    if broken is None:
-        return False, True
-    repairer = Repairer(
-        domain,
-        goal,
-        replace(settings, alternatives=1, budget=REPAIR_BUDGET, time_limit=SEARCH_SECONDS),
-        PlanningStats(),
-        lambda _: frozenset(),
-        SearchMemo(),
-        local_budget=LOCAL_BUDGET,
-    )
-    return True, repairer.repair(Plan(tuple(rest)), broken, states, done) is not None
+            raise ValueError(f"the plan is not valid from the state: {s.action} at step {before.index(s)}")
+        keeper.action_succeeded(s.action, state, after)
+        state = after
+    if domain.can_suspend(trigger):
+        struck = domain.suspend(state, trigger)
+        keeper.action_suspended(trigger, state, struck)
+        state = struck
+    keeper.lazy = True
+    return keeper, state
+
+
+def _judge(keeper: OnlinePlanSet, struck: State, emergency: Sequence[Atom]) -> tuple[bool, bool]:
+    """``(breaks, solvable)`` for an emergency whose plan is the actions ``emergency``, from
+    the belief ``struck``: whether the waiting goal's kept plans (``keeper``) are all invalid
+    after it, and whether the goal still has a plan when it resumes.
+
+    The waiting goal's plans take each of the emergency's actions as the agent gives them
+    every action that succeeds (§2.1: a plan that meant to do it moves on -- an emergency
+    that only finishes the suspended action breaks nothing); they are followed while the
+    goal waits, then re-checked and repaired when it is about to run again (``lazy``; §2.4),
+    or the goal is planned afresh if none is left (§2.7)."""
+    waiting = keeper.fork()
+    domain = waiting.domain
+    state = struck
+    for action in emergency:
+        after = domain.progress(state, action)
+        waiting.action_succeeded(action, state, after)
+        state = after
+    breaks = not any(_valid(domain, state, p) for p in waiting.plans)
+    waiting.lazy = False
+    return breaks, waiting.ensure(state)
+
+
+def _valid(domain: Domain, state: State, the_plan: Plan) -> bool:
+    """Whether every action of ``the_plan`` finds its precondition true, from ``state`` on."""
+    for s in the_plan.steps:
+        after = domain.apply(state, s.action)
+        if after is None:
+            return False
+        state = after
+    return True

@@ -15,6 +15,7 @@ a repair would — the shorter way past a resumed goal's undo detour.
 from __future__ import annotations
 
 from collections.abc import Callable
+from dataclasses import replace
 
 from htnagent.model.plans import Plan, span
 from htnagent.model.state import State
@@ -43,9 +44,14 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     known = searches.known_cost(state, goal)
     if known is not None and known >= ps.plans[0].cost - 1e-9:
         return True  # a search this update made for the goal's very task found nothing cheaper
-    fresh = searches.search(state, goal, one_plan(ps.settings))
+    # Only a cheaper plan would take the kept one's place: the search follows no node that
+    # cannot end cheaper (branch and bound), and finding none under the bound proves the
+    # kept plan as good -- a network that cannot be done again from scratch is not
+    # searched through to the end of the budget, as naive's search for it is.
+    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost)
+    fresh = searches.search(state, goal, cheaper)
     if fresh is None or fresh.cost >= ps.plans[0].cost - 1e-9:
-        return fresh is not None
+        return searches.proved_none(state, goal, cheaper)
     ps.stats.fresher += 1
     # The plan it beat goes: a plan worse than one made afresh from the same belief is
     # no alternative worth keeping valid at every action (alternatives come when an

@@ -180,25 +180,36 @@ class Repairer:
         that search answers what a search for the goal would find), if one did."""
         return self._costs.get((state.dynamic, self._avoided(state), *(t for t, _ in tasks)))
 
+    def proved_none(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> bool:
+        """Whether a search this update proved the task list has no plan from the state
+        (under ``settings``' cost bound, if it has one)."""
+        return self._impossible_key(state, tasks, settings) in self._impossible
+
+    def _impossible_key(
+        self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings
+    ) -> tuple[object, ...]:
+        # Records do not change whether tasks can be done: a search that found the task
+        # list impossible from a state answers for every plan that asks again -- under
+        # the same cost bound (none cheaper than a bound is not none at all).
+        key: tuple[object, ...] = (state.dynamic, self._avoided(state), *(t for t, _ in tasks))
+        return key if settings.cost_bound is None else (*key, ("cost_bound", settings.cost_bound))
+
     def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
         """The best plan for the task list from the state, searched once per update."""
-        avoided = self._avoided(state)
-        # Records do not change whether tasks can be done: a search that found the
-        # task list impossible from a state answers for every plan that asks again.
-        impossible: tuple[object, ...] = (state.dynamic, avoided, *(t for t, _ in tasks))
+        impossible = self._impossible_key(state, tasks, settings)
         if impossible in self._impossible:
             return None
         # Records compare by identity; the key holds them, so none can be mistaken for another.
         key: tuple[object, ...] = (*impossible, *(r for _, r in tasks))
         if key in self._results:
             return self._results[key]
-        result = plan(self._domain, state, tasks, settings, avoid=avoided)
+        result = plan(self._domain, state, tasks, settings, avoid=self._avoided(state))
         self._stats.expansions += result.expansions
         found = result.best
         self._results[key] = found
         if result.status is PlanStatus.UNSOLVABLE:
             self._impossible.add(impossible)
-        elif found is not None:
+        elif found is not None and settings.cost_bound is None:
             # The search is deterministic and stops at its first plan: a larger budget
             # would have found the same one.
             self._costs[impossible] = found.cost
