@@ -66,20 +66,20 @@ def test_every_problem_gets_its_network_and_an_emergency_that_breaks_the_rest(tm
     keys = by[("Keys", "p01.hddl", "online")]
     # The plan: fetch-crowbar, pry(b1), unlock-door(d1); half way is pry(b1).  Whatever
     # undoes what the rest needs (the key, used on the box) leaves the door shut for good;
-    # opening the door does the rest's own next step.  The emergency is then the task
-    # that changes the most facts and leaves the network finishable, and the table says so.
+    # every other task only does what the rest does next (finish prying the box, open the
+    # door).  The emergency is then the first of those, and the table says so: 0 facts.
     assert (keys["trigger"], keys["emergency"], keys["emergency_kind"], keys["actions"]) == (
         "pry(b1)",
-        "open-door(d1)",
+        "open-box(b1)",
         "most changes",
         3,
     )
     # Progress: a line per problem; the table: a row per domain, and the fallback named.
-    assert "Keys/p01.hddl: 3 actions, emergency open-door(d1) (most changes): online replan" in done.stderr
+    assert "Keys/p01.hddl: 3 actions, emergency open-box(b1) (most changes): online replan" in done.stderr
     table = (tmp_path / "rows.md").read_text()
     assert "| Keys | 1 | 0 | 0/1 | 1/1 | 1/1 |" in table
     assert "| Lamps | 1 | 0 | 1/1 | 1/1 | 1/1 |" in table
-    assert "- Keys/p01.hddl: open-door(d1) (3 facts)" in table
+    assert "- Keys/p01.hddl: open-box(b1) (0 facts)" in table
 
 
 def test_the_bench_resumes_where_a_stopped_run_left_off(tmp_path: Path) -> None:
@@ -207,7 +207,7 @@ def test_the_chosen_emergency_breaks_the_rest_of_the_plan_and_is_the_same_every_
     assert succeeds_with(folder, problem, chosen, "online")
 
 
-def test_an_emergency_that_only_does_the_rests_own_next_step_breaks_nothing() -> None:
+def test_an_emergency_that_only_does_what_the_rest_does_next_is_the_last_resort() -> None:
     every = ["unlock-box", "fetch-crowbar", "pry", "unlock-door"]
     s = scenario_of("Keys", "p01.hddl", suspendable=every, search="dfs")
     domain, state, goal = s.domain_for("agent"), s.initial_state("agent"), s.goal_task(0)
@@ -216,11 +216,14 @@ def test_an_emergency_that_only_does_the_rests_own_next_step_breaks_nothing() ->
     planning = s.hddl_for("agent")
     chosen = choose_interruption(domain, state, goal, first, planning.hddl, planning.problem, s.settings)
     # Every action suspendable, depth-first search (as the bench runs Keys): struck half way
-    # through pry(b1), the emergency's plan finishes it first; opening the door then is the
-    # plan's own next step, which the kept plan moves past (§2.1): the
-    # rest is not broken.  Taking the key for the box would break it beyond repair.
-    assert chosen.emergency == parse("open-door(d1)")
-    assert (chosen.breaks, chosen.solvable) == (False, True)
+    # through pry(b1), each emergency's plan finishes it first.  Opening the box then does
+    # nothing more, opening the door is the rest's own next step (the kept plan moves past
+    # it, §2.1): neither changes anything beyond what the rest does next.  Taking the key
+    # for the box breaks the rest beyond repair.  The emergency is the first that changes
+    # nothing and leaves the network finishable, not the one that leaves it unfinishable.
+    assert chosen.emergency == parse("open-box(b1)")
+    assert (chosen.breaks, chosen.solvable, chosen.changed) == (False, True, 0)
+    assert succeeds_with("Keys", "p01.hddl", chosen, "online")
 
 
 def test_half_way_is_the_middle_action_first_met_there() -> None:

@@ -19,9 +19,13 @@ emergency is found here from the domain, the problem and the plan alone
   are tried first.  Each candidate is planned by the same search within
   :data:`CANDIDATE_BUDGET` expansions, from the belief at the emergency (the suspended
   action's record in it); a round ends after :data:`MAX_CANDIDATES` candidates whose plan
-  changes a fact, or when its searches have spent :data:`CANDIDATES_BUDGET` expansions.
+  changes a fact, after :data:`MAX_BEYOND_REPAIR` of them broke the rest beyond repair, or
+  when its searches have spent :data:`CANDIDATES_BUDGET` expansions.
   A candidate is taken when its plan
-  1. changes some fact of the world,
+  1. changes some fact of the world -- beyond what the rest of the kept plan does next
+     (compared with the world after each of its next :data:`ALONG` steps: an emergency
+     that only finishes the suspended action, or does the rest's own next steps,
+     changes nothing),
   2. **breaks the rest of the suspended plan**: the agent's own on-line plan keeping
      (:class:`~htnagent.upkeep.online.OnlinePlanSet`, docs/design.md §2-§3), taken through
      the plan's first half and the suspension as the agent takes it there, then given the
@@ -38,8 +42,8 @@ emergency is found here from the domain, the problem and the plan alone
   taken instead (one that leaves the rest valid before one that breaks it; ties to the
   first), and :attr:`Interruption.breaks` says so.  When every candidate so far leaves the
   goal with no plan, a last round takes all the tasks, the groundings naming fewest objects
-  of the rest first, to find one that does not; only when none does is one taken that
-  leaves the goal with no plan (:attr:`Interruption.solvable` False).
+  of the rest first, to find one that leaves the rest valid; only when none does is one
+  taken that leaves the goal with no plan (:attr:`Interruption.solvable` False).
 
 Everything is bounded by counts (candidates, expansions): the choice is the same on every
 machine -- unless a search hits :data:`SEARCH_SECONDS`, a backstop on the clock for the
@@ -62,8 +66,10 @@ from htnagent.planning.planner import PlannerSettings, PlanStatus, plan
 from htnagent.upkeep.online import OnlinePlanSet
 
 __all__ = [
+    "ALONG",
     "CANDIDATES_BUDGET",
     "CANDIDATE_BUDGET",
+    "MAX_BEYOND_REPAIR",
     "MAX_CANDIDATES",
     "MAX_GROUNDINGS",
     "REPAIR_BUDGET",
@@ -81,6 +87,13 @@ CANDIDATE_BUDGET = 20_000
 """Expansions a candidate's plan may take."""
 CANDIDATES_BUDGET = 200_000
 """Expansions all the candidates' plans of one round of the choice may take."""
+ALONG = 200
+"""How many of the rest's next steps an emergency's effect is compared with: one that only
+does what they do changes nothing."""
+MAX_BEYOND_REPAIR = 16
+"""The most candidates that may break the rest beyond repair, in all rounds but the last:
+each costs a search of the goal from scratch, and when that many leave it unfinishable,
+the domain's tasks use up what the network needs (Childsnack's sandwiches)."""
 REPAIR_BUDGET = 20_000
 """Expansions each search of the check that the rest is still solvable may take (the
 repair's re-plan of the whole goal, its last resort, included)."""
@@ -158,11 +171,11 @@ def choose_interruption(
         found = trial.first_breaking(_round_robin(candidates(kind, hddl, problem, rest)))
         if found is not None:
             return Interruption(trigger, index, count, found[0], True, found[1], trial.tried, True)
-    if trial.fallback is None or not trial.fallback[0][0]:
-        # Every candidate so far leaves the goal with no plan: look among those that touch
-        # the rest least for one that leaves it solvable.
+    if trial.fallback is None or trial.fallback[0] < (True, True, 1):
+        # Every candidate so far leaves the goal with no plan or changes nothing: look among
+        # those that touch the rest least for one that changes something and leaves it valid.
         least = candidates([*hddl.tasks.values(), *hddl.actions.values()], hddl, problem, rest, fewest=True)
-        trial.first_breaking(iter(least))
+        trial.first_breaking(iter(least), breaking=False)
     if trial.fallback is None:
         return Interruption(trigger, index, count, None, False, 0, trial.tried, False)
     (mends, _, changed), emergency = trial.fallback
@@ -181,20 +194,28 @@ class _Trial:
         struck: State,
     ) -> None:
         self.domain, self.settings, self.keeper, self.struck = domain, settings, keeper, struck
+        self.along = _along(domain, struck, keeper)
+        """The world at the emergency, and after each of the next steps of the kept plan."""
         self.tried = 0
         """Candidates planned, in all."""
+        self.beyond_repair = 0
+        """Candidates whose plan broke the rest beyond repair, in all."""
         self.fallback: tuple[tuple[bool, bool, int], Atom] | None = None
         """``((rest solvable, rest valid, facts changed), task)``: the best candidate that
         does not break the rest and leave it solvable both."""
 
-    def first_breaking(self, order: Iterator[Atom]) -> tuple[Atom, int] | None:
+    def first_breaking(self, order: Iterator[Atom], *, breaking: bool = True) -> tuple[Atom, int] | None:
         """The first candidate of ``order`` whose plan changes a fact, breaks the rest and
-        leaves it solvable, with the facts it changes; None when none of the first
-        :data:`MAX_CANDIDATES` with a plan that changes a fact does (or the order's
-        searches have spent :data:`CANDIDATES_BUDGET` expansions)."""
+        leaves it solvable, with the facts it changes.  None when none does among the
+        first :data:`MAX_CANDIDATES` whose plan changes a fact, or before
+        :data:`MAX_BEYOND_REPAIR` candidates in all broke the rest beyond repair, or before the
+        searches of the candidates' plans spent :data:`CANDIDATES_BUDGET` expansions.
+        Not ``breaking``: look only for one that leaves the rest valid (a fallback)."""
         judged = spent = 0
         for candidate in order:
             if judged >= MAX_CANDIDATES or spent >= CANDIDATES_BUDGET:
+                return None
+            if breaking and self.beyond_repair >= MAX_BEYOND_REPAIR:
                 return None
             budget = min(CANDIDATE_BUDGET, CANDIDATES_BUDGET - spent)
             found = plan(self.domain, self.struck, [candidate], self._one(budget))
@@ -206,17 +227,35 @@ class _Trial:
             end = self.struck
             for action in actions:
                 end = self.domain.progress(end, action)
-            changed = len(_world(end) ^ _world(self.struck))
+            # What the emergency changes beyond doing what the rest does next (its plan may
+            # finish the suspended action first): one that only does that changes nothing.
+            world = _world(end)
+            changed = min(len(world ^ w) for w in self.along)
             if changed == 0:
+                self._note_no_change(candidate, actions)
                 continue
+            waiting, breaks = _taken(self.keeper, self.struck, actions)
+            if breaks and not breaking:
+                continue  # cheap to pass over: no repair searched
             judged += 1
-            breaks, mends = _judge(self.keeper, self.struck, actions)
+            # The costly part: a repair, or a search of the goal from scratch (§2.4, §2.7).
+            waiting.lazy = False
+            mends = waiting.ensure(end)
             if breaks and mends:
                 return candidate, changed
+            self.beyond_repair += breaks and not mends
             rank = (mends, not breaks, changed)
             if self.fallback is None or rank > self.fallback[0]:
                 self.fallback = (rank, candidate)
         return None
+
+    def _note_no_change(self, candidate: Atom, actions: Sequence[Atom]) -> None:
+        """The last fallback, better only than one that leaves the goal with no plan: the
+        first candidate whose plan does what the rest does next and leaves it valid."""
+        if self.fallback is None or not self.fallback[0][0]:
+            _, breaks = _taken(self.keeper, self.struck, actions)
+            if not breaks:
+                self.fallback = ((True, True, 0), candidate)
 
     def _one(self, budget: int) -> PlannerSettings:
         return replace(self.settings, alternatives=1, budget=budget, time_limit=SEARCH_SECONDS)
@@ -268,6 +307,20 @@ def _round_robin(ranked: Sequence[Atom]) -> Iterator[Atom]:
         yield from (a for a in batch if a is not None)
 
 
+def _along(domain: Domain, struck: State, keeper: OnlinePlanSet) -> list[frozenset[Atom]]:
+    """The world at the emergency (``struck``), and after each of the next :data:`ALONG`
+    steps of ``keeper``'s best plan (as far as they can be taken)."""
+    worlds = [_world(struck)]
+    state = struck
+    for s in keeper.plans[0].steps[:ALONG] if keeper.plans else ():
+        after = domain.apply(state, s.action)
+        if after is None:
+            break
+        worlds.append(_world(after))
+        state = after
+    return worlds
+
+
 def _world(state: State) -> frozenset[Atom]:
     """The state's facts of the HDDL world: the translation's own left out."""
     return frozenset(f for f in state.dynamic if not f.name.startswith(RESERVED))
@@ -301,16 +354,16 @@ def _struck(
     return keeper, state
 
 
-def _judge(keeper: OnlinePlanSet, struck: State, emergency: Sequence[Atom]) -> tuple[bool, bool]:
-    """``(breaks, solvable)`` for an emergency whose plan is the actions ``emergency``, from
-    the belief ``struck``: whether the waiting goal's kept plans (``keeper``) are all invalid
-    after it, and whether the goal still has a plan when it resumes.
+def _taken(keeper: OnlinePlanSet, struck: State, emergency: Sequence[Atom]) -> tuple[OnlinePlanSet, bool]:
+    """The waiting goal's plan keeping (a fork of ``keeper``, from ``struck``) once it has
+    taken the ``emergency``'s actions, and whether that breaks the rest: no kept plan is
+    still valid after them.
 
-    The waiting goal's plans take each of the emergency's actions as the agent gives them
-    every action that succeeds (§2.1: a plan that meant to do it moves on -- an emergency
-    that only finishes the suspended action breaks nothing); they are followed while the
-    goal waits, then re-checked and repaired when it is about to run again (``lazy``; §2.4),
-    or the goal is planned afresh if none is left (§2.7)."""
+    The waiting goal's plans take each action as the agent gives them every action that
+    succeeds (§2.1: a plan that meant to do it moves on -- an emergency that only
+    finishes the suspended action breaks nothing), and follow it while the goal waits
+    (``lazy``); they are re-checked and repaired (§2.4), or the goal planned afresh
+    (§2.7), when it is about to run again: ``ensure`` on the fork does that."""
     waiting = keeper.fork()
     domain = waiting.domain
     state = struck
@@ -318,9 +371,7 @@ def _judge(keeper: OnlinePlanSet, struck: State, emergency: Sequence[Atom]) -> t
         after = domain.progress(state, action)
         waiting.action_succeeded(action, state, after)
         state = after
-    breaks = not any(_valid(domain, state, p) for p in waiting.plans)
-    waiting.lazy = False
-    return breaks, waiting.ensure(state)
+    return waiting, not any(_valid(domain, state, p) for p in waiting.plans)
 
 
 def _valid(domain: Domain, state: State, the_plan: Plan) -> bool:
