@@ -48,7 +48,7 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     # cannot end cheaper (branch and bound), and finding none under the bound proves the
     # kept plan as good -- a network that cannot be done again from scratch is not
     # searched through to the end of the budget, as naive's search for it is.
-    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost)
+    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost - 1e-9)
     fresh = searches.search(state, goal, cheaper)
     if fresh is None or fresh.cost >= ps.plans[0].cost - 1e-9:
         return searches.proved_none(state, goal, cheaper)
