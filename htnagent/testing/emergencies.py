@@ -337,9 +337,12 @@ def _struck(
     """The agent's on-line plan keeping of ``goal`` taken through the steps ``before`` the
     emergency and the suspension of ``trigger``, as the agent takes it there, and the belief
     then; the plans wait on the stack from there (``lazy``, Algorithm 3)."""
-    keeper = OnlinePlanSet(domain, goal, replace(settings, budget=REPAIR_BUDGET, time_limit=SEARCH_SECONDS))
+    # The goal's first plan as the agent makes it (its own settings: the same plan it runs);
+    # the searches after the emergency are this module's, bounded.
+    keeper = OnlinePlanSet(domain, goal, settings)
     if not keeper.ensure(state):
         raise ValueError(f"no plan for {goal} from the state")
+    keeper.settings = replace(settings, budget=REPAIR_BUDGET, time_limit=SEARCH_SECONDS)
     for s in before:
         after = domain.apply(state, s.action)
         if after is None:
