@@ -41,9 +41,11 @@ emergency is found here from the domain, the problem and the plan alone
   candidate seen whose plan changes the most facts while it leaves the rest solvable is
   taken instead (one that leaves the rest valid before one that breaks it; ties to the
   first), and :attr:`Interruption.breaks` says so.  When every candidate so far leaves the
-  goal with no plan, a last round takes all the tasks, the groundings naming fewest objects
-  of the rest first, to find one that leaves the rest valid; only when none does is one
-  taken that leaves the goal with no plan (:attr:`Interruption.solvable` False).
+  goal with no plan, or changes nothing, a last round takes all the tasks, the groundings
+  naming fewest objects of the rest first, to find one that changes something and leaves
+  the rest valid.  Failing that, the first candidate whose plan only did what the rest
+  does next (``changed`` 0): the network stays finishable.  Only when there is none either
+  is one taken that leaves the goal with no plan (:attr:`Interruption.solvable` False).
 
 Everything is bounded by counts (candidates, expansions): the choice is the same on every
 machine -- unless a search hits :data:`SEARCH_SECONDS`, a backstop on the clock for the
