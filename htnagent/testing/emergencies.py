@@ -49,12 +49,14 @@ emergency is found here from the domain, the problem and the plan alone
 
 Everything is bounded by counts (candidates, expansions): the choice is the same on every
 machine -- unless a search hits :data:`SEARCH_SECONDS`, a backstop on the clock for the
-searches that run long without counting expansions.
+searches that run long without counting expansions, or the choice hits
+:data:`CHOICE_SECONDS`, a backstop on its whole time.
 """
 
 from __future__ import annotations
 
 import itertools
+import time
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass, replace
 
@@ -71,6 +73,7 @@ __all__ = [
     "ALONG",
     "CANDIDATES_BUDGET",
     "CANDIDATE_BUDGET",
+    "CHOICE_SECONDS",
     "MAX_BEYOND_REPAIR",
     "MAX_CANDIDATES",
     "MAX_GROUNDINGS",
@@ -99,6 +102,11 @@ the domain's tasks use up what the network needs (Childsnack's sandwiches)."""
 REPAIR_BUDGET = 20_000
 """Expansions each search of the check that the rest is still solvable may take (the
 repair's re-plan of the whole goal, its last resort, included)."""
+CHOICE_SECONDS = 40.0
+"""A backstop on the whole choice's time, read between candidates: past it the best
+candidate seen is taken (the domains whose searches run into :data:`SEARCH_SECONDS` one
+after the other -- a recursive task's list growing at every step -- would otherwise keep
+a problem's preparation past the bench's limit)."""
 SEARCH_SECONDS = 2.0
 """A backstop on each search's time: a search can run long without counting expansions
 (nodes it already expanded, ways of a method it skips), and the choice must end."""
@@ -202,6 +210,7 @@ class _Trial:
         """Candidates planned, in all."""
         self.beyond_repair = 0
         """Candidates whose plan broke the rest beyond repair, in all."""
+        self.deadline = time.perf_counter() + CHOICE_SECONDS
         self.fallback: tuple[tuple[bool, bool, int], Atom] | None = None
         """``((rest solvable, rest valid, facts changed), task)``: the best candidate that
         does not break the rest and leave it solvable both."""
@@ -215,7 +224,7 @@ class _Trial:
         Not ``breaking``: look only for one that leaves the rest valid (a fallback)."""
         judged = spent = 0
         for candidate in order:
-            if judged >= MAX_CANDIDATES or spent >= CANDIDATES_BUDGET:
+            if judged >= MAX_CANDIDATES or spent >= CANDIDATES_BUDGET or time.perf_counter() > self.deadline:
                 return None
             if breaking and self.beyond_repair >= MAX_BEYOND_REPAIR:
                 return None
