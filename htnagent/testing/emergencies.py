@@ -211,6 +211,7 @@ class _Trial:
         self.beyond_repair = 0
         """Candidates whose plan broke the rest beyond repair, in all."""
         self.deadline = time.perf_counter() + CHOICE_SECONDS
+        """When no more candidates are tried (:data:`CHOICE_SECONDS`)."""
         self.fallback: tuple[tuple[bool, bool, int], Atom] | None = None
         """``((rest solvable, rest valid, facts changed), task)``: the best candidate that
         does not break the rest and leave it solvable both."""
