@@ -249,11 +249,14 @@ def _atom(text: object) -> Atom:
     return atom
 
 
+_NUMBER = (int, float)  # a tuple: ``int | float`` would build a union for every item
+
+
 def _timed(data: object, payload: bytes) -> tuple[float, Item]:
     if not isinstance(data, dict):
         raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
     t, kind, body = data["t"], data["type"], data["body"]
-    if not isinstance(t, int | float) or isinstance(t, bool) or not isinstance(body, dict):
+    if not isinstance(t, _NUMBER) or isinstance(t, bool) or not isinstance(body, dict):
         raise CodecError(f"not a payload of htnagent: {payload[:80]!r}")
     if not math.isfinite(t):
         raise CodecError(f"t: not a finite time: {t!r}")
@@ -261,6 +264,8 @@ def _timed(data: object, payload: bytes) -> tuple[float, Item]:
 
 
 def _item(kind: object, body: dict[str, Any]) -> Item:
+    if kind == "event":  # first: most items are (about 7 in 10 of what a serving process sends)
+        return event_from_dict(body)
     if kind == "message":
         cls = _MESSAGES.get(body.get("kind"))  # type: ignore[arg-type]
         if cls is None:
@@ -271,8 +276,6 @@ def _item(kind: object, body: dict[str, Any]) -> Item:
         for name in _ATOM_TUPLES & fields.keys():
             fields[name] = tuple(_atom(v) for v in fields[name])
         return cls.model_validate(fields)
-    if kind == "event":
-        return event_from_dict(body)
     if kind == "progress":
         return Progress(
             actor=str(body["actor"]),
