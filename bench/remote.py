@@ -382,6 +382,7 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
         # threads) and the serving processes together; on 2 cores, wall >= their sum / 2.
         "cpu_s_parent": round(cpu, 3),
         "cpu_s_serving": round(served_cpu, 3),
+        "cpu_ms_per_robot": round((cpu + served_cpu) / robots * 1000, 1),
         "paced_s": round(simulated / SPEED, 3),
         "per_robot_ms": round(wall / robots * 1000, 1),
         "orders_per_s": round(counts["orders"] / wall, 1),
