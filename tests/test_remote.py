@@ -268,12 +268,12 @@ def test_every_item_crosses_the_wire_unchanged() -> None:
 
 def test_the_wire_is_plain_json_and_what_json_cannot_say_is_refused_anywhere() -> None:
     from htnagent.model.terms import parse
-    from htnagent.remote.codec import CodecError, RobotStatus, encode_batch, receive
+    from htnagent.remote.codec import CodecError, Item, RobotStatus, encode_batch, receive
     from htnagent.runtime.events import MessageSent
     from htnagent.runtime.messages import Success
 
     a = parse("move(n40,n35,arc59)")
-    items = [
+    items: list[tuple[float, Item]] = [
         (1.5, Success(action=a, seq=3)),
         (1.5, MessageSent(agent="navigator", t=1.5, to="robot", kind="execute", action=str(a))),
         (2.0, RobotStatus(robot={"at": "n35"}, visited=("n40", "n35"), distance=4.123105625617661)),
