@@ -353,6 +353,7 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
                 served_sessions += _sessions_of(line)
             scenarios = [load_scenario(path) for path in paths]
             served_cpu = sum(_cpu_s(host.pid) for host in hosts)
+            load = os.getloadavg()[0]  # others' work on a shared machine slows the CPU seconds too
             start, cpu = time.perf_counter(), time.process_time()
             report = anyio.run(functools.partial(run_fleet, scenarios, speed=SPEED, observers=observers))
             wall, cpu = time.perf_counter() - start, time.process_time() - cpu
@@ -382,6 +383,8 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
         # threads) and the serving processes together; on 2 cores, wall >= their sum / 2.
         "cpu_s_parent": round(cpu, 3),
         "cpu_s_serving": round(served_cpu, 3),
+        "cpu_ms_per_robot": round((cpu + served_cpu) / robots * 1000, 1),
+        "load": round(load, 2),
         "paced_s": round(simulated / SPEED, 3),
         "per_robot_ms": round(wall / robots * 1000, 1),
         "orders_per_s": round(counts["orders"] / wall, 1),

@@ -266,6 +266,36 @@ def test_every_item_crosses_the_wire_unchanged() -> None:
             decode(bad)
 
 
+def test_the_wire_is_plain_json_and_what_json_cannot_say_is_refused_anywhere() -> None:
+    from htnagent.model.terms import parse
+    from htnagent.remote.codec import CodecError, Item, RobotStatus, encode_batch, receive
+    from htnagent.runtime.events import MessageSent
+    from htnagent.runtime.messages import Success
+
+    a = parse("move(n40,n35,arc59)")
+    items: list[tuple[float, Item]] = [
+        (1.5, Success(action=a, seq=3)),
+        (1.5, MessageSent(agent="navigator", t=1.5, to="robot", kind="execute", action=str(a))),
+        (2.0, RobotStatus(robot={"at": "n35"}, visited=("n40", "n35"), distance=4.123105625617661)),
+    ]
+    payload = encode_batch(items, "a1b2", 7)
+    # Any JSON reader reads it, and what the standard library writes is read back the same:
+    # a peer of another version or language speaks the same wire.
+    written = json.loads(payload)
+    assert written["from"] == "a1b2" and written["n"] == 7 and len(written["items"]) == 3
+    again = receive(json.dumps(written).encode())
+    assert (again.items, again.sender, again.n) == (tuple(items), "a1b2", 7)
+    # NaN and Infinity are not JSON: refused wherever they are, not only in a time.
+    body = '{"robot": {"at": "n1"}, "visited": ["n1"], "distance": %s}'
+    for number in ("NaN", "Infinity", "-Infinity"):
+        bad = '{"t": 1.0, "type": "status", "body": ' + body % number + ', "from": "a1b2", "n": 1}'
+        with pytest.raises(CodecError):
+            receive(bad.encode())
+    # A lone surrogate is not text.
+    with pytest.raises(CodecError):
+        receive(b'{"t": 1.0, "type": "world", "body": {"arc": "\\ud800", "close": true}, "from": "x"}')
+
+
 def test_an_order_before_the_parents_token_is_held_and_handled_when_the_token_comes(tmp_path: Path) -> None:
     # Zenoh hands the parent's token and its first order to the event loop from different
     # threads: the order may come first (seen under load).  It is held (not refused, not

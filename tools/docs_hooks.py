@@ -200,7 +200,7 @@ def _reliability() -> str:
 def _remote() -> str:
     data = load("remote")
     fleet_cols = ["robots", "processes", "sessions", "success", "wall_s", "setup_s", "cpu_s_parent"]
-    fleet_cols += ["cpu_s_serving", "orders_per_s"]
+    fleet_cols += ["cpu_s_serving", "cpu_ms_per_robot", "orders_per_s", "load"]
     security_cols = ["case", "orders_sent", "orders_executed", "refused", "refused_by", "growth_mb"]
     fleet = [{k: r.get(k, "") for k in fleet_cols} for r in data["fleet"]]
     security = [{k: r.get(k, "") for k in security_cols} for r in data.get("security", [])]

@@ -615,6 +615,10 @@ class _RunSignals:
 # How often a run looks for a signal: a handler cannot wake an event loop on every
 # backend, so the run polls; 50 ms is quick for a person and costs nothing.
 _SIGNAL_POLL_S = 0.05
+# A serving process polls less often: it runs for as long as its robots do, and a fleet
+# runs several on one host (ten for a hundred robots), each waking its event loop for
+# nothing at every poll.  A quarter second is still quick to stop.
+_SERVE_POLL_S = 0.25
 
 
 async def _until_interrupted(run: Callable[..., Awaitable[RunReport]], signals: _RunSignals) -> RunReport:
@@ -775,7 +779,7 @@ def _serve(args: argparse.Namespace, restore_signals: bool = True) -> int:
 
         async def watch() -> None:
             while not signals.received:  # noqa: ASYNC110  (a signal handler cannot set an anyio.Event)
-                await anyio.sleep(_SIGNAL_POLL_S)
+                await anyio.sleep(_SERVE_POLL_S)
             stop.set()
 
         async with anyio.create_task_group() as tg:

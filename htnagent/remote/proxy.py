@@ -61,8 +61,14 @@ REPORT_EVERY = 1.0
 """Wall-clock seconds between two ``peer_refused`` events about one peer, at least."""
 
 
+_UP = (Success, Failure, Suspended, Refused, Progress, TraceEvent, RobotStatus)
+"""What may come up from a serving process (a tuple: ``A | B`` would build a union every call)."""
+_RESULTS = (Success, Failure, Suspended, Refused)
+_THEIR_SIDE = (PeerLost, PeerJoined)
+
+
 def _goes_up(item: Item) -> bool:
-    return isinstance(item, Success | Failure | Suspended | Refused | Progress | TraceEvent | RobotStatus)
+    return isinstance(item, _UP)
 
 
 async def report_refusals(gate: Gate, emit: Callable[[PeerRefused], None], agent: str, side: str) -> None:
@@ -177,7 +183,13 @@ class RemoteChild(ExecutorActor):
             self._handle(item)
 
     def _handle(self, item: Item) -> None:
-        if isinstance(item, Success | Failure | Suspended | Refused):
+        # Trace events first: most of what comes up is one (about 7 in 10 of a robot's items).
+        if isinstance(item, TraceEvent):
+            if not isinstance(item, _THEIR_SIDE):  # its side of the link: ours is traced here
+                self.trace.emit(item)
+        elif isinstance(item, Progress):
+            self.progress.report(item)
+        elif isinstance(item, _RESULTS):
             order = self._in_flight.get(item.seq)
             if order is None:
                 return  # an answer to an order that failed when the peer was lost
@@ -186,11 +198,6 @@ class RemoteChild(ExecutorActor):
                 self.clock.done_outside()
             if self.reply_to is not None:
                 self.reply_to.send(item)  # the serving process traced the message
-        elif isinstance(item, Progress):
-            self.progress.report(item)
-        elif isinstance(item, TraceEvent):
-            if not isinstance(item, PeerLost | PeerJoined):  # its side of the link: ours is traced here
-                self.trace.emit(item)
         elif isinstance(item, RobotStatus):
             self.status = item
 

@@ -427,12 +427,14 @@ def event_from_dict(data: Mapping[str, object]) -> TraceEvent:
     cls = EVENT_KINDS.get(kind) if isinstance(kind, str) else None
     if cls is None:
         raise TraceFormatError(f"unknown event {shown(kind)}")
-    fields = {k: v for k, v in data.items() if k != "event"}
     adapter = _ADAPTERS.get(cls)
     if adapter is None:
         adapter = _ADAPTERS[cls] = TypeAdapter(cls)
     try:
-        event: TraceEvent = adapter.validate_python(fields)
+        # ``event`` is a class variable, not a field: validation ignores it (as any key
+        # that is not a field), so the object is read as it is, not copied without it
+        # first (every event a serving process relays comes through here).
+        event: TraceEvent = adapter.validate_python(data)
     except ValidationError as e:
         first = e.errors()[0]
         where = ".".join(str(p) for p in first["loc"])

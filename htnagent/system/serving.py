@@ -90,6 +90,10 @@ WAITING = 16
 """Other parents' sessions remembered while one is served (the next to serve when it goes)."""
 
 
+_KEPT_HERE = (PeerLost, PeerJoined, Summary)
+"""Trace events not relayed: this side of the link (the parent traces its own), the summary."""
+
+
 def _goes_down(item: Item) -> bool:
     return isinstance(item, _DOWN)
 
@@ -155,7 +159,7 @@ class Host:
             self._out.send((self.runtime.clock.now(), item))
 
     def _event(self, event: TraceEvent) -> None:
-        if not isinstance(event, PeerLost | PeerJoined | Summary):
+        if not isinstance(event, _KEPT_HERE):
             self._publish(event)
 
     def _progress(self, progress: Progress) -> None:
