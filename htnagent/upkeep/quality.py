@@ -33,7 +33,7 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     """Make ``ps``'s best plan no worse than a plan made afresh from ``state``: proven by
     the estimate, or compared (and replaced by the fresh plan if that is cheaper).
     Returns whether it is known to be now (False: no plan is kept, or the search for a
-    fresh plan found none).
+    cheaper fresh plan found none -- whether any plan afresh exists is then not known).
 
     The search is shared (``repairer``) with a repair that reached the goal itself.
     """
@@ -45,13 +45,14 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     if known is not None and known >= ps.plans[0].cost - 1e-9:
         return True  # a search this update made for the goal's very task found nothing cheaper
     # Only a cheaper plan would take the kept one's place: the search follows no node that
-    # cannot end cheaper (branch and bound), and finding none under the bound proves the
-    # kept plan as good -- a network that cannot be done again from scratch is not
-    # searched through to the end of the budget, as naive's search for it is.
+    # cannot end cheaper (branch and bound) -- a network that cannot be done again from
+    # scratch is not searched through to the end of the budget, as naive's search for it
+    # is.  Finding none says nothing of whether a plan afresh exists: not known (the
+    # caller may then re-decompose the lowest task instead, as where none exists).
     cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost - 1e-9)
     fresh = searches.search(state, goal, cheaper)
     if fresh is None or fresh.cost >= ps.plans[0].cost - 1e-9:
-        return searches.proved_none(state, goal, cheaper)
+        return False
     ps.stats.fresher += 1
     # The plan it beat goes: a plan worse than one made afresh from the same belief is
     # no alternative worth keeping valid at every action (alternatives come when an

@@ -180,11 +180,6 @@ class Repairer:
         that search answers what a search for the goal would find), if one did."""
         return self._costs.get((state.dynamic, self._avoided(state), *(t for t, _ in tasks)))
 
-    def proved_none(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> bool:
-        """Whether a search this update proved the task list has no plan from the state
-        (under ``settings``' cost bound, if it has one)."""
-        return self._impossible_key(state, tasks, settings) in self._impossible
-
     def _impossible_key(
         self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings
     ) -> tuple[object, ...]:
