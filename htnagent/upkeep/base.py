@@ -71,6 +71,9 @@ class PlanSet(ABC):
         them (§2.1, §3) but are not re-checked or repaired then; they are re-checked (and
         repaired, §2.4) once, when the goal is about to run again (prepared or resumed) —
         one walk then (and a repair if it needs one), instead of one per event."""
+        self.scratch_expansions: int | None = None
+        """Expansions the goal's last search from scratch took to find its plan: what planning
+        it afresh is known to cost (§2.4's comparison is given no more than a few times it)."""
         self.done: Done | None = None
         """The goal's own steps carried out so far, newest first (repair reads them)."""
         self._checked: State | None = None  # every kept plan is valid from this belief
@@ -119,6 +122,7 @@ class PlanSet(ABC):
         self.plans = other.plans
         self.done = other.done
         self.last_status = other.last_status
+        self.scratch_expansions = other.scratch_expansions
         self._checked = other._checked
         self._unsolvable = other._unsolvable
         self._stale = other._stale
@@ -240,6 +244,8 @@ class PlanSet(ABC):
         result = plan(self.domain, state, [self.goal], settings, avoid=self._avoided(state))
         self.stats.expansions += result.expansions
         self.last_status = result.status
+        if result.plans:
+            self.scratch_expansions = result.expansions
         self.plans = list(result.plans)
         self._checked = state
         self._fresh_due = False

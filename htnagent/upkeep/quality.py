@@ -49,7 +49,7 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     # scratch is not searched through to the end of the budget, as naive's search for it
     # is.  Finding none says nothing of whether a plan afresh exists: not known (the
     # caller may then re-decompose the lowest task instead, as where none exists).
-    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost - 1e-9)
+    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost - 1e-9, budget=comparison_budget(ps))
     fresh = searches.search(state, goal, cheaper)
     if fresh is None or fresh.cost >= ps.plans[0].cost - 1e-9:
         return False
@@ -60,6 +60,24 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     others = [p for p in ps.plans[1:] if p.actions != fresh.actions]
     ps.plans = [fresh, *others][: max(ps.settings.alternatives, 1)]
     return True
+
+
+COMPARISON_FACTOR = 1
+"""§2.4's comparison searches at most this many times what the goal's last plan from scratch
+took (and at least :data:`COMPARISON_FLOOR`)."""
+COMPARISON_FLOOR = 100
+
+
+def comparison_budget(ps: PlanSet) -> int:
+    """The expansions §2.4's search for a cheaper plan afresh may take: a few times what
+    planning ``ps``'s goal from scratch is known to cost -- a search under the bound that
+    runs far past that is looking through a space with no cheaper plan in it (a depth-first
+    search, which found its first plan at once, can take its whole budget to show there
+    is none cheaper), and is not worth more than naive's whole search."""
+    known = ps.scratch_expansions
+    if known is None:
+        return ps.settings.budget
+    return min(ps.settings.budget, max(COMPARISON_FLOOR, COMPARISON_FACTOR * known))
 
 
 def first_own_step(p: Plan) -> int:
@@ -103,4 +121,12 @@ def rival_from(ps: PlanSet, state: State, best: Plan, first: int, repairer: Call
     return True
 
 
-__all__ = ["first_own_step", "fresher_kept", "proven_optimal", "rival_from"]
+__all__ = [
+    "COMPARISON_FACTOR",
+    "COMPARISON_FLOOR",
+    "comparison_budget",
+    "first_own_step",
+    "fresher_kept",
+    "proven_optimal",
+    "rival_from",
+]
