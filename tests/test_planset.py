@@ -16,6 +16,7 @@ from htnagent.planning.planner import PlannerSettings, Search, plan
 from htnagent.scenario import parse_map
 from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
 from htnagent.upkeep import repair as repair_module
+from htnagent.upkeep.quality import COMPARISON_FLOOR
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -274,13 +275,14 @@ def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
-    bounds: list[tuple[list[str], float | None]] = []
+    bounds: list[tuple[list[str], float | None, int]] = []
     real_plan = plan
 
     def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
         settings = args[0] if args else kw["settings"]
         assert isinstance(settings, PlannerSettings)
-        bounds.append(([str(t[0] if isinstance(t, tuple) else t) for t in tasks], settings.cost_bound))
+        tasks_text = [str(t[0] if isinstance(t, tuple) else t) for t in tasks]
+        bounds.append((tasks_text, settings.cost_bound, settings.budget))
         return real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
 
     monkeypatch.setattr(repair_module, "plan", recording)
@@ -289,8 +291,13 @@ def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
     # The repair (a walk to area3's dead end and back) is searched as any repair is; the
     # comparison looks for a plan cheaper than it, finds one and takes it.
     assert ps.stats.repairs == 1 and ps.stats.fresher == 1
-    comparison = [bound for tasks, bound in bounds if tasks == ["goto(n1)"] and bound is not None]
-    assert len(comparison) == 1 and ps.best is not None and ps.best.cost < comparison[0]
+    comparison = [(bound, budget) for tasks, bound, budget in bounds if tasks == ["goto(n1)"] and bound]
+    assert len(comparison) == 1 and ps.best is not None and ps.best.cost < comparison[0][0]
+    # ... given what planning the goal from scratch took (at least COMPARISON_FLOOR), not
+    # the planner's whole budget: a search under a bound may take all of it to show that
+    # nothing is cheaper.
+    first = plan(areas, belief, [a("goto(n1)")], PlannerSettings(alternatives=1)).expansions
+    assert comparison[0][1] == max(COMPARISON_FLOOR, first) < PlannerSettings().budget
 
 
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:
