@@ -540,9 +540,13 @@ class Link:
 
     def publisher(self, key: str) -> Callable[[bytes], None]:
         """A function putting a payload on ``key``: reliable, in order, sent at once."""
-        publisher = self.session.declare_publisher(
-            key, congestion_control=zenoh.CongestionControl.BLOCK, express=True
-        )
+        # Not ``express``: Zenoh then sends at once too, but may put the payloads that wait
+        # for the link together in one batch (one TLS record, one write): the robots of a
+        # serving process act at the same instants, and an express put was a record and a
+        # system call each, made on the event loop's thread.  Batching waits only when the
+        # link is congested (Zenoh's ``tx/batching``); the round trip stays as it was
+        # (bench/results/remote.json).
+        publisher = self.session.declare_publisher(key, congestion_control=zenoh.CongestionControl.BLOCK)
         self._keep.append(publisher)
         return lambda payload: publisher.put(payload)
 
