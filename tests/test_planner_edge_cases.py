@@ -7,6 +7,7 @@ import math
 
 import pytest
 
+from htnagent.errors import SettingsError
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom, parse
 from htnagent.planning import planner
@@ -108,6 +109,19 @@ def test_a_method_that_grows_its_own_task_list_ends_as_out_of_budget(monkeypatch
     result = plan(d, d.initial_state(), [parse("t(a)")], PlannerSettings(alternatives=1))
     assert result.status is PlanStatus.BUDGET_EXHAUSTED
     assert result.expansions <= 200
+
+
+def test_a_bound_on_the_task_list_may_be_given_with_the_settings() -> None:
+    # Plan repair bounds a local search's growth to a little more than it was given (the
+    # goal's re-plan comes next): the same out-of-budget end, much sooner.
+    d = Domain("grow")
+    d.operator("flip(?x)", add=["on(?x)"], cost=0.0)
+    d.method("t(?x)", "again", when=[], do=["t(?x)", "t(?x)"])
+    result = plan(d, d.initial_state(), [parse("t(a)")], PlannerSettings(alternatives=1, max_tasks=20))
+    assert result.status is PlanStatus.BUDGET_EXHAUSTED
+    assert result.expansions <= 20
+    with pytest.raises(SettingsError, match="max_tasks must be at least 1, not 0"):
+        PlannerSettings(max_tasks=0)
 
 
 def test_a_network_given_as_one_task_may_be_as_long_as_it_decomposes_into(

@@ -11,11 +11,15 @@ from __future__ import annotations
 
 import itertools
 
+import pytest
+
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Decomposition, Done, Step
 from htnagent.model.terms import parse
-from htnagent.planning.planner import PlannerSettings
+from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.upkeep import OnlinePlanSet, done_subtasks
+from htnagent.upkeep import repair as repair_module
+from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_GROWTH
 
 
 def carrier() -> Domain:
@@ -190,3 +194,43 @@ def test_doing_subtasks_again_is_not_cut_short_when_the_way_back_is_long() -> No
     assert ps.ensure(belief)
     assert ps.best is not None and ps.best.text()[-1] == f"unload(p,{b})"
     assert ps.stats.repairs == 1 and ps.stats.expansions > 250
+
+
+def test_a_repair_below_the_goal_stops_a_task_list_that_only_grows(monkeypatch: pytest.MonkeyPatch) -> None:
+    # trip(x) is done where the walker stands, or "again" as trip(x) trip(x): a method
+    # that puts its own task back in front of more grows the list at every expansion, and
+    # each node costs as much as its list is long (Hiking's trips: 2,000 expansions took
+    # 0.8 s).  The walker is moved away: the local repair of trip(b) is cut at a little
+    # more than the list it was given, and the goal's re-plan comes next.
+    d = Domain("walk")
+    d.operator("walk(?x,?y)", pre=["at(?x)"], add=["at(?y)"], delete=["at(?x)"])
+    d.operator("mark(?x)", pre=["at(?x)"], add=["marked(?x)"])
+    d.method("trip(?x)", "there", when=["at(?x)"], do=["mark(?x)"])
+    d.method("trip(?x)", "again", when=[], do=["trip(?x)", "trip(?x)"])
+    d.method("tour(?x,?y)", "both", when=[], do=["trip(?x)", "trip(?y)"])
+    here = State.from_facts([parse("at(b)")], d.dynamic_predicates)
+    depth_first = PlannerSettings(alternatives=1, budget=3_000, search=Search.DFS)
+    ps = OnlinePlanSet(d, parse("tour(b,b)"), settings=depth_first)
+    ps.make(here)
+    assert ps.best is not None and ps.best.text() == ["mark(b)", "mark(b)"]
+    searched: list[tuple[int | None, int]] = []
+    real_plan = repair_module.plan
+
+    def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
+        settings = args[0] if args else kw["settings"]
+        assert isinstance(settings, PlannerSettings)
+        result = real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
+        searched.append((settings.max_tasks, result.expansions))
+        return result
+
+    monkeypatch.setattr(repair_module, "plan", recording)
+    away = State.from_facts([parse("at(a)")], d.dynamic_predicates)
+    ps.belief_changed(here, away)
+    local = [(cap, spent) for cap, spent in searches_below_the_goal(searched)]
+    assert local and all(cap is not None and cap <= 2 + LOCAL_GROWTH for cap, _ in local)
+    assert sum(spent for _, spent in local) < LOCAL_BUDGET
+
+
+def searches_below_the_goal(searched: list[tuple[int | None, int]]) -> list[tuple[int | None, int]]:
+    """The repair's local searches: those given a bound on the task list (the goal's is not)."""
+    return [(cap, spent) for cap, spent in searched if cap is not None]

@@ -128,6 +128,10 @@ class PlannerSettings:
     """Only plans cheaper than this: a node whose cost so far plus the least cost of its
     tasks (the domain's :attr:`~htnagent.model.domain.Domain.task_costs`, else nothing)
     reaches it is not followed (branch and bound; see :func:`plan`'s ``improving``)."""
+    max_tasks: int | None = None
+    """The longest task list followed: a child whose list is longer is not (growth: a
+    method that puts its own task back in front of more), and the search ends as out of
+    budget.  None: at least 10,000, and four times the tasks given (see ``_search``)."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -138,6 +142,8 @@ class PlannerSettings:
             raise SettingsError(f"planner settings: time_limit must be positive, not {self.time_limit}")
         if self.cost_bound is not None and not self.cost_bound > 0:
             raise SettingsError(f"planner settings: cost_bound must be positive, not {self.cost_bound}")
+        if self.max_tasks is not None and self.max_tasks < 1:
+            raise SettingsError(f"planner settings: max_tasks must be at least 1, not {self.max_tasks}")
         if self.alternatives_effort < 0:
             raise SettingsError(
                 f"planner settings: alternatives_effort must not be negative, not {self.alternatives_effort}"
@@ -430,10 +436,11 @@ def _search(
     # time and memory growing as the square of the budget.  Lists longer than this are
     # not followed (the search then ends as out of budget, not as unsolvable).  What the
     # tasks given decompose into at once is given too (HDDL's initial network is one task).
-    max_tasks = max(_MAX_TASK_LIST, 4 * len(root_tasks))
+    given = settings.max_tasks
+    max_tasks = given if given is not None else max(_MAX_TASK_LIST, 4 * len(root_tasks))
     # The clock is read every 256 nodes; with task lists of thousands, each node costs as
     # much as its list is long, and it is read at every node.
-    every = 255 if max_tasks == _MAX_TASK_LIST else 0
+    every = 255 if max_tasks <= _MAX_TASK_LIST else 0
     cut = False
 
     def too_long(tasks: int, parent: _Node) -> bool:

@@ -61,6 +61,12 @@ _REDO = 2
 LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
 
+LOCAL_GROWTH = 64
+"""How much longer than the task list it was given a repair below the goal may let a list
+grow.  A recursive method that puts its task back in front of more (Hiking's trips) grows
+the list at every expansion, and each node costs as much as its list is long: past this,
+the repair stops and the goal's re-plan, which comes next, takes over."""
+
 
 class Repairer:
     """The searches of one update of one plan set: repairs (§2.4) and fresh comparisons.
@@ -169,7 +175,9 @@ class Repairer:
     def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
         """A search below the goal, within what is left of the local budget."""
         spent = self._stats.expansions
-        local = replace(self._settings, alternatives=1, budget=self.local_left)
+        local = replace(
+            self._settings, alternatives=1, budget=self.local_left, max_tasks=len(tasks) + LOCAL_GROWTH
+        )
         result = self.search(state, tasks, local)
         self.local_left -= self._stats.expansions - spent
         return result
@@ -265,4 +273,4 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
     return found
 
 
-__all__ = ["LOCAL_BUDGET", "OnDemand", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]
+__all__ = ["LOCAL_BUDGET", "LOCAL_GROWTH", "OnDemand", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]
