@@ -26,6 +26,7 @@ from htnagent.scenario import parse_scenario
 from htnagent.system.simulation import run_scenario
 from htnagent.testing.emergencies import choose_interruption, half_way
 from htnagent.upkeep.repair import one_plan
+from tests.support import statuses
 
 ROOT = Path(__file__).resolve().parent.parent
 TINY = Path(__file__).resolve().parent / "data" / "ipc-tiny"
@@ -165,7 +166,7 @@ def succeeds_with(folder: str, problem: str, chosen: Any, mode: str) -> bool:
     """Whether every goal succeeds when the network runs with ``chosen``'s emergency."""
     scenario = scenario_of(folder, problem, emergency=chosen)
     report = anyio.run(functools.partial(run_scenario, scenario, replanning=mode))
-    return all(g["status"] == "success" for g in report.summary.as_dict()["goals"])
+    return all(status == "success" for status in statuses(report))
 
 
 @pytest.mark.parametrize(

@@ -16,7 +16,7 @@ import pytest
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Decomposition, Done, Step
 from htnagent.model.terms import parse
-from htnagent.planning.planner import PlannerSettings, Search
+from htnagent.planning.planner import PlannerSettings, Search, plan
 from htnagent.upkeep import OnlinePlanSet, done_subtasks
 from htnagent.upkeep import repair as repair_module
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_GROWTH
@@ -214,7 +214,7 @@ def test_a_repair_below_the_goal_stops_a_task_list_that_only_grows(monkeypatch: 
     ps.make(here)
     assert ps.best is not None and ps.best.text() == ["mark(b)", "mark(b)"]
     searched: list[tuple[int | None, int]] = []
-    real_plan = repair_module.plan
+    real_plan = plan  # what htnagent.upkeep.repair calls
 
     def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
         settings = args[0] if args else kw["settings"]
