@@ -19,19 +19,19 @@ ROOT = Path(__file__).resolve().parent.parent
 @pytest.mark.timeout(120)
 def test_hostile_inputs_give_no_traceback_hang_or_crash(tmp_path: Path) -> None:
     # Every fourth input (and every special file) through real processes, the rest in workers.
-    command = [sys.executable, "-m", "bench", "fuzz", "--runs", "16", "--seed", "2024"]
+    command = [sys.executable, "-m", "bench", "fuzz", "--runs", "12", "--seed", "2024"]
     command += ["--subprocess-every", "4", "--out", str(tmp_path)]
     done = subprocess.run(command, cwd=ROOT, capture_output=True, text=True, timeout=110)
     report = json.loads((tmp_path / "fuzz.json").read_text())
     assert done.returncode == 0, report["examples"]
-    assert report["runs"] == 16
+    assert report["runs"] == 12
     for key in ("tracebacks", "timeouts", "over_memory", "bad_exit", "code_ran"):
         assert report[key] == 0, report["examples"]
     assert report["max_seconds"] < report["limits"]["timeout_s"]
     through = report["through"]
-    assert through["subprocess"]["inputs"] >= 4
-    assert through["subprocess"]["inputs"] + through["in_process"]["inputs"] == 16
-    assert report["executions"] >= 32
+    assert through["subprocess"]["inputs"] >= 3
+    assert through["subprocess"]["inputs"] + through["in_process"]["inputs"] == 12
+    assert report["executions"] >= 24
 
 
 def test_every_kind_of_input_is_made() -> None:
