@@ -381,9 +381,10 @@ class _Grounder:
         ]
         used = {t for me in kept for t in me.subtasks} | {t for t in tasks if t in actions}
         kept_actions = [a for t in used if t in actions for a in actions[t]]
-        finite = {t: c for t, c in least.items() if c < _INF}
+        # Every task met keeps its id (a task no decomposition finishes is never reached):
+        # only a task the grounding never met falls back on its name's least cost.
         fallback = self.domain.task_costs or {}
-        return Composition(kept_actions, kept, finite, fallback)
+        return Composition(kept_actions, kept, least, fallback)
 
 
 def _binding_order(pre: Sequence[Literal], bound: Iterable[str]) -> tuple[Literal, ...]:

@@ -255,9 +255,10 @@ def _portfolio(
             return dfs.answered() or grounded.answered()
 
         found = run(greedy, progress=greedy_told, checkpoint=answered)
+        settled = found.status in _FINAL or answered()
         for helper in helpers:
             helper.others_on.clear()
-            if found.status in _FINAL:
+            if settled:
                 helper.stop.set()
         for helper in helpers:
             helper.ended.wait()
