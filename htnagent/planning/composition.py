@@ -26,7 +26,7 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    (:meth:`Composition.estimate`) is the sum over its tasks; ``inf`` when one of them can
    no longer be done from the state, so the search drops that node (sound: a relaxation).
 
-Everything is bounded by :data:`MAX_GROUND` ground actions plus methods: past that
+Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
 :func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads
 ``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
 """
@@ -39,15 +39,16 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 
 from htnagent.model.domain import Domain
-from htnagent.model.preconditions import Literal, all_satisfiers
+from htnagent.model.preconditions import Literal, satisfiers
 from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.hddl_translation import EQ, TYPE
 
-MAX_GROUND = 40_000
-"""The most ground actions plus ground methods :func:`ground` makes before it gives up:
-past this, one estimate from a state costs more than the guidance is worth (it is worked
-out anew for every state the search reaches)."""
+MAX_GROUND = 60_000
+"""The most ground actions plus bindings of methods' preconditions :func:`ground` goes
+through before it gives up: past this, the grounding takes seconds, and one estimate from
+a state costs more than the guidance is worth (it is worked out anew for every state the
+search reaches)."""
 
 CHECK_EVERY = 256
 """Ground actions or methods made between two calls of ``checkpoint``."""
@@ -224,7 +225,7 @@ def ground(
     checkpoint: Callable[[], bool] | None = None,
 ) -> Composition | None:
     """The problem grounded and compiled for relaxed composition (the module's steps 1-3),
-    or None when that takes more than ``cap`` ground actions plus methods, or when
+    or None when that takes more than ``cap`` ground actions and method bindings, or when
     ``checkpoint()`` (called every :data:`CHECK_EVERY` of them) says stop."""
     try:
         return _Grounder(domain, state, cap, checkpoint).run(tasks)
@@ -315,7 +316,7 @@ class _Grounder:
                 b0 = unify(op.head, task, {})
                 if b0 is None:
                     continue
-                for b in all_satisfiers(pre, reached, b0):
+                for b in satisfiers(pre, reached, b0):
                     self.count()
                     add = tuple(substitute(x, b) for x in op.add)
                     gone = [substitute(x, b) for x in op.delete if x.name in self.negated]
@@ -332,13 +333,13 @@ class _Grounder:
                 b0 = unify(me.head, task, {})
                 if b0 is None:
                     continue
-                for b in all_satisfiers(pre, reached, b0):
+                for b in satisfiers(pre, reached, b0):
+                    self.count()  # every binding: a method with free variables may have millions
                     subtasks = tuple(substitute(t, b) for t in me.subtasks)
                     key = (task, me.name, subtasks)
                     if key in made or not all(t.is_ground for t in subtasks):
                         continue
                     made.add(key)
-                    self.count()
                     methods.append(_GroundMethod(task, self.changing(me.pre, b), subtasks))
                     for t in subtasks:
                         if t in met:
