@@ -151,6 +151,7 @@ class Composition:
         self._consumers = [tuple(c) for c in consumers]
         self._free = [k for k, n in enumerate(needs) if n == 0]
         self._cache: dict[frozenset[Atom], list[float]] = {}
+        self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -207,7 +208,11 @@ class Composition:
         """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
         when one of them cannot be done any more.  A task the grounding never met (it
         cannot come from the tasks grounded) counts its name's least cost."""
-        dist = self.task_costs(dynamic)
+        # The children of one node mostly share its state: the same object, asked again.
+        last_dynamic, dist = self._last
+        if dynamic is not last_dynamic:
+            dist = self.task_costs(dynamic)
+            self._last = (dynamic, dist)
         ids = self._tasks
         total = 0.0
         for t in tasks:

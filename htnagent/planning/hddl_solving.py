@@ -231,7 +231,13 @@ def _portfolio(
 
     def guided(paced: _Paced) -> PlanResult | None:
         # The grounding counts against the search's share: it is paced like the search.
-        composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=paced.pace)
+        left = time_left()
+        deadline = None if left is None else time.perf_counter() + left
+
+        def checkpoint() -> bool:
+            return paced.pace() or (deadline is not None and time.perf_counter() > deadline)
+
+        composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=checkpoint)
         if composition is None or paced.stop.is_set():
             return None
         settings = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
@@ -255,7 +261,8 @@ def _portfolio(
             return dfs.answered() or grounded.answered()
 
         found = run(greedy, progress=greedy_told, checkpoint=answered)
-        settled = found.status in _FINAL or answered()
+        # Out of time (or stopped), the others are too: a grounding under way has no clock.
+        settled = found.status in (*_FINAL, PlanStatus.TIMED_OUT, PlanStatus.INTERRUPTED) or answered()
         for helper in helpers:
             helper.others_on.clear()
             if settled:
