@@ -44,14 +44,15 @@ from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.hddl_translation import EQ, TYPE
 
-MAX_GROUND = 60_000
+MAX_GROUND = 20_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
 through before it gives up: past this, the grounding takes seconds, and one estimate from
 a state costs more than the guidance is worth (it is worked out anew for every state the
 search reaches)."""
 
 CHECK_EVERY = 256
-"""Ground actions or methods made between two calls of ``checkpoint``."""
+"""Units of work between two calls of ``checkpoint``: a binding, a task decomposed or an
+action tried."""
 
 _INF = float("inf")
 _NONE: frozenset[str] = frozenset()
@@ -249,12 +250,19 @@ class _Grounder:
         self.cap = cap
         self.checkpoint = checkpoint
         self.made = 0
+        self.work = 0
 
     def count(self) -> None:
+        """One more ground action or method binding: past the cap, give up."""
         self.made += 1
         if self.made > self.cap:
             raise TooLarge
-        if self.checkpoint is not None and not self.made % CHECK_EVERY and self.checkpoint():
+        self.tick()
+
+    def tick(self) -> None:
+        """One more unit of work: every :data:`CHECK_EVERY`, ask the checkpoint."""
+        self.work += 1
+        if self.checkpoint is not None and not self.work % CHECK_EVERY and self.checkpoint():
             raise TooLarge
 
     def relaxed(self, pre: Sequence[Literal]) -> tuple[Literal, ...]:
@@ -316,6 +324,7 @@ class _Grounder:
 
         def act(task: Atom) -> bool:
             """Ground the primitive task where its relaxed precondition holds."""
+            self.tick()
             found = []
             for op, pre in op_orders[task.name]:
                 b0 = unify(op.head, task, {})
@@ -334,6 +343,7 @@ class _Grounder:
             return bool(found)
 
         def decompose(task: Atom, queue: list[Atom]) -> None:
+            self.tick()
             for me, pre in orders.get(task.name, ()):
                 b0 = unify(me.head, task, {})
                 if b0 is None:

@@ -124,6 +124,11 @@ def solve(
     return _portfolio(planning, budget, time_left, progress, started)
 
 
+GROUNDING_SECONDS = 2.0
+"""The most seconds of work the grounded search spends grounding: past them it gives up
+(and its share of the time goes back to the others), whatever is left under the cap."""
+
+
 def grounded_allowance(elapsed: float) -> float:
     """The seconds of work the grounded search (its grounding included) may have had
     ``elapsed`` seconds into the portfolio: :data:`GROUNDED_SHARE` of the time after
@@ -235,6 +240,8 @@ def _portfolio(
         deadline = None if left is None else time.perf_counter() + left
 
         def checkpoint() -> bool:
+            if time.thread_time() - paced.cpu_start > GROUNDING_SECONDS:
+                return True
             return paced.pace() or (deadline is not None and time.perf_counter() > deadline)
 
         composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=checkpoint)
@@ -351,6 +358,7 @@ __all__ = [
     "DFS_SECONDS",
     "DFS_SHARE",
     "GROUNDED_SHARE",
+    "GROUNDING_SECONDS",
     "HDDL_BUDGET",
     "Better",
     "SolveProgress",
