@@ -31,11 +31,14 @@ DFS_ALONE = 0.25
 starts beside it.  Where depth-first wins, it mostly wins at once (Barman's and Depots's
 largest problems take it under 0.2 s)."""
 DFS_SECONDS = 2.0
-"""The seconds of work depth-first search gets at half the time, beside greedy
-best-first search; past them it keeps a quarter (:func:`dfs_allowance`)."""
+"""The seconds of work depth-first search gets at :data:`DFS_EARLY_SHARE` of the time,
+beside the greedy searches; past them it keeps a quarter (:func:`dfs_allowance`)."""
+DFS_EARLY_SHARE = 3 / 8
+"""Depth-first search's share of the time after :data:`DFS_ALONE` until it has had
+:data:`DFS_SECONDS`."""
 DFS_SHARE = 0.25
 """Depth-first search's share of the time once it has had :data:`DFS_SECONDS`."""
-GROUNDED_SHARE = 1 / 3
+GROUNDED_SHARE = 1 / 4
 """The share of the time after :data:`DFS_ALONE` that the grounded search gets (its
 grounding included): greedy best-first search guided by relaxed composition
 (:mod:`htnagent.planning.composition`), for the domains where the lifted estimate sees
@@ -78,7 +81,8 @@ def solve(
     a time: the process uses one core) until one of them has the answer.  Depth-first
     search is never abandoned -- a search that is getting there gets there (one that needs
     8 s alone answers within 30 s) -- but once it has had :data:`DFS_SECONDS` of work it
-    keeps only a quarter of the time (:func:`dfs_allowance`): the greedy search is the one that scales.
+    keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
+    ones that scale.
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -138,14 +142,16 @@ def grounded_allowance(elapsed: float) -> float:
 
 def dfs_allowance(elapsed: float) -> float:
     """The seconds of work depth-first search may have had ``elapsed`` seconds into the
-    portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then half until it
-    has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE` of the time after."""
+    portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then
+    :data:`DFS_EARLY_SHARE` until it has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE`
+    of the time after.  With the grounded search's :data:`GROUNDED_SHARE`, the lifted
+    greedy search keeps the rest: 3/8 of the time at first, half later."""
     if elapsed <= DFS_ALONE:
         return elapsed
-    halves_end = DFS_ALONE + 2 * (DFS_SECONDS - DFS_ALONE)
-    if elapsed <= halves_end:
-        return DFS_ALONE + (elapsed - DFS_ALONE) / 2
-    return DFS_SECONDS + (elapsed - halves_end) * DFS_SHARE
+    early_end = DFS_ALONE + (DFS_SECONDS - DFS_ALONE) / DFS_EARLY_SHARE
+    if elapsed <= early_end:
+        return DFS_ALONE + (elapsed - DFS_ALONE) * DFS_EARLY_SHARE
+    return DFS_SECONDS + (elapsed - early_end) * DFS_SHARE
 
 
 _FINAL = (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE)
@@ -355,6 +361,7 @@ def _after(progress: SolveProgress, search: Search, before: int, started: float)
 
 
 __all__ = [
+    "DFS_EARLY_SHARE",
     "DFS_SECONDS",
     "DFS_SHARE",
     "GROUNDED_SHARE",
