@@ -50,6 +50,10 @@ through before it gives up: past this, the grounding takes seconds, and one esti
 a state costs more than the guidance is worth (it is worked out anew for every state the
 search reaches)."""
 
+CACHED_COSTS = 2_000_000
+"""About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
+it has seen (tens of megabytes)."""
+
 CHECK_EVERY = 256
 """Units of work between two calls of ``checkpoint``: a binding, a task decomposed or an
 action tried."""
@@ -152,6 +156,8 @@ class Composition:
         self._consumers = [tuple(c) for c in consumers]
         self._free = [k for k, n in enumerate(needs) if n == 0]
         self._cache: dict[frozenset[Atom], list[float]] = {}
+        # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
+        self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
         self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
@@ -160,7 +166,7 @@ class Composition:
         found = self._cache.get(dynamic)
         if found is not None:
             return found
-        if len(self._cache) >= 50_000:
+        if len(self._cache) >= self._cache_size:
             self._cache.clear()  # a bound on memory: the searches revisit few states late
         dist = [_INF] * self._size
         pushed = [_INF] * self._size
