@@ -151,3 +151,21 @@ def test_the_guided_search_proves_a_dead_end_unsolvable_at_once() -> None:
     result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
     assert result.status is PlanStatus.UNSOLVABLE
     assert result.expansions <= 1  # the root's, whose children are all dead ends
+
+
+def test_the_portfolio_says_unsolvable_where_only_the_grounded_search_can_tell() -> None:
+    # t ends only where q holds, and nothing makes q: the lifted searches decompose t into
+    # t and one more action for ever (the task list grows without end), while the grounded
+    # estimate of t is infinite from the start.
+    text = (
+        "(define (domain forever) (:requirements :hierarchy) (:predicates (p) (q))"
+        " (:task t :parameters ()) (:method m :parameters () :task (t) :ordered-subtasks (and (t) (a)))"
+        " (:method end :parameters () :task (t) :precondition (q) :ordered-subtasks ())"
+        " (:action a :parameters () :effect (p)))"
+    )
+    domain = parse_domain(text, "forever.hddl")
+    problem = parse_problem(
+        "(define (problem p) (:domain forever) (:htn :ordered-subtasks (t)) (:init))", domain, "p.hddl"
+    )
+    assert solve(domain, problem, search=Search.GBFS, timeout=0.5).result.status is PlanStatus.TIMED_OUT
+    assert solve(domain, problem, timeout=30).result.status is PlanStatus.UNSOLVABLE
