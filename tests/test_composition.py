@@ -169,3 +169,39 @@ def test_the_portfolio_says_unsolvable_where_only_the_grounded_search_can_tell()
     )
     assert solve(domain, problem, search=Search.GBFS, timeout=0.5).result.status is PlanStatus.TIMED_OUT
     assert solve(domain, problem, timeout=30).result.status is PlanStatus.UNSOLVABLE
+
+
+KEYS = """
+(define (domain keys)
+  (:requirements :typing :hierarchy :existential-preconditions)
+  (:types key door)
+  (:predicates (fits ?k - key ?d - door) (have ?k - key) (spare ?k - key) (open ?d - door))
+  (:task enter :parameters (?d - door))
+  (:method by-spare :parameters (?d - door ?k - key) :task (enter ?d)
+    :precondition (fits ?k ?d) :ordered-subtasks (and (get ?k) (unlock ?d)))
+  (:method at-once :parameters (?d - door) :task (enter ?d) :ordered-subtasks (unlock ?d))
+  (:action get :parameters (?k - key) :precondition (spare ?k) :effect (have ?k))
+  (:action unlock :parameters (?d - door)
+    :precondition (exists (?k - key) (and (fits ?k ?d) (have ?k))) :effect (open ?d))
+)
+"""
+
+
+def test_every_binding_of_a_precondition_only_variable_is_a_way_of_its_own() -> None:
+    # unlock(d) holds with either key: k2 is in hand, k1 must be got first.  The grounding
+    # keeps both ways, whichever it meets first: from the start unlock costs 1, and where
+    # only the spare k1 is left, 2 (get it, then unlock).
+    domain = parse_domain(KEYS, "keys.hddl")
+    problem = parse_problem(
+        "(define (problem p) (:domain keys) (:objects k1 k2 - key d - door)"
+        " (:htn :ordered-subtasks (enter d)) (:init (fits k1 d) (fits k2 d) (spare k1) (have k2)))",
+        domain,
+        "p.hddl",
+    )
+    planning = translate(domain, problem)
+    c = _grounded(planning)
+    start = planning.state.dynamic
+    assert c.estimate([_a("unlock", "d")], start) == 1
+    assert c.estimate([_a("enter", "d")], start) == 1
+    without_k2 = start - {_a("have", "k2")}
+    assert c.estimate([_a("unlock", "d")], without_k2) == 2

@@ -323,30 +323,34 @@ class _Grounder:
                 reads[name] |= {lit.atom.name for lit in pre if lit.positive}
         actions: dict[Atom, list[_GroundAction]] = {}
         methods: list[_GroundMethod] = []
-        made: set[tuple[Atom, str, tuple[Atom, ...]]] = set()
+        made: set[tuple[Atom, str, tuple[Atom, ...], tuple[Atom, ...]]] = set()
         met: dict[Atom, None] = dict.fromkeys(roots)
-        waiting: list[Atom] = []  # primitive tasks whose precondition is not reached yet
+        primitive: list[Atom] = []  # tried again as new facts come: more ways may hold
+        ways: set[tuple[Atom, int, tuple[Atom, ...]]] = set()
         new_facts: list[Atom] = []
 
-        def act(task: Atom) -> bool:
-            """Ground the primitive task where its relaxed precondition holds."""
+        def act(task: Atom) -> None:
+            """Ground the primitive task's ways where their relaxed precondition holds: each
+            operator (an action with alternatives has several) and each binding of
+            variables its precondition alone has, told apart by the facts they need."""
             self.tick()
-            found = []
-            for op, pre in op_orders[task.name]:
+            for index, (op, pre) in enumerate(op_orders[task.name]):
                 b0 = unify(op.head, task, {})
                 if b0 is None:
                     continue
                 for b in satisfiers(pre, reached, b0):
                     self.count()
+                    needs = self.changing(op.pre, b)
+                    if (task, index, needs) in ways:
+                        continue
+                    ways.add((task, index, needs))
                     add = tuple(substitute(x, b) for x in op.add)
                     gone = [substitute(x, b) for x in op.delete if x.name in self.negated]
                     reaches = add + tuple(Atom(NOT + f.name, f.args) for f in gone)
-                    found.append(_GroundAction(task, op.action_cost(task), self.changing(op.pre, b), reaches))
+                    actions.setdefault(task, []).append(
+                        _GroundAction(task, op.action_cost(task), needs, reaches)
+                    )
                     new_facts.extend(f for f in add if f not in facts)
-                    break  # one way of the operator is enough: the head is the action
-            if found:
-                actions[task] = found
-            return bool(found)
 
         def decompose(task: Atom, queue: list[Atom]) -> None:
             self.tick()
@@ -357,24 +361,29 @@ class _Grounder:
                 for b in satisfiers(pre, reached, b0):
                     self.count()  # every binding: a method with free variables may have millions
                     subtasks = tuple(substitute(t, b) for t in me.subtasks)
-                    key = (task, me.name, subtasks)
+                    # Two bindings with the same subtasks may need other facts (a variable
+                    # of the precondition alone): each is a way of its own.
+                    needs = self.changing(me.pre, b)
+                    key = (task, me.name, subtasks, needs)
                     if key in made or not all(t.is_ground for t in subtasks):
                         continue
                     made.add(key)
-                    methods.append(_GroundMethod(task, self.changing(me.pre, b), subtasks))
+                    methods.append(_GroundMethod(task, needs, subtasks))
                     for t in subtasks:
                         if t in met:
                             continue
                         met[t] = None
                         if t.name in domain.methods:
                             queue.append(t)
-                        elif t.name in domain.operators and not act(t):
-                            waiting.append(t)
+                        elif t.name in domain.operators:
+                            primitive.append(t)
+                            act(t)
 
         queue = [t for t in met if t.name in domain.methods]
         for t in met:
-            if t.name in domain.operators and not act(t):
-                waiting.append(t)
+            if t.name in domain.operators:
+                primitive.append(t)
+                act(t)
         while True:
             while queue:
                 decompose(queue.pop(), queue)
@@ -385,8 +394,9 @@ class _Grounder:
             facts |= fresh
             reached = State(FactBase(facts), frozenset(), _NONE)
             changed = {f.name for f in fresh}
-            still = [t for t in waiting if not (reads[t.name] & changed and act(t))]
-            waiting[:] = still
+            for t in primitive:
+                if reads[t.name] & changed:
+                    act(t)
             queue = [t for t in met if t.name in domain.methods and reads[t.name] & changed]
         return actions, methods, list(met)
 
