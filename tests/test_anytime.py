@@ -174,11 +174,15 @@ def test_depth_first_search_keeps_a_share_of_the_time_however_long_it_takes() ->
     from htnagent.planning import hddl_solving as hs
 
     assert hs.dfs_allowance(0.1) == pytest.approx(0.1)  # alone
-    assert hs.dfs_allowance(hs.DFS_ALONE + 1.0) == pytest.approx(hs.DFS_ALONE + 0.5)  # half
-    end_of_halves = hs.DFS_ALONE + 2 * (hs.DFS_SECONDS - hs.DFS_ALONE)
-    assert hs.dfs_allowance(end_of_halves) == pytest.approx(hs.DFS_SECONDS)
+    assert hs.dfs_allowance(hs.DFS_ALONE + 1.0) == pytest.approx(hs.DFS_ALONE + hs.DFS_EARLY_SHARE)
+    end_of_early = hs.DFS_ALONE + (hs.DFS_SECONDS - hs.DFS_ALONE) / hs.DFS_EARLY_SHARE
+    assert hs.dfs_allowance(end_of_early) == pytest.approx(hs.DFS_SECONDS)
     # Never abandoned: a search that needs 8 s of work alone has them within 30 s.
     assert hs.dfs_allowance(30.0) >= 8.0
+    # The grounded search's share beside it leaves the lifted greedy search a third or more.
+    for t in (0.5, 1.0, 3.0, 10.0, 30.0):
+        rest = t - hs.dfs_allowance(t) - hs.grounded_allowance(t)
+        assert rest >= (t - hs.DFS_ALONE) / 3
 
 
 def test_the_portfolio_answers_from_either_search_when_both_run(

@@ -28,11 +28,17 @@ HDDL = Path(__file__).resolve().parent / "hddl"
 
 # A task that decomposes into itself and one more action, or ends where q holds, which it
 # never does: the search goes on until its time is up.
+# The task list grows without end: t ends only where q holds and p does not, and the only
+# way to q (c) needs p first, which nothing deletes.  A relaxation (which keeps "not p" true
+# once it was) sees a way out, so the grounded search runs on as well, to the time limit.
 FOREVER_DOMAIN = (
-    "(define (domain forever) (:requirements :hierarchy) (:predicates (p) (q))"
-    " (:task t :parameters ()) (:method m :parameters () :task (t) :ordered-subtasks (and (t) (a)))"
-    " (:method end :parameters () :task (t) :precondition (q) :ordered-subtasks ())"
-    " (:action a :parameters () :effect (p)))"
+    "(define (domain forever) (:requirements :hierarchy :negative-preconditions)"
+    " (:predicates (p) (q))"
+    " (:task t :parameters ())"
+    " (:method m :parameters () :task (t) :ordered-subtasks (and (t) (a) (c)))"
+    " (:method end :parameters () :task (t) :precondition (and (q) (not (p))) :ordered-subtasks ())"
+    " (:action a :parameters () :effect (p))"
+    " (:action c :parameters () :precondition (p) :effect (q)))"
 )
 FOREVER_PROBLEM = "(define (problem p) (:domain forever) (:htn :ordered-subtasks (t)) (:init))"
 

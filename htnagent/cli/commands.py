@@ -198,7 +198,8 @@ def build_parser() -> argparse.ArgumentParser:
         "--search",
         choices=SEARCH_CHOICES,
         help="the search order: astar (cost-optimal; a scenario's default), gbfs (greedy), dfs "
-        "(depth-first in method order), or with --hddl auto (its default: dfs, then gbfs beside it)",
+        "(depth-first in method order), or with --hddl auto (its default: dfs, then gbfs "
+        "and a grounded gbfs beside it)",
     )
     pl.add_argument(
         "--anytime",

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from htnagent.hddl import model as m
 from htnagent.model.plans import Plan
+from htnagent.planning.composition import ground
 from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
 from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
 
@@ -30,10 +31,19 @@ DFS_ALONE = 0.25
 starts beside it.  Where depth-first wins, it mostly wins at once (Barman's and Depots's
 largest problems take it under 0.2 s)."""
 DFS_SECONDS = 2.0
-"""The seconds of work depth-first search gets at half the time, beside greedy
-best-first search; past them it keeps a quarter (:func:`dfs_allowance`)."""
+"""The seconds of work depth-first search gets at :data:`DFS_EARLY_SHARE` of the time,
+beside the greedy searches; past them it keeps a quarter (:func:`dfs_allowance`)."""
+DFS_EARLY_SHARE = 3 / 8
+"""Depth-first search's share of the time after :data:`DFS_ALONE` until it has had
+:data:`DFS_SECONDS`."""
 DFS_SHARE = 0.25
 """Depth-first search's share of the time once it has had :data:`DFS_SECONDS`."""
+GROUNDED_SHARE = 1 / 4
+"""The share of the time after :data:`DFS_ALONE` that the grounded search gets (its
+grounding included): greedy best-first search guided by relaxed composition
+(:mod:`htnagent.planning.composition`), for the domains where the lifted estimate sees
+nothing.  Where grounding is past its cap the search never starts, and its share goes back
+to the others."""
 
 
 SolveProgress = Callable[[Search, int, float], None]
@@ -67,11 +77,12 @@ def solve(
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
     in method order alone for :data:`DFS_ALONE` seconds, then greedy best-first beside it,
-    the two taking turns (two threads, one at a time: the process uses one core) until one
-    of them has the answer.  Depth-first search is never abandoned -- a search that is
-    getting there gets there (one that needs 8 s alone answers within 30 s) -- but once it
-    has had :data:`DFS_SECONDS` of work it keeps only a quarter of the time
-    (:func:`dfs_allowance`): the greedy search is the one that scales.
+    and a grounded greedy search (:data:`GROUNDED_SHARE`), taking turns (threads, one at
+    a time: the process uses one core) until one of them has the answer.  Depth-first
+    search is never abandoned -- a search that is getting there gets there (one that needs
+    8 s alone answers within 30 s) -- but once it has had :data:`DFS_SECONDS` of work it
+    keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
+    ones that scale.
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -117,19 +128,73 @@ def solve(
     return _portfolio(planning, budget, time_left, progress, started)
 
 
+GROUNDING_SECONDS = 2.0
+"""The most seconds of work the grounded search spends grounding: past them it gives up
+(and its share of the time goes back to the others), whatever is left under the cap."""
+
+
+def grounded_allowance(elapsed: float) -> float:
+    """The seconds of work the grounded search (its grounding included) may have had
+    ``elapsed`` seconds into the portfolio: :data:`GROUNDED_SHARE` of the time after
+    :data:`DFS_ALONE`."""
+    return max(elapsed - DFS_ALONE, 0.0) * GROUNDED_SHARE
+
+
 def dfs_allowance(elapsed: float) -> float:
     """The seconds of work depth-first search may have had ``elapsed`` seconds into the
-    portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then half until it
-    has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE` of the time after."""
+    portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then
+    :data:`DFS_EARLY_SHARE` until it has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE`
+    of the time after.  With the grounded search's :data:`GROUNDED_SHARE`, the lifted
+    greedy search keeps the rest: 3/8 of the time at first, half later."""
     if elapsed <= DFS_ALONE:
         return elapsed
-    halves_end = DFS_ALONE + 2 * (DFS_SECONDS - DFS_ALONE)
-    if elapsed <= halves_end:
-        return DFS_ALONE + (elapsed - DFS_ALONE) / 2
-    return DFS_SECONDS + (elapsed - halves_end) * DFS_SHARE
+    early_end = DFS_ALONE + (DFS_SECONDS - DFS_ALONE) / DFS_EARLY_SHARE
+    if elapsed <= early_end:
+        return DFS_ALONE + (elapsed - DFS_ALONE) * DFS_EARLY_SHARE
+    return DFS_SECONDS + (elapsed - early_end) * DFS_SHARE
 
 
 _FINAL = (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE)
+
+
+class _Paced:
+    """A search in a thread of its own that keeps to an allowance of the portfolio's time:
+    at each of its checkpoints it waits while its thread's work is ahead of
+    ``allowance(seconds since the portfolio began)``, and stops once told to."""
+
+    def __init__(self, name: str, allowance: Callable[[float], float], begun: float) -> None:
+        self.allowance = allowance
+        self.begun = begun
+        self.out: list[PlanResult] = []
+        self.ended = threading.Event()
+        self.stop = threading.Event()
+        self.others_on = threading.Event()  # set while the main thread's search runs too
+        self.name = name
+        self.cpu_start = 0.0
+
+    def pace(self) -> bool:
+        """The thread's checkpoint: True tells its search to stop."""
+        while self.others_on.is_set() and not self.stop.is_set():
+            used = time.thread_time() - self.cpu_start
+            if used <= self.allowance(time.perf_counter() - self.begun):
+                break
+            time.sleep(0.005)  # the other threads run meanwhile
+        return self.stop.is_set()
+
+    def start(self, work: Callable[[_Paced], PlanResult | None]) -> None:
+        def body() -> None:
+            self.cpu_start = time.thread_time()
+            try:
+                result = work(self)
+                if result is not None:
+                    self.out.append(result)
+            finally:
+                self.ended.set()
+
+        threading.Thread(target=body, name=self.name, daemon=True).start()
+
+    def answered(self) -> bool:
+        return self.ended.is_set() and bool(self.out) and self.out[0].status in _FINAL
 
 
 def _portfolio(
@@ -139,29 +204,19 @@ def _portfolio(
     progress: SolveProgress | None,
     started: float,
 ) -> Solved:
-    """Depth-first in a thread of its own, greedy best-first beside it after
-    :data:`DFS_ALONE` (see :func:`solve`); the first final answer ends both."""
+    """Depth-first in a thread of its own, and after :data:`DFS_ALONE` greedy best-first
+    beside it and the grounded search in a third (see :func:`solve`); the first final
+    answer ends them all."""
     run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
     dfs_settings = PlannerSettings(alternatives=1, budget=budget, search=Search.DFS, time_limit=time_left())
-    dfs_out: list[PlanResult] = []
-    ended = threading.Event()
-    stop_dfs = threading.Event()
-    greedy_on = threading.Event()
-    cpu_start: list[float] = []
     begun = time.perf_counter()
-
-    def pace() -> bool:
-        """Depth-first search's checkpoint: it waits while it is ahead of its allowance."""
-        while greedy_on.is_set() and not stop_dfs.is_set():
-            used = time.thread_time() - cpu_start[0]
-            if used <= dfs_allowance(time.perf_counter() - begun):
-                break
-            time.sleep(0.005)  # the other thread runs meanwhile
-        return stop_dfs.is_set()
+    dfs = _Paced("htnagent-dfs", dfs_allowance, begun)
+    grounded = _Paced("htnagent-grounded", grounded_allowance, begun)
 
     # Progress as one count: depth-first search's own while it runs alone, then, said by the
-    # greedy search, the two searches' expansions together (one thread writes at a time).
+    # greedy search, the searches' expansions together.
     dfs_seen = [0]
+    grounded_seen = [0]
     said = [0]
     saying = threading.Lock()
 
@@ -173,50 +228,74 @@ def _portfolio(
 
     def dfs_told(n: int, _: float) -> None:
         dfs_seen[0] = n
-        if not greedy_on.is_set():
+        if not dfs.others_on.is_set():
             say(Search.DFS, n)
 
+    def grounded_told(n: int, _: float) -> None:
+        grounded_seen[0] = n
+
     def greedy_told(n: int, _: float) -> None:
-        say(Search.GBFS, dfs_seen[0] + n)
+        say(Search.GBFS, dfs_seen[0] + grounded_seen[0] + n)
 
-    def depth_first() -> None:
-        cpu_start.append(time.thread_time())
-        try:
-            dfs_out.append(run(dfs_settings, checkpoint=pace, progress=dfs_told))
-        finally:
-            ended.set()
+    def depth_first(paced: _Paced) -> PlanResult:
+        return run(dfs_settings, checkpoint=paced.pace, progress=dfs_told)
 
-    # One collector pause for both searches (each pauses it itself only when it runs).
+    def guided(paced: _Paced) -> PlanResult | None:
+        # The grounding counts against the search's share: it is paced like the search.
+        left = time_left()
+        deadline = None if left is None else time.perf_counter() + left
+
+        def checkpoint() -> bool:
+            if time.thread_time() - paced.cpu_start > GROUNDING_SECONDS:
+                return True
+            return paced.pace() or (deadline is not None and time.perf_counter() > deadline)
+
+        composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=checkpoint)
+        if composition is None or paced.stop.is_set():
+            return None
+        settings = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
+        return run(settings, checkpoint=paced.pace, progress=grounded_told, guide=composition.estimate)
+
+    # One collector pause for all the searches (each pauses it itself only when it runs).
     collecting = gc.isenabled()
     gc.disable()
-    worker = threading.Thread(target=depth_first, name="htnagent-dfs", daemon=True)
+    helpers = (dfs, grounded)
     try:
-        worker.start()
-        ended.wait(DFS_ALONE)
-        if ended.is_set() and (dfs_out[0].status in _FINAL or dfs_out[0].expansions >= budget):
-            return Solved(planning, Search.DFS, dfs_settings, dfs_out[0])
+        dfs.start(depth_first)
+        dfs.ended.wait(DFS_ALONE)
+        if dfs.ended.is_set() and (dfs.out[0].status in _FINAL or dfs.out[0].expansions >= budget):
+            return Solved(planning, Search.DFS, dfs_settings, dfs.out[0])
         greedy = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
-        greedy_on.set()
+        for helper in helpers:
+            helper.others_on.set()
+        grounded.start(guided)
 
-        def dfs_answered() -> bool:
-            return ended.is_set() and bool(dfs_out) and dfs_out[0].status in _FINAL
+        def answered() -> bool:
+            return dfs.answered() or grounded.answered()
 
-        found = run(greedy, progress=greedy_told, checkpoint=dfs_answered)
-        greedy_on.clear()
-        if found.status in _FINAL:
-            stop_dfs.set()
-        worker.join()
+        found = run(greedy, progress=greedy_told, checkpoint=answered)
+        # Out of time (or stopped), the others are too: a grounding under way has no clock.
+        settled = found.status in (*_FINAL, PlanStatus.TIMED_OUT, PlanStatus.INTERRUPTED) or answered()
+        for helper in helpers:
+            helper.others_on.clear()
+            if settled:
+                helper.stop.set()
+        for helper in helpers:
+            helper.ended.wait()
     finally:
-        stop_dfs.set()
-        greedy_on.clear()
+        for helper in helpers:
+            helper.stop.set()
+            helper.others_on.clear()
         if collecting:
             gc.enable()
-    tried = dfs_out[0] if dfs_out else PlanResult(PlanStatus.INTERRUPTED)
-    both = tried.expansions + found.expansions
+    others = [(Search.DFS, dfs_settings, dfs.out), (Search.GBFS, greedy, grounded.out)]
+    both = found.expansions + sum(out[0].expansions for _, _, out in others if out)
     seconds = time.perf_counter() - started
-    if found.status not in _FINAL and tried.status in _FINAL:
-        return Solved(planning, Search.DFS, dfs_settings, dataclasses.replace(tried, expansions=both))
-    # The greedy search's answer, or neither's: then why the greedy search stopped.
+    if found.status not in _FINAL:
+        for search, settings, out in others:
+            if out and out[0].status in _FINAL:
+                return Solved(planning, search, settings, dataclasses.replace(out[0], expansions=both))
+    # The greedy search's answer, or no one's: then why the greedy search stopped.
     answer = dataclasses.replace(found, expansions=both, seconds=seconds)
     return Solved(planning, Search.GBFS, greedy, answer)
 
@@ -282,8 +361,11 @@ def _after(progress: SolveProgress, search: Search, before: int, started: float)
 
 
 __all__ = [
+    "DFS_EARLY_SHARE",
     "DFS_SECONDS",
     "DFS_SHARE",
+    "GROUNDED_SHARE",
+    "GROUNDING_SECONDS",
     "HDDL_BUDGET",
     "Better",
     "SolveProgress",

@@ -64,6 +64,9 @@ class PlanStatus(Enum):
     """The process was asked to stop (:func:`stop_searches`) before any plan was found."""
 
 
+Guide = Callable[[Sequence[Atom], frozenset[Atom]], float]
+"""A node's estimate from its task list and its state's changing facts (see :func:`plan`)."""
+
 Progress = Callable[[int, float], None]
 """Told how far a search has got: ``(expansions, seconds)`` so far (see :func:`plan`)."""
 
@@ -287,8 +290,13 @@ def plan(
     progress: Progress | None = None,
     improving: Callable[[Plan], None] | None = None,
     checkpoint: Callable[[], bool] | None = None,
+    guide: Guide | None = None,
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
+
+    ``guide(tasks, dynamic)``, if given, is the estimate of a node's task list from its
+    state's changing facts, in place of the domain's (``inf``: a dead end, not followed):
+    a grounded one (:mod:`htnagent.planning.composition`).
 
     ``checkpoint()``, if given, is called where the search reads its clock (every 256
     nodes): True ends the search as :attr:`PlanStatus.INTERRUPTED` (with the plans found
@@ -320,10 +328,10 @@ def plan(
     with it).  The nodes form no cycles: reference counting frees them.
     """
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide)
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint)
+        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide)
     finally:
         gc.enable()
 
@@ -338,6 +346,7 @@ def _search(
     progress: Progress | None = None,
     improving: Callable[[Plan], None] | None = None,
     checkpoint: Callable[[], bool] | None = None,
+    guide: Guide | None = None,
 ) -> PlanResult:
     settings = settings or PlannerSettings()
     if improving is not None and settings.alternatives != 1:
@@ -373,7 +382,8 @@ def _search(
     # Where h reads only the task names, all the ways of one method share their f: they are
     # made into nodes one at a time, as the search reaches them (_More) -- a method with
     # thousands of bindings costs only those the search takes.
-    lazy = task_costs is not None and k == 1
+    # A guide tells the ways of one method apart: each is made into a node at once.
+    lazy = task_costs is not None and k == 1 and guide is None
     lazy_methods: dict[str, list[tuple[str, LazyDecomposer]]] = {}
     deadline = started + settings.time_limit if settings.time_limit is not None else None
     # What each task name means to h (heuristic below): its estimate, None for a compound
@@ -391,6 +401,8 @@ def _search(
     distinct_goals = len(goal_set) == len(goal_facts)
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
+        if guide is not None:
+            return guide(tasks, dynamic)
         if task_costs is not None:
             # Each task's least cost whatever the state: their sum never over-estimates.
             h = sum(map(cost_of, map(_name, tasks)))

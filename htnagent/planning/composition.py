@@ -1,0 +1,495 @@
+"""A grounded estimate for the searches where the lifted one sees nothing: relaxed composition.
+
+The lifted estimate (:attr:`~htnagent.model.domain.Domain.task_costs`) knows only task
+*names*: ``connect(p1,p2)`` costs what every ``connect`` costs, whatever the ports and
+whatever the state.  Where a domain's choices are all about *which* objects (which cable,
+which port, which shelf), that gives greedy search nothing to go on.  This module grounds
+the problem -- where that is affordable -- and estimates each ground task from the state
+itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
+
+1. **Relaxed reachability** (:func:`ground`, step 1): from the start state, every ground
+   action whose precondition can come to hold when effects only add (delete relaxation;
+   negative preconditions on facts that change are taken as satisfiable).  The facts so
+   reached over-approximate every state a plan can pass through.
+2. **The task decomposition graph** (step 2): from the tasks to plan, top down, every
+   ground method whose precondition holds among the reached facts, and the ground tasks
+   its subtasks name; a primitive task is one of the reached actions, or is dead.
+3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
+   over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
+   subtasks' costs``, an action 1); a task that no decomposition finishes costs ``inf``,
+   and the methods that need it go.  Only the actions left below the tasks are kept.
+4. **Relaxed composition from a state** (:meth:`Composition.task_costs`): the compiled
+   problem in which an action, once its precondition facts are reached, reaches its
+   effects and its own task, and a method reaches its task once its precondition facts
+   and all its subtasks are reached -- costed as h_add (a sum: what each needs, added),
+   by a Dijkstra-like pass from the state's facts.  A task list's estimate
+   (:meth:`Composition.estimate`) is the sum over its tasks; ``inf`` when one of them can
+   no longer be done from the state, so the search drops that node (sound: a relaxation).
+
+Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
+:func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads
+``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
+"""
+
+from __future__ import annotations
+
+import heapq
+from collections import defaultdict
+from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
+
+from htnagent.model.domain import Domain
+from htnagent.model.preconditions import Literal, satisfiers
+from htnagent.model.state import FactBase, State
+from htnagent.model.terms import Atom, Bindings, substitute, unify
+from htnagent.planning.hddl_translation import EQ, TYPE
+
+MAX_GROUND = 20_000
+"""The most ground actions plus bindings of methods' preconditions :func:`ground` goes
+through before it gives up: past this, the grounding takes seconds, and one estimate from
+a state costs more than the guidance is worth (it is worked out anew for every state the
+search reaches)."""
+
+CACHED_COSTS = 2_000_000
+"""About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
+it has seen (tens of megabytes)."""
+
+CHECK_EVERY = 256
+"""Units of work between two calls of ``checkpoint``: a binding, a task decomposed or an
+action tried."""
+
+_INF = float("inf")
+_NONE: frozenset[str] = frozenset()
+
+
+class TooLarge(Exception):
+    """The grounding went past its cap, or its ``checkpoint`` said stop."""
+
+
+NOT = "__not_"
+"""The prefix of a negated fact (``__not_pGuard()``: ``pGuard()`` is false), for the
+predicates some precondition negates: a negative precondition becomes a positive one on
+it, which an action deleting the fact reaches (as PANDA compiles negation away)."""
+
+
+@dataclass(frozen=True, slots=True)
+class _GroundAction:
+    head: Atom
+    cost: float
+    pre: tuple[Atom, ...]  # the preconditions on facts that change (negated ones as NOT facts)
+    add: tuple[Atom, ...]  # the added facts, and NOT facts for the deleted ones that matter
+
+
+@dataclass(frozen=True, slots=True)
+class _GroundMethod:
+    task: Atom
+    pre: tuple[Atom, ...]  # as an action's
+    subtasks: tuple[Atom, ...]
+
+
+class Composition:
+    """A grounded problem compiled for relaxed composition (the module's steps 3 and 4).
+
+    ``least`` holds each ground task's least number of actions whatever the state (step 3);
+    :meth:`task_costs` and :meth:`estimate` work from a state (step 4).
+    """
+
+    def __init__(
+        self,
+        actions: Sequence[_GroundAction],
+        methods: Sequence[_GroundMethod],
+        least: dict[Atom, float],
+        fallback: dict[str, float],
+    ) -> None:
+        self.least = least
+        self.actions = len(actions)
+        self.methods = len(methods)
+        self._fallback = fallback
+        # One id space for what can be reached: facts first, then tasks.
+        ids: dict[Atom, int] = {}
+        task_ids: dict[Atom, int] = {}
+
+        def fact_id(f: Atom) -> int:
+            return ids.setdefault(f, len(ids))
+
+        for a in actions:
+            for f in (*a.pre, *a.add):
+                fact_id(f)
+        for me in methods:
+            for f in me.pre:
+                fact_id(f)
+        self._facts = {f: i for f, i in ids.items() if not f.name.startswith(NOT)}
+        # A negated fact holds from the start where its fact does not.
+        self._negated = [
+            (Atom(f.name[len(NOT) :], f.args), i) for f, i in ids.items() if f.name.startswith(NOT)
+        ]
+        n_facts = len(ids)
+        for t in least:
+            task_ids[t] = n_facts + len(task_ids)
+        self._tasks = task_ids
+        self._size = n_facts + len(task_ids)
+        # Consumers: each action and method, with what it needs (one entry per occurrence),
+        # what firing it costs on top, and what it reaches.
+        needs: list[int] = []
+        base: list[float] = []
+        outputs: list[tuple[int, ...]] = []
+        consumers: list[list[int]] = [[] for _ in range(self._size)]
+        for a in actions:
+            k = len(needs)
+            inputs = [ids[f] for f in a.pre]
+            needs.append(len(inputs))
+            base.append(a.cost)
+            outputs.append((*(ids[f] for f in a.add), task_ids[a.head]))
+            for i in inputs:
+                consumers[i].append(k)
+        for me in methods:
+            k = len(needs)
+            inputs = [ids[f] for f in me.pre] + [task_ids[t] for t in me.subtasks]
+            needs.append(len(inputs))
+            base.append(0.0)
+            outputs.append((task_ids[me.task],))
+            for i in inputs:
+                consumers[i].append(k)
+        self._needs = needs
+        self._base = base
+        self._outputs = outputs
+        self._consumers = [tuple(c) for c in consumers]
+        self._free = [k for k, n in enumerate(needs) if n == 0]
+        self._cache: dict[frozenset[Atom], list[float]] = {}
+        # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
+        self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
+        self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
+
+    def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
+        """Each ground task's relaxed-composition cost (h_add) from a state whose changing
+        facts are ``dynamic``, by task id (``inf``: not reached); cached per state."""
+        found = self._cache.get(dynamic)
+        if found is not None:
+            return found
+        if len(self._cache) >= self._cache_size:
+            self._cache.clear()  # a bound on memory: the searches revisit few states late
+        dist = [_INF] * self._size
+        pushed = [_INF] * self._size
+        left = self._needs[:]
+        acc = [0.0] * len(left)
+        base = self._base
+        outputs = self._outputs
+        consumers = self._consumers
+        heap: list[tuple[float, int]] = []
+        push, pop = heapq.heappush, heapq.heappop
+        facts = self._facts
+        for f in dynamic:
+            i = facts.get(f)
+            if i is not None:
+                pushed[i] = 0.0
+                heap.append((0.0, i))
+        for f, i in self._negated:
+            if f not in dynamic:
+                pushed[i] = 0.0
+                heap.append((0.0, i))
+        heapq.heapify(heap)
+        for k in self._free:
+            v = base[k]
+            for o in outputs[k]:
+                if v < pushed[o]:
+                    pushed[o] = v
+                    push(heap, (v, o))
+        while heap:
+            c, n = pop(heap)
+            if dist[n] != _INF:
+                continue
+            dist[n] = c
+            for k in consumers[n]:
+                acc[k] += c
+                left[k] -= 1
+                if left[k] == 0:
+                    v = acc[k] + base[k]
+                    for o in outputs[k]:
+                        if v < pushed[o]:
+                            pushed[o] = v
+                            push(heap, (v, o))
+        self._cache[dynamic] = dist
+        return dist
+
+    def estimate(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
+        """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
+        when one of them cannot be done any more.  A task the grounding never met (it
+        cannot come from the tasks grounded) counts its name's least cost."""
+        # The children of one node mostly share its state: the same object, asked again.
+        last_dynamic, dist = self._last
+        if dynamic is not last_dynamic:
+            dist = self.task_costs(dynamic)
+            self._last = (dynamic, dist)
+        ids = self._tasks
+        total = 0.0
+        for t in tasks:
+            i = ids.get(t)
+            total += dist[i] if i is not None else self._fallback.get(t.name, 0.0)
+        return total
+
+
+def ground(
+    domain: Domain,
+    state: State,
+    tasks: Sequence[Atom],
+    *,
+    cap: int = MAX_GROUND,
+    checkpoint: Callable[[], bool] | None = None,
+) -> Composition | None:
+    """The problem grounded and compiled for relaxed composition (the module's steps 1-3),
+    or None when that takes more than ``cap`` ground actions and method bindings, or when
+    ``checkpoint()`` (called every :data:`CHECK_EVERY` of them) says stop."""
+    try:
+        return _Grounder(domain, state, cap, checkpoint).run(tasks)
+    except TooLarge:
+        return None
+
+
+class _Grounder:
+    def __init__(self, domain: Domain, state: State, cap: int, checkpoint: Callable[[], bool] | None) -> None:
+        self.domain = domain
+        self.dyn = state.dynamic_predicates
+        pres = [op.pre for ops in domain.operators.values() for op in ops]
+        pres += [me.pre for ms in domain.methods.values() for me in ms]
+        self.negated = {lit.atom.name for pre in pres for lit in pre if not lit.positive} & self.dyn
+        self.start = state
+        self.cap = cap
+        self.checkpoint = checkpoint
+        self.made = 0
+        self.work = 0
+
+    def count(self) -> None:
+        """One more ground action or method binding: past the cap, give up."""
+        self.made += 1
+        if self.made > self.cap:
+            raise TooLarge
+        self.tick()
+
+    def tick(self) -> None:
+        """One more unit of work: every :data:`CHECK_EVERY`, ask the checkpoint."""
+        self.work += 1
+        if self.checkpoint is not None and not self.work % CHECK_EVERY and self.checkpoint():
+            raise TooLarge
+
+    def relaxed(self, pre: Sequence[Literal]) -> tuple[Literal, ...]:
+        """The precondition under delete relaxation: negative literals on changing facts go."""
+        return tuple(lit for lit in pre if lit.positive or lit.atom.name not in self.dyn)
+
+    def changing(self, pre: Sequence[Literal], b: Bindings) -> tuple[Atom, ...]:
+        """The literals on changing facts, made ground (a negative one as its NOT fact)."""
+        out = []
+        for lit in pre:
+            if lit.atom.name in self.dyn:
+                f = substitute(lit.atom, b)
+                out.append(f if lit.positive else Atom(NOT + f.name, f.args))
+        return tuple(out)
+
+    def run(self, roots: Sequence[Atom]) -> Composition:
+        actions, methods, tasks = self.reachable(roots)
+        return self.pruned(actions, methods, tasks)
+
+    # -- steps 1 and 2: relaxed reachability below the tasks ---------------------------------
+
+    def reachable(
+        self, roots: Sequence[Atom]
+    ) -> tuple[dict[Atom, list[_GroundAction]], list[_GroundMethod], list[Atom]]:
+        """The ground actions, ground methods and ground tasks below the roots that the
+        delete relaxation reaches (steps 1 and 2 as one fixed point).
+
+        Only what the hierarchy can reach is grounded: a method is grounded where its
+        relaxed precondition holds among the facts reached so far, a primitive subtask
+        becomes an action where its relaxed precondition does, and the action's effects
+        join the facts.  When new facts come, the methods and actions whose preconditions
+        name them are tried again, until nothing new is reached.
+        """
+        domain = self.domain
+        facts: set[Atom] = set(self.start.facts())
+        reached = State(FactBase(facts), frozenset(), _NONE)
+        orders = {
+            name: [(me, _binding_order(self.relaxed(me.pre), me.head.variables())) for me in ms]
+            for name, ms in domain.methods.items()
+        }
+        op_orders = {
+            name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
+            for name, ops in domain.operators.items()
+        }
+        # The predicates each method or operator reads: what makes it worth trying again.
+        reads: dict[str, set[str]] = defaultdict(set)
+        for name, pres in (
+            *((n, [pre for _, pre in pairs]) for n, pairs in orders.items()),
+            *((n, [pre for _, pre in pairs]) for n, pairs in op_orders.items()),
+        ):
+            for pre in pres:
+                reads[name] |= {lit.atom.name for lit in pre if lit.positive}
+        actions: dict[Atom, list[_GroundAction]] = {}
+        methods: list[_GroundMethod] = []
+        made: set[tuple[Atom, str, tuple[Atom, ...], tuple[Atom, ...]]] = set()
+        met: dict[Atom, None] = dict.fromkeys(roots)
+        primitive: list[Atom] = []  # tried again as new facts come: more ways may hold
+        ways: set[tuple[Atom, int, tuple[Atom, ...]]] = set()
+        new_facts: list[Atom] = []
+
+        def act(task: Atom) -> None:
+            """Ground the primitive task's ways where their relaxed precondition holds: each
+            operator (an action with alternatives has several) and each binding of
+            variables its precondition alone has, told apart by the facts they need."""
+            self.tick()
+            for index, (op, pre) in enumerate(op_orders[task.name]):
+                b0 = unify(op.head, task, {})
+                if b0 is None:
+                    continue
+                for b in satisfiers(pre, reached, b0):
+                    self.count()
+                    needs = self.changing(op.pre, b)
+                    if (task, index, needs) in ways:
+                        continue
+                    ways.add((task, index, needs))
+                    add = tuple(substitute(x, b) for x in op.add)
+                    gone = [substitute(x, b) for x in op.delete if x.name in self.negated]
+                    reaches = add + tuple(Atom(NOT + f.name, f.args) for f in gone)
+                    actions.setdefault(task, []).append(
+                        _GroundAction(task, op.action_cost(task), needs, reaches)
+                    )
+                    new_facts.extend(f for f in add if f not in facts)
+
+        def decompose(task: Atom, queue: list[Atom]) -> None:
+            self.tick()
+            for me, pre in orders.get(task.name, ()):
+                b0 = unify(me.head, task, {})
+                if b0 is None:
+                    continue
+                for b in satisfiers(pre, reached, b0):
+                    self.count()  # every binding: a method with free variables may have millions
+                    subtasks = tuple(substitute(t, b) for t in me.subtasks)
+                    # Two bindings with the same subtasks may need other facts (a variable
+                    # of the precondition alone): each is a way of its own.
+                    needs = self.changing(me.pre, b)
+                    key = (task, me.name, subtasks, needs)
+                    if key in made or not all(t.is_ground for t in subtasks):
+                        continue
+                    made.add(key)
+                    methods.append(_GroundMethod(task, needs, subtasks))
+                    for t in subtasks:
+                        if t in met:
+                            continue
+                        met[t] = None
+                        if t.name in domain.methods:
+                            queue.append(t)
+                        elif t.name in domain.operators:
+                            primitive.append(t)
+                            act(t)
+
+        queue = [t for t in met if t.name in domain.methods]
+        for t in met:
+            if t.name in domain.operators:
+                primitive.append(t)
+                act(t)
+        while True:
+            while queue:
+                decompose(queue.pop(), queue)
+            fresh = {f for f in new_facts if f not in facts}
+            new_facts.clear()
+            if not fresh:
+                break
+            facts |= fresh
+            reached = State(FactBase(facts), frozenset(), _NONE)
+            changed = {f.name for f in fresh}
+            for t in primitive:
+                if reads[t.name] & changed:
+                    act(t)
+            queue = [t for t in met if t.name in domain.methods and reads[t.name] & changed]
+        return actions, methods, list(met)
+
+    # -- step 3: least costs, and what is left ----------------------------------------------
+
+    def pruned(
+        self, actions: dict[Atom, list[_GroundAction]], methods: list[_GroundMethod], tasks: list[Atom]
+    ) -> Composition:
+        least = _least_costs(actions, methods, tasks)
+        kept = [
+            me
+            for me in methods
+            if least.get(me.task, _INF) < _INF and all(least.get(t, _INF) < _INF for t in me.subtasks)
+        ]
+        used = {t for me in kept for t in me.subtasks} | {t for t in tasks if t in actions}
+        kept_actions = [a for t in used if t in actions for a in actions[t]]
+        # Every task met keeps its id (a task no decomposition finishes is never reached):
+        # only a task the grounding never met falls back on its name's least cost.
+        fallback = self.domain.task_costs or {}
+        return Composition(kept_actions, kept, least, fallback)
+
+
+def _binding_order(pre: Sequence[Literal], bound: Iterable[str]) -> tuple[Literal, ...]:
+    """The literals in an order that binds their variables cheaply from ``bound``: each
+    literal as soon as its variables are bound (a check), else the fact literal sharing the
+    most bound variables, an equality, and a type (which enumerates its objects) last.
+
+    The planner's own order suits a task whose head is bound; grounding binds from nothing,
+    where a type first would enumerate every object of it.
+    """
+    bound = set(bound)
+    todo = list(pre)
+    out: list[Literal] = []
+
+    def flush() -> None:
+        for x in [x for x in todo if x.variables <= bound]:
+            todo.remove(x)
+            out.append(x)
+
+    def rank(x: Literal) -> tuple[int, int, int]:
+        name = x.atom.name
+        kind = 2 if name.startswith(TYPE) else 1 if name == EQ else 0
+        if not x.positive:
+            kind = 3
+        return (kind, -len(x.variables & bound), len(x.variables - bound))
+
+    flush()
+    while todo:
+        x = min(todo, key=rank)
+        todo.remove(x)
+        out.append(x)
+        bound |= x.variables
+        flush()
+    return tuple(out)
+
+
+def _least_costs(
+    actions: dict[Atom, list[_GroundAction]], methods: Sequence[_GroundMethod], tasks: Sequence[Atom]
+) -> dict[Atom, float]:
+    """Each ground task's least number of actions whatever the state (``inf`` when no
+    decomposition finishes it): Knuth's generalisation of Dijkstra's algorithm to the
+    and-or graph of methods and subtasks."""
+    cost: dict[Atom, float] = {t: _INF for t in tasks}
+    heap: list[tuple[float, int, Atom]] = []
+    tie = 0
+    for t in tasks:
+        if t in actions:
+            heap.append((min(a.cost for a in actions[t]), tie, t))
+            tie += 1
+    waiting: dict[Atom, list[int]] = defaultdict(list)
+    left = [len(me.subtasks) for me in methods]
+    acc = [0.0] * len(methods)
+    for k, me in enumerate(methods):
+        for t in me.subtasks:
+            waiting[t].append(k)
+        if not me.subtasks:
+            heap.append((0.0, tie, me.task))
+            tie += 1
+    heapq.heapify(heap)
+    done: set[Atom] = set()
+    while heap:
+        c, _, t = heapq.heappop(heap)
+        if t in done:
+            continue
+        done.add(t)
+        cost[t] = c
+        for k in waiting.get(t, ()):
+            acc[k] += c
+            left[k] -= 1
+            if left[k] == 0 and methods[k].task not in done:
+                tie += 1
+                heapq.heappush(heap, (acc[k], tie, methods[k].task))
+    return cost
+
+
+__all__ = ["MAX_GROUND", "Composition", "ground"]

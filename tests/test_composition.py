@@ -1,0 +1,207 @@
+"""The grounded estimate (relaxed composition, docs/design.md §7.2): values worked out by hand
+on a small domain written here, dead ends, the cap, and the searches it guides."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from htnagent.hddl import parse_domain, parse_problem
+from htnagent.hddl.check import check_plan
+from htnagent.model.terms import Atom
+from htnagent.planning import composition
+from htnagent.planning.composition import Composition, ground
+from htnagent.planning.hddl_solving import solve
+from htnagent.planning.hddl_translation import HddlPlanning, translate
+from htnagent.planning.ipc_output import ipc_plan
+from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+
+# Ports joined by wires: join(a, c) links a to c directly or through another port, each
+# link then checked.  A link needs its first port free and the bench unlocked; lock() is
+# for ever.
+DOMAIN = """
+(define (domain cables)
+  (:requirements :typing :hierarchy :negative-preconditions)
+  (:types port)
+  (:predicates (wire ?a ?b - port) (linked ?a ?b - port) (free ?p - port) (locked))
+  (:task join :parameters (?a ?b - port))
+  (:task connect :parameters (?a ?b - port))
+  (:method join-direct :parameters (?a ?b - port) :task (join ?a ?b)
+    :ordered-subtasks (connect ?a ?b))
+  (:method join-via :parameters (?a ?b ?c - port) :task (join ?a ?c)
+    :precondition (wire ?a ?b)
+    :ordered-subtasks (and (connect ?a ?b) (join ?b ?c)))
+  (:method connect-m :parameters (?a ?b - port) :task (connect ?a ?b)
+    :ordered-subtasks (and (link ?a ?b) (check ?a ?b)))
+  (:action link :parameters (?a ?b - port)
+    :precondition (and (wire ?a ?b) (free ?a) (not (locked)))
+    :effect (and (linked ?a ?b) (not (free ?a))))
+  (:action check :parameters (?a ?b - port) :precondition (linked ?a ?b))
+  (:action lock :parameters () :effect (locked))
+)
+"""
+
+
+def _problem(task: str) -> str:
+    return f"""
+(define (problem two-wires) (:domain cables)
+  (:objects p1 p2 p3 p4 - port)
+  (:htn :ordered-subtasks ({task}))
+  (:init (wire p1 p2) (wire p2 p3) (free p1) (free p2) (free p3) (free p4))
+)
+"""
+
+
+def _planning(task: str = "join p1 p3") -> HddlPlanning:
+    domain = parse_domain(DOMAIN, "cables.hddl")
+    return translate(domain, parse_problem(_problem(task), domain, "p.hddl"))
+
+
+def _grounded(planning: HddlPlanning) -> Composition:
+    found = ground(planning.domain, planning.state, planning.tasks)
+    assert found is not None
+    return found
+
+
+def _a(name: str, *args: str) -> Atom:
+    return Atom(name, args)
+
+
+def test_least_cost_is_the_cheapest_decomposition_whatever_the_state() -> None:
+    # join(p1,p3): no wire p1-p3, so through p2: connect(p1,p2) + connect(p2,p3), two
+    # actions each (link, check).
+    c = _grounded(_planning())
+    assert c.least[_a("join", "p1", "p3")] == 4
+    assert c.least[_a("connect", "p1", "p2")] == 2
+    # No wire p1-p3: link(p1,p3) never applies (the translation even checks it in the method).
+    assert c.least.get(_a("connect", "p1", "p3"), math.inf) == math.inf
+    assert c.least[_a("join", "p3", "p3")] == math.inf  # met (through p2), but nothing leaves p3
+
+
+def test_estimate_from_the_start_adds_what_each_task_needs() -> None:
+    # h_add by hand: link(p1,p2) 1 (free p1, unlocked: true now); check(p1,p2) 1 + the link
+    # that makes linked(p1,p2) = 2; connect(p1,p2) = 1 + 2 = 3; likewise connect(p2,p3) = 3;
+    # join(p1,p3) = 6, and the network's root task the same.
+    planning = _planning()
+    c = _grounded(planning)
+    start = planning.state.dynamic
+    assert c.estimate([_a("join", "p1", "p3")], start) == 6
+    assert c.estimate(planning.tasks, start) == 6
+    assert c.estimate([_a("connect", "p1", "p2"), _a("join", "p2", "p3")], start) == 6
+
+
+def test_estimate_follows_the_state() -> None:
+    # After link(p1,p2): check(p1,p2) costs 1 (linked holds), join(p2,p3) still 3.
+    planning = _planning()
+    c = _grounded(planning)
+    after = (planning.state.dynamic - {_a("free", "p1")}) | {_a("linked", "p1", "p2")}
+    assert c.estimate([_a("check", "p1", "p2"), _a("join", "p2", "p3")], after) == 4
+    # p1 is no longer free and nothing frees it: linking it again cannot be done.
+    assert c.estimate([_a("connect", "p1", "p2")], after) == math.inf
+
+
+def test_a_negative_precondition_nothing_restores_is_a_dead_end() -> None:
+    # Once locked, no link can be made (nothing deletes locked): the delete relaxation
+    # alone would miss it; the negated fact does not.
+    planning = _planning()
+    c = _grounded(planning)
+    locked = planning.state.dynamic | {_a("locked")}
+    assert c.estimate([_a("join", "p1", "p3")], locked) == math.inf
+    assert c.estimate([_a("check", "p1", "p2")], locked) == math.inf
+
+
+def test_a_task_no_decomposition_reaches_is_infinite() -> None:
+    # No wire reaches p4.
+    planning = _planning("join p1 p4")
+    c = _grounded(planning)
+    assert c.least[_a("join", "p1", "p4")] == math.inf
+    assert c.estimate(planning.tasks, planning.state.dynamic) == math.inf
+
+
+def test_past_the_cap_there_is_no_grounding_and_solving_falls_back(monkeypatch: pytest.MonkeyPatch) -> None:
+    planning = _planning()
+    assert ground(planning.domain, planning.state, planning.tasks, cap=3) is None
+    # A checkpoint that says stop ends the grounding the same way (a portfolio stopping it).
+    monkeypatch.setattr(composition, "CHECK_EVERY", 1)
+    assert ground(planning.domain, planning.state, planning.tasks, checkpoint=lambda: True) is None
+    assert ground(planning.domain, planning.state, planning.tasks, checkpoint=lambda: False) is not None
+    domain = parse_domain(DOMAIN, "cables.hddl")
+    problem = parse_problem(_problem("join p1 p3"), domain, "p.hddl")
+    solved = solve(domain, problem, timeout=10)
+    assert solved.result.status is PlanStatus.SOLVED
+
+
+@pytest.mark.parametrize("search", [Search.GBFS, Search.ASTAR])
+def test_the_guided_search_finds_a_plan_the_checker_accepts(search: Search) -> None:
+    planning = _planning()
+    c = _grounded(planning)
+    settings = PlannerSettings(alternatives=1, search=search)
+    result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
+    assert result.status is PlanStatus.SOLVED and result.best is not None
+    actions = [str(s.action) for s in result.best.steps if not s.action.name.startswith("__")]
+    assert actions == ["link(p1,p2)", "check(p1,p2)", "link(p2,p3)", "check(p2,p3)"]
+    assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []
+
+
+def test_the_guided_search_proves_a_dead_end_unsolvable_at_once() -> None:
+    planning = _planning("join p1 p4")
+    c = _grounded(planning)
+    settings = PlannerSettings(alternatives=1, search=Search.GBFS)
+    result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
+    assert result.status is PlanStatus.UNSOLVABLE
+    assert result.expansions <= 1  # the root's, whose children are all dead ends
+
+
+def test_the_portfolio_says_unsolvable_where_only_the_grounded_search_can_tell() -> None:
+    # t ends only where q holds, and nothing makes q: the lifted searches decompose t into
+    # t and one more action for ever (the task list grows without end), while the grounded
+    # estimate of t is infinite from the start.
+    text = (
+        "(define (domain forever) (:requirements :hierarchy) (:predicates (p) (q))"
+        " (:task t :parameters ()) (:method m :parameters () :task (t) :ordered-subtasks (and (t) (a)))"
+        " (:method end :parameters () :task (t) :precondition (q) :ordered-subtasks ())"
+        " (:action a :parameters () :effect (p)))"
+    )
+    domain = parse_domain(text, "forever.hddl")
+    problem = parse_problem(
+        "(define (problem p) (:domain forever) (:htn :ordered-subtasks (t)) (:init))", domain, "p.hddl"
+    )
+    assert solve(domain, problem, search=Search.GBFS, timeout=0.5).result.status is PlanStatus.TIMED_OUT
+    assert solve(domain, problem, timeout=30).result.status is PlanStatus.UNSOLVABLE
+
+
+KEYS = """
+(define (domain keys)
+  (:requirements :typing :hierarchy :existential-preconditions)
+  (:types key door)
+  (:predicates (fits ?k - key ?d - door) (have ?k - key) (spare ?k - key) (open ?d - door))
+  (:task enter :parameters (?d - door))
+  (:method by-spare :parameters (?d - door ?k - key) :task (enter ?d)
+    :precondition (fits ?k ?d) :ordered-subtasks (and (get ?k) (unlock ?d)))
+  (:method at-once :parameters (?d - door) :task (enter ?d) :ordered-subtasks (unlock ?d))
+  (:action get :parameters (?k - key) :precondition (spare ?k) :effect (have ?k))
+  (:action unlock :parameters (?d - door)
+    :precondition (exists (?k - key) (and (fits ?k ?d) (have ?k))) :effect (open ?d))
+)
+"""
+
+
+def test_every_binding_of_a_precondition_only_variable_is_a_way_of_its_own() -> None:
+    # unlock(d) holds with either key: k2 is in hand, k1 must be got first.  The grounding
+    # keeps both ways, whichever it meets first: from the start unlock costs 1, and where
+    # only the spare k1 is left, 2 (get it, then unlock).
+    domain = parse_domain(KEYS, "keys.hddl")
+    problem = parse_problem(
+        "(define (problem p) (:domain keys) (:objects k1 k2 - key d - door)"
+        " (:htn :ordered-subtasks (enter d)) (:init (fits k1 d) (fits k2 d) (spare k1) (have k2)))",
+        domain,
+        "p.hddl",
+    )
+    planning = translate(domain, problem)
+    c = _grounded(planning)
+    start = planning.state.dynamic
+    assert c.estimate([_a("unlock", "d")], start) == 1
+    assert c.estimate([_a("enter", "d")], start) == 1
+    without_k2 = start - {_a("have", "k2")}
+    assert c.estimate([_a("unlock", "d")], without_k2) == 2
