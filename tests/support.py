@@ -10,15 +10,20 @@ from __future__ import annotations
 import functools
 import json
 from collections.abc import Callable, Iterable, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import anyio
+import pytest
 
+from htnagent.model.domain import Domain, State
+from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import WALL_CLOCK_FIELDS
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.upkeep import repair as repair_module
 
 Event = dict[str, Any]
 """A trace event's JSON object."""
@@ -112,3 +117,29 @@ def one_error_line(err: str) -> str:
     assert len(lines) == 1, err
     assert lines[0].startswith("htnagent: error: ")
     return lines[0]
+
+
+@dataclass(frozen=True, slots=True)
+class Search:
+    """One search plan repair made: its tasks (as text), settings and expansions."""
+
+    tasks: list[str]
+    settings: PlannerSettings
+    expansions: int
+
+
+def record_repair_searches(monkeypatch: pytest.MonkeyPatch) -> list[Search]:
+    """Every search :mod:`htnagent.upkeep.repair` makes from now on (repairs, the goal's
+    re-plan, the comparison with a fresh plan), in order."""
+    searches: list[Search] = []
+
+    def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
+        settings = args[0] if args else kw["settings"]
+        assert isinstance(settings, PlannerSettings)
+        result = plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
+        named = [str(t[0] if isinstance(t, tuple) else t) for t in tasks]
+        searches.append(Search(named, settings, result.expansions))
+        return result
+
+    monkeypatch.setattr(repair_module, "plan", recording)
+    return searches

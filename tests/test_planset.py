@@ -15,8 +15,8 @@ from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings, Search, plan
 from htnagent.scenario import parse_map
 from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
-from htnagent.upkeep import repair as repair_module
 from htnagent.upkeep.quality import COMPARISON_FLOOR
+from tests.support import record_repair_searches
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -249,19 +249,12 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
     ps.make(belief)
     for action in ("move_area(area8,area7)", "move_area(area7,area5)"):
         belief = execute(ps, areas, belief, action)
-    searched: list[list[str]] = []
-    real_plan = plan  # what htnagent.upkeep.repair calls
-
-    def counting(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
-        searched.append([str(t[0] if isinstance(t, tuple) else t) for t in tasks])
-        return real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(repair_module, "plan", counting)
+    searched = record_repair_searches(monkeypatch)
     shut = belief.updated(add=[a("closed(arc22)")])  # the door area5 -> area3
     ps.belief_changed(belief, shut)
     assert ps.stats.repairs == 1 and "move_area(area5,area3)" not in texts(ps.best)
     # Expect: one search of goto(n1), the repair's; none more for the comparison.
-    assert searched == [["goto(n1)"]]
+    assert [s.tasks for s in searched] == [["goto(n1)"]]
 
 
 def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
@@ -275,23 +268,17 @@ def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
-    bounds: list[tuple[list[str], float | None, int]] = []
-    real_plan = plan
-
-    def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
-        settings = args[0] if args else kw["settings"]
-        assert isinstance(settings, PlannerSettings)
-        tasks_text = [str(t[0] if isinstance(t, tuple) else t) for t in tasks]
-        bounds.append((tasks_text, settings.cost_bound, settings.budget))
-        return real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(repair_module, "plan", recording)
+    searched = record_repair_searches(monkeypatch)
     closed = belief.updated(add=[a("closed(arc12)")])
     ps.belief_changed(belief, closed)
     # The repair (a walk to area3's dead end and back) is searched as any repair is; the
     # comparison looks for a plan cheaper than it, finds one and takes it.
     assert ps.stats.repairs == 1 and ps.stats.fresher == 1
-    comparison = [(bound, budget) for tasks, bound, budget in bounds if tasks == ["goto(n1)"] and bound]
+    comparison = [
+        (s.settings.cost_bound, s.settings.budget)
+        for s in searched
+        if s.tasks == ["goto(n1)"] and s.settings.cost_bound
+    ]
     assert len(comparison) == 1 and ps.best is not None and ps.best.cost < comparison[0][0]
     # ... given what planning the goal from scratch took (at least COMPARISON_FLOOR), not
     # the planner's whole budget: a search under a bound may take all of it to show that

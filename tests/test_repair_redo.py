@@ -16,10 +16,10 @@ import pytest
 from htnagent.model.domain import Domain, State
 from htnagent.model.plans import Decomposition, Done, Step
 from htnagent.model.terms import parse
-from htnagent.planning.planner import PlannerSettings, Search, plan
+from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.upkeep import OnlinePlanSet, done_subtasks
-from htnagent.upkeep import repair as repair_module
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_GROWTH
+from tests.support import record_repair_searches
 
 
 def carrier() -> Domain:
@@ -213,24 +213,10 @@ def test_a_repair_below_the_goal_stops_a_task_list_that_only_grows(monkeypatch: 
     ps = OnlinePlanSet(d, parse("tour(b,b)"), settings=depth_first)
     ps.make(here)
     assert ps.best is not None and ps.best.text() == ["mark(b)", "mark(b)"]
-    searched: list[tuple[int | None, int]] = []
-    real_plan = plan  # what htnagent.upkeep.repair calls
-
-    def recording(domain: Domain, state: State, tasks: list[object], *args: object, **kw: object) -> object:
-        settings = args[0] if args else kw["settings"]
-        assert isinstance(settings, PlannerSettings)
-        result = real_plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
-        searched.append((settings.max_tasks, result.expansions))
-        return result
-
-    monkeypatch.setattr(repair_module, "plan", recording)
+    searched = record_repair_searches(monkeypatch)
     away = State.from_facts([parse("at(a)")], d.dynamic_predicates)
     ps.belief_changed(here, away)
-    local = [(cap, spent) for cap, spent in searches_below_the_goal(searched)]
+    # The repair's local searches: those given a bound on the task list (the goal's is not).
+    local = [(s.settings.max_tasks, s.expansions) for s in searched if s.settings.max_tasks is not None]
     assert local and all(cap is not None and cap <= 2 + LOCAL_GROWTH for cap, _ in local)
     assert sum(spent for _, spent in local) < LOCAL_BUDGET
-
-
-def searches_below_the_goal(searched: list[tuple[int | None, int]]) -> list[tuple[int | None, int]]:
-    """The repair's local searches: those given a bound on the task list (the goal's is not)."""
-    return [(cap, spent) for cap, spent in searched if cap is not None]
