@@ -444,8 +444,10 @@ def markdown(
     if fallback:
         out += [
             "",
-            "Where no candidate task undid a fact the rest of the plan needs and left it mendable, "
-            "the emergency is the one whose plan changes the most facts while the rest stays valid:",
+            "Where no candidate task broke the rest of the plan and left it solvable, the emergency "
+            "is the one whose plan changes the most facts (beyond what the rest does next) while the "
+            "rest stays solvable; 0 facts: every other candidate left the network unfinishable, and "
+            "this one only does what the rest does next:",
             "",
         ]
         out += [f"- {r['domain']}/{r['problem']}: {r['emergency']} ({r['changed']} facts)" for r in fallback]
@@ -453,9 +455,8 @@ def markdown(
     if unmendable:
         out += [
             "",
-            "Where every candidate task broke the rest of the plan and the check found no repair "
-            "within its bounds (the network may not be finishable after it), the one that changes "
-            "the most facts:",
+            "Where every candidate task left the network with no plan within the check's bounds "
+            "(it may not be finishable after it), the one that changes the most facts:",
             "",
         ]
         out += [
