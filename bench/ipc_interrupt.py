@@ -197,12 +197,12 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
     import anyio
 
     from bench.measure import measure_run
-    from htnagent.executors.hddl_robot import HddlRobot
     from htnagent.model.actions import ROLLBACK, action_recovered_by
     from htnagent.model.terms import parse
     from htnagent.runtime.events import ActionFinished, Summary, TraceEvent
     from htnagent.scenario import parse_scenario
     from htnagent.system.runtime import Runtime
+    from htnagent.testing.invariants import hddl_belief_differences
 
     scenario = parse_scenario(data, str(problem.problem_file), problem.problem_file.parent)
     runtimes: list[Runtime] = []
@@ -220,13 +220,10 @@ def run_agent(problem: Problem, data: dict[str, Any], mode: str) -> dict[str, An
             return
         done = action_recovered_by(action)
         executed.append(str(done if done is not None else action))
-        robot = runtimes[0].bottom_executor
-        if isinstance(robot, HddlRobot) and not mismatches:
-            world = robot.world.facts()
-            for name, agent in runtimes[0].agents.items():
-                belief = frozenset(f for f in agent.belief.facts() if not f.name.startswith("__"))
-                if belief != world:
-                    mismatches.append(f"{name} after {event.action}: {sorted(map(str, belief ^ world))[:5]}")
+        if not mismatches:
+            mismatches.extend(
+                f"after {event.action}, {d[:200]}" for d in hddl_belief_differences(runtimes[0])
+            )
 
     figures = anyio.run(
         functools.partial(measure_run, scenario, mode, observers=[observe], on_start=runtimes.append)

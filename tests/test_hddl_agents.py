@@ -33,6 +33,7 @@ from htnagent.runtime.events import ActionFinished, GoalFinished, RobotActing, T
 from htnagent.scenario import Scenario, load_scenario, read_yaml
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.testing.invariants import hddl_belief_differences
 
 REPO = Path(__file__).resolve().parents[1]
 SCENARIOS = REPO / "scenarios"
@@ -77,13 +78,10 @@ def run_checked(scenario: Scenario) -> tuple[RunReport, list[TraceEvent], int]:
         nonlocal compared
         events.append(event)
         if isinstance(event, ActionFinished):
-            robot = runtime[0].bottom_executor
-            assert isinstance(robot, HddlRobot)
-            world = robot.world.facts()
-            for name, agent in runtime[0].agents.items():
-                belief = visible(agent.belief)
-                if belief != world:
-                    differences.append(f"{event.t} {name} after {event.action}: {belief ^ world}")
+            assert isinstance(runtime[0].bottom_executor, HddlRobot)
+            differences.extend(
+                f"{event.t} after {event.action}, {d}" for d in hddl_belief_differences(runtime[0])
+            )
             compared += 1
 
     report = anyio.run(functools.partial(run_scenario, scenario, observers=[check], on_start=runtime.append))

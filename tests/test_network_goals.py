@@ -24,6 +24,7 @@ from htnagent.runtime.events import ActionFinished, TraceEvent
 from htnagent.scenario import Scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import RunReport, run_scenario
+from htnagent.testing.invariants import hddl_belief_differences
 from tests.support import summary_of
 
 TINY = Path(__file__).resolve().parent / "data" / "ipc-tiny"
@@ -59,13 +60,8 @@ def run_checked(scenario: Scenario, mode: str = "online") -> tuple[RunReport, li
     def check(event: TraceEvent) -> None:
         events.append(event)
         if isinstance(event, ActionFinished):
-            robot = runtimes[0].bottom_executor
-            assert isinstance(robot, HddlRobot)
-            world = robot.world.facts()
-            for name, agent in runtimes[0].agents.items():
-                belief = frozenset(f for f in agent.belief.facts() if not f.name.startswith("__"))
-                if belief != world:
-                    differences.append(f"{name} after {event.action}: {sorted(map(str, belief ^ world))}")
+            assert isinstance(runtimes[0].bottom_executor, HddlRobot)
+            differences.extend(f"after {event.action}, {d}" for d in hddl_belief_differences(runtimes[0]))
 
     report = anyio.run(
         functools.partial(

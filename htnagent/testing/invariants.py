@@ -22,9 +22,11 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+from htnagent.executors.hddl_robot import HddlRobot
 from htnagent.executors.robot import Robot
 from htnagent.model.actions import action_recovered_by, action_resumed_by
 from htnagent.model.terms import Atom, parse
+from htnagent.planning.hddl_translation import RESERVED
 from htnagent.runtime.events import (
     ActionFinished,
     ActionStarted,
@@ -208,3 +210,19 @@ def world_refuses(robot: Robot, action: Atom) -> str | None:
         if action_resumed_by(action) is not None and arc in state.closed:
             return f"{arc} is closed"
     return None
+
+
+def hddl_belief_differences(runtime: Runtime) -> list[str]:
+    """For a run on the simulated HDDL robot: each agent whose belief, without the
+    translation's own facts (``__…``), differs from the robot's world, with the facts that
+    differ (sorted); nothing when every belief matches, or the robot is not an HDDL one."""
+    robot = runtime.bottom_executor
+    if not isinstance(robot, HddlRobot):
+        return []
+    world = robot.world.facts()
+    found = []
+    for name, agent in runtime.agents.items():
+        belief = frozenset(f for f in agent.belief.facts() if not f.name.startswith(RESERVED))
+        if belief != world:
+            found.append(f"{name}: {sorted(map(str, belief ^ world))}")
+    return found
