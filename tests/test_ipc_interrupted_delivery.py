@@ -84,7 +84,8 @@ def test_subtasks_are_not_done_again_for_a_second_plan_while_the_first_is_kept()
     # pick up (the truck's capacity is taken), and doing the goal's done subtasks again,
     # followed by its kept steps, cannot meet it: such a search runs until its budget is
     # spent.  The first plan is repaired and kept, so no such search is made for the
-    # second (docs/design.md §2.4): 2,098 expansions in the run once, under 200 now.
+    # second (docs/design.md §2.4) -- which, no cheaper than the first, is not even
+    # revived beside it now (§2.5): 2,098 expansions in the run once, under 200 now.
     scenario = transport(
         "pfile04.hddl",
         ["deliver(package_1,city_loc_0)", "deliver(package_0,city_loc_3)", "deliver(package_3,city_loc_0)"],
@@ -97,5 +98,5 @@ def test_subtasks_are_not_done_again_for_a_second_plan_while_the_first_is_kept()
     )
     assert online.succeeded
     stats = runtimes[0].agents["agent"].stats
-    assert stats.failed_repairs == 1
+    assert stats.failed_repairs <= 1 and stats.revivals == 0
     assert stats.expansions < 200

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pytest
@@ -15,7 +16,9 @@ from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings, Search, plan
 from htnagent.scenario import parse_map
 from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
+from htnagent.upkeep import online as online_module
 from htnagent.upkeep.quality import COMPARISON_FLOOR
+from htnagent.upkeep.repair import LOCAL_SHARE
 from tests.support import record_repair_searches
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -46,6 +49,12 @@ def execute(ps: PlanSet, domain: Domain, belief: State, action: str) -> State:
     assert after is not None, f"{action} is not applicable"
     ps.action_succeeded(act, belief, after)
     return after
+
+
+def repairs_given_all_they_need(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Repairs below the goal get their whole budget before the goal is re-planned (not
+    LOCAL_SHARE of the first plan's expansions): for tests of what follows a repair."""
+    monkeypatch.setattr(online_module, "LOCAL_SHARE", 1e9)
 
 
 def line_domain(undo: bool) -> Domain:
@@ -116,6 +125,45 @@ def test_success_without_undo_rechecks_and_repairs() -> None:
     assert ps.stats.repairs == 1
     assert ps.stats.from_scratch == 1
     assert texts(ps.best) == ["step(p1,p2)", "step(p2,p3)", "step(p3,p4)"]
+
+
+def test_an_alternative_beside_a_valid_plan_is_repaired_by_no_search_of_its_own(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Without undo, an alternative that does not start with the action taken breaks at
+    # every action: repaired by a search of its own each time (an IPC network's plans cost
+    # a local search an action), it would cost more than planning afresh ever does.
+    d = line_domain(undo=False)
+    belief = line_state(d, "p0")
+    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=2))
+    ps.make(belief)
+    assert [texts(p) for p in ps.plans] == [
+        ["step(p0,p2)", "step(p2,p3)"],
+        ["step(p0,p1)", "step(p1,p2)", "step(p2,p3)"],
+    ]
+    searched = record_repair_searches(monkeypatch)
+    belief = execute(ps, d, belief, "step(p0,p2)")
+    # Expect: the best plan moved on; the alternative broke at step(p0,p1) and, a valid
+    # plan being kept, went for revival without a search.
+    assert searched == []
+    assert [texts(p) for p in ps.plans] == [["step(p2,p3)"]]
+    assert ps.stats.repairs == 0 and ps.stats.removed == 1
+
+
+def test_a_plan_revived_beside_a_cheaper_valid_plan_stays_out() -> None:
+    # §2.5: a plan comes back when its fact holds again "and it is then the cheaper one".
+    d = line_domain(undo=False)
+    belief = line_state(d, "p0")
+    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=2))
+    ps.make(belief)
+    belief = execute(ps, d, belief, "step(p0,p2)")  # the longer way goes for revival
+    assert len(ps.plans) == 1
+    # The robot is found back at p0: the longer way's fact holds again, but the best
+    # plan, repaired from p0, is the shorter way again -- the longer one stays out.
+    back = belief.updated(add=[a("at(p0)")], delete=[a("at(p2)")])
+    ps.belief_changed(belief, back)
+    assert [texts(p) for p in ps.plans] == [["step(p0,p2)", "step(p2,p3)"]]
+    assert ps.stats.revivals == 0
 
 
 def test_a_plan_broken_at_the_goal_level_is_replanned_once_from_the_belief() -> None:
@@ -194,7 +242,10 @@ def test_repair_works_in_every_search_order(nav: Domain, search: Search) -> None
     assert all(s.record is not None for s in repaired.steps)
 
 
-def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> None:
+def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    repairs_given_all_they_need(monkeypatch)
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
@@ -222,7 +273,10 @@ def test_a_repair_longer_than_a_fresh_plan_gives_way_to_it(world: WorldMap) -> N
     assert all(r is not None and r.chain()[-1].task == a("goto(n1)") for r in records)
 
 
-def test_the_repair_a_fresh_plan_beat_is_not_kept_as_an_alternative(world: WorldMap) -> None:
+def test_the_repair_a_fresh_plan_beat_is_not_kept_as_an_alternative(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    repairs_given_all_they_need(monkeypatch)
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=2))
@@ -243,6 +297,7 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
     # broken in area5 re-decomposes goto(n1) as it stands there -- the goal's own task,
     # under another record.  The comparison with a fresh plan (§2.4) takes that search's
     # cost instead of searching the goal again.
+    repairs_given_all_they_need(monkeypatch)
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
@@ -257,13 +312,14 @@ def test_a_repair_that_searched_the_goal_s_own_task_answers_the_fresh_comparison
     assert [s.tasks for s in searched] == [["goto(n1)"]]
 
 
-def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
+def test_the_fresh_comparison_plans_as_naive_would_within_what_planning_afresh_took(
     world: WorldMap, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    # §2.4: a repaired plan gives way only to a cheaper fresh plan, so the comparison's
-    # search follows no node that cannot end cheaper (branch and bound at the repaired
-    # plan's cost): where no plan from scratch is cheaper -- or none exists, as for an IPC
-    # network whose done tasks cannot be done again -- it ends without spending the budget.
+    # §2.4: a repaired plan gives way to a cheaper plan afresh -- "never a longer route than
+    # naive" -- so the comparison plans the goal as naive would at resumption: the same
+    # search, to its first plan (not a search under the repaired plan's cost, which finds
+    # that plan no later but, where none is cheaper, looks on until its budget is spent).
+    repairs_given_all_they_need(monkeypatch)
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
@@ -272,19 +328,44 @@ def test_the_fresh_comparison_looks_only_for_a_cheaper_plan(
     closed = belief.updated(add=[a("closed(arc12)")])
     ps.belief_changed(belief, closed)
     # The repair (a walk to area3's dead end and back) is searched as any repair is; the
-    # comparison looks for a plan cheaper than it, finds one and takes it.
+    # comparison plans the goal afresh, finds a cheaper plan and takes it.
     assert ps.stats.repairs == 1 and ps.stats.fresher == 1
-    comparison = [
-        (s.settings.cost_bound, s.settings.budget)
-        for s in searched
-        if s.tasks == ["goto(n1)"] and s.settings.cost_bound
-    ]
-    assert len(comparison) == 1 and ps.best is not None and ps.best.cost < comparison[0][0]
+    comparison = [s.settings for s in searched if s.tasks == ["goto(n1)"] and s.settings.max_tasks is None]
+    naive = plan(areas, closed, [a("goto(n1)")], PlannerSettings(alternatives=1)).best
+    assert len(comparison) == 1 and comparison[0].cost_bound is None
+    assert naive is not None and ps.best is not None and ps.best.actions == naive.actions
     # ... given what planning the goal from scratch took (at least COMPARISON_FLOOR), not
-    # the planner's whole budget: a search under a bound may take all of it to show that
-    # nothing is cheaper.
+    # the planner's whole budget: a network that cannot be planned afresh is not searched
+    # through to the end of it.
     first = plan(areas, belief, [a("goto(n1)")], PlannerSettings(alternatives=1)).expansions
-    assert comparison[0][1] == max(COMPARISON_FLOOR, first) < PlannerSettings().budget
+    assert comparison[0].budget == max(COMPARISON_FLOOR, first) < PlannerSettings().budget
+
+
+def test_repairs_below_the_goal_get_a_share_of_what_planning_it_afresh_took(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # §2.4's repair is worth making because it is cheaper than planning afresh: repairs
+    # below the goal share LOCAL_SHARE of the expansions the goal's last plan from scratch
+    # took; then the goal is re-planned (one search, naive's), and no comparison follows.
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    first = ps.scratch_expansions
+    assert first is not None
+    searched = record_repair_searches(monkeypatch)
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    local = [s for s in searched if s.settings.max_tasks is not None]
+    goal = [s for s in searched if s.settings.max_tasks is None]
+    assert local and sum(s.expansions for s in local) <= math.ceil(LOCAL_SHARE * first)
+    assert local[0].settings.budget == math.ceil(LOCAL_SHARE * first)
+    # The walk to area3's dead end and back did not fit in the share: the goal's re-plan,
+    # which is what naive plans, is taken, and compared with nothing more.
+    assert len(goal) == 1 and goal[0].tasks == ["goto(n1)"] and goal[0].settings.cost_bound is None
+    naive = plan(areas, closed, [a("goto(n1)")], PlannerSettings(alternatives=1)).best
+    assert naive is not None and ps.best is not None and ps.best.actions == naive.actions
+    assert ps.stats.repairs == 1 and ps.stats.fresher == 0
 
 
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:

@@ -24,6 +24,7 @@ after every event instead of planning again; each rule is a module of its own:
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable
 from dataclasses import replace
 from typing import Self
@@ -38,7 +39,7 @@ from htnagent.upkeep.base import PlanSet
 from htnagent.upkeep.failure import means_it_again, new_alternatives, starts_with, without_failed
 from htnagent.upkeep.quality import first_own_step, fresher_kept, rival_from
 from htnagent.upkeep.recheck import recheck_all
-from htnagent.upkeep.repair import LOCAL_BUDGET, OnDemand, Repairer, SearchMemo
+from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
 from htnagent.upkeep.stats import PlanningStats
 from htnagent.upkeep.success import kept_after_success, moved_on, ran
@@ -266,8 +267,26 @@ class OnlinePlanSet(PlanSet):
 
     # -- re-check, repair, quality --------------------------------------------
 
-    def _repairer(self, memo: SearchMemo | None = None, local_budget: int = 0) -> Repairer:
-        return Repairer(self.domain, self.goal, self.settings, self.stats, self._avoided, memo, local_budget)
+    def _repairer(self, memo: SearchMemo | None = None, *, local: bool = False) -> Repairer:
+        """The searches of one update; with ``local``, the repairs' budgets: below the goal,
+        :data:`~htnagent.upkeep.repair.LOCAL_SHARE` of what planning the goal from scratch
+        took (the rest of :data:`~htnagent.upkeep.repair.LOCAL_BUDGET` once the goal has no
+        plan afresh)."""
+        if not local:
+            return Repairer(self.domain, self.goal, self.settings, self.stats, self._avoided, memo)
+        whole = min(self.settings.budget, LOCAL_BUDGET)
+        known = self.scratch_expansions
+        first = whole if known is None else min(whole, math.ceil(LOCAL_SHARE * known))
+        return Repairer(
+            self.domain,
+            self.goal,
+            self.settings,
+            self.stats,
+            self._avoided,
+            memo,
+            local_budget=first,
+            reserve=whole - first,
+        )
 
     def _revise(
         self,
@@ -299,7 +318,7 @@ class OnlinePlanSet(PlanSet):
             self._checked = after
             self.revival.expire()
             return
-        repairer = OnDemand(lambda: self._repairer(memo, min(self.settings.budget, LOCAL_BUDGET)))
+        repairer = OnDemand(lambda: self._repairer(memo, local=True))
         candidates = [*kept, *(Kept(p, False) for p in back)]
         self.plans, broke = recheck_all(self, self.revival, candidates, len(kept), after, repairer)
         if best_broke or broke:

@@ -33,7 +33,7 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     """Make ``ps``'s best plan no worse than a plan made afresh from ``state``: proven by
     the estimate, or compared (and replaced by the fresh plan if that is cheaper).
     Returns whether it is known to be now (False: no plan is kept, or the search for a
-    cheaper fresh plan found none -- whether any plan afresh exists is then not known).
+    plan afresh found none within its budget -- whether one exists is then not known).
 
     The search is shared (``repairer``) with a repair that reached the goal itself.
     """
@@ -44,15 +44,19 @@ def fresher_kept(ps: PlanSet, state: State, repairer: Callable[[], Repairer]) ->
     known = searches.known_cost(state, goal)
     if known is not None and known >= ps.plans[0].cost - 1e-9:
         return True  # a search this update made for the goal's very task found nothing cheaper
-    # Only a cheaper plan would take the kept one's place: the search follows no node that
-    # cannot end cheaper (branch and bound) -- a network that cannot be done again from
-    # scratch is not searched through to the end of the budget, as naive's search for it
-    # is.  Finding none says nothing of whether a plan afresh exists: not known (the
-    # caller may then re-decompose the lowest task instead, as where none exists).
-    cheaper = replace(one_plan(ps.settings), cost_bound=ps.plans[0].cost - 1e-9, budget=comparison_budget(ps))
-    fresh = searches.search(state, goal, cheaper)
-    if fresh is None or fresh.cost >= ps.plans[0].cost - 1e-9:
+    # Compared as naive would plan the goal here: the same search, to its first plan (a
+    # search under the kept plan's cost would find that plan no later, if it is cheaper,
+    # but where none is cheaper it looks on until its budget is spent -- a depth-first
+    # search many times what naive's takes).  Given a few times what the goal's last plan
+    # from scratch took: a network that cannot be done again from scratch is not searched
+    # through to the end of the planner's budget.  None found says nothing of whether
+    # a plan afresh exists: not known (the caller may then re-decompose the lowest task
+    # instead, as where none exists).
+    fresh = searches.search(state, goal, replace(one_plan(ps.settings), budget=comparison_budget(ps)))
+    if fresh is None:
         return False
+    if fresh.cost >= ps.plans[0].cost - 1e-9:
+        return True
     ps.stats.fresher += 1
     # The plan it beat goes: a plan worse than one made afresh from the same belief is
     # no alternative worth keeping valid at every action (alternatives come when an
@@ -69,11 +73,10 @@ COMPARISON_FLOOR = 100
 
 
 def comparison_budget(ps: PlanSet) -> int:
-    """The expansions §2.4's search for a cheaper plan afresh may take: a few times what
-    planning ``ps``'s goal from scratch is known to cost -- a search under the bound that
-    runs far past that is looking through a space with no cheaper plan in it (a depth-first
-    search, which found its first plan at once, can take its whole budget to show there
-    is none cheaper), and is not worth more than naive's whole search."""
+    """The expansions §2.4's search for a plan afresh may take: a few times what planning
+    ``ps``'s goal from scratch is known to cost.  A search that runs far past that is
+    looking through a space where the goal cannot be planned afresh (an IPC network whose
+    done tasks cannot start again), and is not worth more than naive's whole search."""
     known = ps.scratch_expansions
     if known is None:
         return ps.settings.budget

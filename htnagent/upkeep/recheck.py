@@ -49,13 +49,18 @@ def recheck_all(
             checked: Plan | None = p
         else:
             p = Plan(tidy(ps.domain, p.steps))  # §2.6
-            # Subtasks are done again (the costliest repair) only while no plan is kept.
+            # The costliest repairs only while no valid plan is kept: see Repairer.repair.
             checked = recheck(
-                ps, revival, p, after, repairer, allow_repair=not revived, remember=not revived, redo=not out
+                ps, revival, p, after, repairer, allow_repair=not revived, remember=not revived, alone=not out
             )
             if n == 0 and checked is not p:
                 best_broke = True
         if checked is None:
+            continue
+        if revived and out and checked.cost >= min(q.cost for q in out) - 1e-9:
+            # §2.5: a plan comes back when its fact holds again "and it is then the
+            # cheaper one"; kept beside a cheaper valid plan it would only be re-checked
+            # (and, as it does not follow the actions taken, repaired) at every action.
             continue
         if revived:
             ps.stats.revivals += 1
@@ -76,7 +81,7 @@ def recheck(
     *,
     allow_repair: bool,
     remember: bool,
-    redo: bool = True,
+    alone: bool = True,
 ) -> Plan | None:
     """The plan if valid from ``state``, else its repair, else None (and it is kept for revival)."""
     ps.stats.rechecks += 1
@@ -90,7 +95,7 @@ def recheck(
             ps.stats.removed += 1
             revival.keep(p, culprit, at_failure)
         return None
-    repaired = repairer().repair(p, index, states_before(ps.domain, p, state, index), ps.done, redo=redo)
+    repaired = repairer().repair(p, index, states_before(ps.domain, p, state, index), ps.done, alone=alone)
     # §2.5: a removed plan, and the plan as it was before a repair, come back if the fact does.
     revival.keep(p, culprit, at_failure)
     if repaired is not None:

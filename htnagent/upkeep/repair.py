@@ -45,6 +45,8 @@ class SearchMemo:
     impossible: set[tuple[object, ...]] = field(default_factory=set)
     costs: dict[tuple[object, ...], float] = field(default_factory=dict)
     """The cost of the plan found for a task list from a state, whatever the tasks' records."""
+    exhausted: dict[tuple[object, ...], int] = field(default_factory=dict)
+    """Searches cut by their budget, with that budget: no answer, but none within it."""
 
 
 def one_plan(settings: PlannerSettings) -> PlannerSettings:
@@ -61,6 +63,16 @@ _REDO = 2
 LOCAL_BUDGET = 2_000
 """Expansions all repairs below the goal may take in one update (the goal gets the full budget)."""
 
+LOCAL_SHARE = 0.1
+"""The share of what the goal's last plan from scratch took that repairs below the goal get
+before the goal is re-planned (the rest of :data:`LOCAL_BUDGET` waits until that finds none).
+A repair is worth making because it is cheaper than planning afresh (§2.4); one that has cost
+a tenth as much and found nothing seldom is: local searches with the plan's later steps
+fixed often cannot meet them, and spend their whole budget finding so (Depots: 725
+expansions of local searches, then a plan afresh in 70).  Measured on the IPC interruption
+bench (docs/benchmarks.md): a half or a quarter left on-line's whole-run planning 10-30%
+above naive's in six domains, a tenth within 8% in all."""
+
 LOCAL_GROWTH = 64
 """How much longer than the task list it was given a repair below the goal may let a list
 grow.  A recursive method that puts its task back in front of more (Hiking's trips) grows
@@ -75,7 +87,8 @@ class Repairer:
     be decomposed again.  Searches are shared — through ``memo``, with the other
     plan sets updated from the same belief — so a goal re-planned for one broken
     plan answers for all.  Repairs below the goal share ``local_budget``
-    expansions; the goal itself gets the planner's full budget.  Make one per
+    expansions; the goal itself gets the planner's full budget; where it has no
+    plan, repairs below it get ``reserve`` expansions more.  Make one per
     update; ``unsolvable`` is then the belief the goal was found impossible
     from, if it was.
     """
@@ -84,12 +97,14 @@ class Repairer:
         "_avoided",
         "_costs",
         "_domain",
+        "_exhausted",
         "_goal",
         "_impossible",
         "_results",
         "_settings",
         "_stats",
         "local_left",
+        "reserve",
         "unsolvable",
     )
 
@@ -102,6 +117,7 @@ class Repairer:
         avoided: Callable[[State], frozenset[Atom]],
         memo: SearchMemo | None = None,
         local_budget: int = 0,
+        reserve: int = 0,
     ) -> None:
         memo = memo if memo is not None else SearchMemo()
         self._domain = domain
@@ -112,13 +128,16 @@ class Repairer:
         self._results = memo.results
         self._impossible = memo.impossible
         self._costs = memo.costs
+        self._exhausted = memo.exhausted
         self.local_left = local_budget
         """Expansions left for repairs below the goal in this update."""
+        self.reserve = reserve
+        """Expansions more for repairs below the goal, once the goal itself has no plan."""
         self.unsolvable: tuple[object, ...] | None = None
         """The key of a belief from which the goal itself has no plan, once a repair found so."""
 
     def repair(
-        self, p: Plan, index: int, states: list[State], done: Done | None = None, *, redo: bool = True
+        self, p: Plan, index: int, states: list[State], done: Done | None = None, *, alone: bool = True
     ) -> Plan | None:
         """Re-decompose the lowest ancestor task of step ``index`` that can be (§2.4).
 
@@ -126,18 +145,52 @@ class Repairer:
         steps.  The last ancestor is the goal itself; steps inserted by maintenance
         (undo, rollback) belong to no task, so for them the goal is the only
         ancestor.  The goal is re-decomposed from the current belief, once per
-        update, and the result is shared by every plan that needs it.
+        update, and the result is shared by every plan that needs it.  Repairs below
+        the goal come first, within ``local_left``.
 
-        ``done`` are the goal's steps carried out so far.  When an ancestor cannot
-        be decomposed again, the last of its subtasks already done are done again
-        before what is left of it (docs/design.md §2.4): an emergency may have undone
-        what they achieved (a truck driven away with the parcel still on it).  Only
-        with ``redo``: such a search is the costliest part of a repair (the steps kept
-        after the subtasks are fixed, so one that cannot meet them runs until the
-        budget is spent), worth it when no other plan of the goal is left.
+        ``alone``: no other plan of the goal is kept.  Only then does the repair make
+        searches of its own: an alternative kept beside a valid plan is repaired only
+        from the searches this update made for the goal's other plans (a goal re-planned
+        for the best answers for it) -- one that does not follow the actions taken breaks
+        again at every action, and is not worth a search at every action (IPC domains,
+        with no undo to put in front of it).  And only then, when an ancestor cannot be
+        decomposed again, are the last of its subtasks already done done again before
+        what is left of it (docs/design.md §2.4: an emergency may have undone what they
+        achieved, a truck driven away with the parcel still on it): such a search is the
+        costliest part of a repair (the steps kept after the subtasks are fixed, so one
+        that cannot meet them runs until the budget is spent); and if the goal has no
+        plan afresh, the repairs below it get ``reserve`` more.
         """
-        step = p.steps[index]
-        chain = step.record.chain() if step.record is not None else []
+        record = p.steps[index].record
+        chain = record.chain() if record is not None else []
+        made_only = not alone
+        found = self._below_goal(p, index, states, chain, done, alone, made_only)
+        if found is not None:
+            return found
+        # The goal itself, from the current belief: one search shared by all plans.
+        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings), made_only=made_only)
+        if found is None and alone:
+            self.unsolvable = states[0].key()
+            if self.reserve > 0:
+                # No plan afresh (the goal's methods may not start again from part of it
+                # done): only a repair below the goal can keep it, and it gets the rest of
+                # its budget (test_repair_redo: doing a subtask again takes 700 expansions).
+                self.local_left, self.reserve = self.local_left + self.reserve, 0
+                found = self._below_goal(p, index, states, chain, done, alone, made_only)
+        return found
+
+    def _below_goal(
+        self,
+        p: Plan,
+        index: int,
+        states: list[State],
+        chain: list[Decomposition],
+        done: Done | None,
+        redo: bool,
+        made_only: bool,
+    ) -> Plan | None:
+        """§2.4's walk up from step ``index``: re-decompose the lowest of its ancestors
+        below the goal that can be, within ``local_left`` (see :meth:`repair`)."""
         # A recursive method makes the record as long as the plan; past a few levels a
         # re-decomposition costs as much as planning the goal, so go straight to it.
         for record in chain[:_REPAIR_LEVELS]:
@@ -151,7 +204,7 @@ class Repairer:
             if record.parent is not None:
                 tasks: list[TaskEntry] = [(record.task, record.parent)]
                 tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-                result = self._local(states[start], tasks)
+                result = self._local(states[start], tasks, made_only)
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             # §2.4 (our choice): do again the subtasks of this task's method already done,
@@ -161,24 +214,20 @@ class Repairer:
             for k in range(1, len(again) + 1):
                 if self.local_left <= 0:
                     break
-                result = self._local(states[start], [*again[-k:], *rest])
+                result = self._local(states[start], [*again[-k:], *rest], made_only)
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             if record.parent is None:
                 break  # the goal's own decomposition: below, shared
-        # The goal itself, from the current belief: one search shared by all plans.
-        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings))
-        if found is None:
-            self.unsolvable = states[0].key()
-        return found
+        return None
 
-    def _local(self, state: State, tasks: Sequence[TaskEntry]) -> Plan | None:
+    def _local(self, state: State, tasks: Sequence[TaskEntry], made_only: bool = False) -> Plan | None:
         """A search below the goal, within what is left of the local budget."""
         spent = self._stats.expansions
         local = replace(
             self._settings, alternatives=1, budget=self.local_left, max_tasks=len(tasks) + LOCAL_GROWTH
         )
-        result = self.search(state, tasks, local)
+        result = self.search(state, tasks, local, made_only=made_only)
         self.local_left -= self._stats.expansions - spent
         return result
 
@@ -197,8 +246,11 @@ class Repairer:
         key: tuple[object, ...] = (state.dynamic, self._avoided(state), *(t for t, _ in tasks))
         return key if settings.cost_bound is None else (*key, ("cost_bound", settings.cost_bound))
 
-    def search(self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings) -> Plan | None:
-        """The best plan for the task list from the state, searched once per update."""
+    def search(
+        self, state: State, tasks: Sequence[TaskEntry], settings: PlannerSettings, *, made_only: bool = False
+    ) -> Plan | None:
+        """The best plan for the task list from the state, searched once per update
+        (with ``made_only``, only if this update already searched it: else None)."""
         impossible = self._impossible_key(state, tasks, settings)
         if impossible in self._impossible:
             return None
@@ -206,9 +258,15 @@ class Repairer:
         key: tuple[object, ...] = (*impossible, *(r for _, r in tasks))
         if key in self._results:
             return self._results[key]
+        if made_only or self._exhausted.get(key, -1) >= settings.budget:
+            return None  # not searched, or cut by a budget as large already
         result = plan(self._domain, state, tasks, settings, avoid=self._avoided(state))
         self._stats.expansions += result.expansions
         found = result.best
+        if result.status is PlanStatus.BUDGET_EXHAUSTED:
+            # Not an answer: a larger budget (a repair's reserve) may find one.
+            self._exhausted[key] = settings.budget
+            return None
         self._results[key] = found
         if result.status is PlanStatus.UNSOLVABLE:
             self._impossible.add(impossible)
@@ -273,4 +331,13 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
     return found
 
 
-__all__ = ["LOCAL_BUDGET", "LOCAL_GROWTH", "OnDemand", "Repairer", "SearchMemo", "done_subtasks", "one_plan"]
+__all__ = [
+    "LOCAL_BUDGET",
+    "LOCAL_GROWTH",
+    "LOCAL_SHARE",
+    "OnDemand",
+    "Repairer",
+    "SearchMemo",
+    "done_subtasks",
+    "one_plan",
+]
