@@ -8,17 +8,24 @@ from __future__ import annotations
 
 import os
 import signal
+import sys
 from collections.abc import Callable
 from pathlib import Path
 
-import pytest
-import yaml
-from hypothesis import settings
+# Bytecode caches on, for this run and the commands the tests start: a machine may turn them
+# off (PYTHONDONTWRITEBYTECODE), and then each of the suite's hundred-odd commands compiles
+# the package afresh -- about a second each on a loaded two-core machine.
+os.environ.pop("PYTHONDONTWRITEBYTECODE", None)
+sys.dont_write_bytecode = False
 
-from htnagent.domains.maps import WorldMap
-from htnagent.domains.museum import areas_domain, nodes_domain
-from htnagent.model.domain import Domain, State
-from htnagent.scenario import parse_map
+import pytest  # noqa: E402
+import yaml  # noqa: E402
+from hypothesis import settings  # noqa: E402
+
+from htnagent.domains.maps import WorldMap  # noqa: E402
+from htnagent.domains.museum import areas_domain, nodes_domain  # noqa: E402
+from htnagent.model.domain import Domain, State  # noqa: E402
+from htnagent.scenario import parse_map  # noqa: E402
 
 settings.register_profile("ci", derandomize=True, database=None)
 if os.environ.get("CI"):
