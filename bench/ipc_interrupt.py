@@ -27,8 +27,9 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    :func:`htnagent.planning.hddl_translation.unsuspendable` accepts is declared suspendable
    (``agents[].suspendable``): the acting action is stopped half way, has had no
    effect, and the resumed goal may ``resume`` it (or drop it).
-5. **Both modes**, on-line then naive, each one warm-up run and ``--runs``
-   measured runs (default 5; medians reported), each run measured by
+5. **Both modes**, in one process: a warm-up run of each, then ``--runs`` rounds
+   (default 5; medians reported), on-line then naive in each, so that whatever else
+   the machine does weighs on both alike; each run measured by
    :func:`bench.measure.measure_run` like the museum benchmark: ``replan_ms`` the agent's
    own replanning when the network resumes (its ``goal_resumed`` replan_ms, the paper's
    measure); ``resume_ms`` the window, the wall clock from the emergency goal's end to the
@@ -42,11 +43,11 @@ on the simulated HDDL robot (docs/design.md §7.1), in both replanning modes:
    whole network again from the belief at resumption: where the domain's methods cannot
    do again a task already done, it fails, and the row's reason says so.
 
-Each step (1–3 together, then each mode) is one process, one at a time, killed
-with its process group past its wall-clock limit: ``--timeout`` plus
-``--run-timeout`` (default 60 s) for steps 1–3, ``--run-timeout`` for each mode
-(all its runs).
-A killed or failed run is a row with ``success: false`` and its ``reason``.
+Each step (1–3 together, then the runs of step 5) is one process, one at a time,
+killed with its process group past its wall-clock limit: ``--timeout`` plus
+``--run-timeout`` (default 60 s) for steps 1–3, ``--run-timeout`` a mode (twice it)
+for the runs.  The mode whose run was cut short is a row with ``success: false`` and
+its ``reason``; the other keeps the runs it finished (``runs``).
 Problems are taken round robin over the domains (each domain's first, then each one's
 second, ...), so that a run stopped part way has rows of every domain; progress is one line
 per problem on stderr.
@@ -266,19 +267,22 @@ def combine(runs: Sequence[dict[str, Any]]) -> dict[str, Any]:
 
 
 def worker(argv: Sequence[str]) -> int:
-    """``--worker prepare D P TIMEOUT MAX_ACTIONS`` or ``--worker MODE D P PLAN.json``: one
-    JSON line on stdout."""
+    """``--worker prepare D P TIMEOUT MAX_ACTIONS``: one JSON line on stdout.
+    ``--worker runs D P PLAN.json``: one JSON line a run, as it ends: a warm-up run of
+    each mode, then ``runs`` rounds, the modes in turn within each (whatever else the
+    machine does then weighs on both alike)."""
     stage, domain_file, problem_file, *extra = argv
     problem = Problem(Path(problem_file).parent.name, Path(domain_file), Path(problem_file))
     if stage == "prepare":
-        out = prepare(problem, float(extra[0]), int(extra[1]))
-    else:
-        plan = json.loads(extra[0])
-        data = scenario_data(
-            problem, plan["suspendable"], plan["search"], plan["budget"], plan["emergency"], plan["trigger"]
-        )
-        out = combine([run_agent(problem, data, stage) for _ in range(plan["runs"] + 1)])
-    print(json.dumps(out))
+        print(json.dumps(prepare(problem, float(extra[0]), int(extra[1]))))
+        return 0
+    plan = json.loads(extra[0])
+    data = scenario_data(
+        problem, plan["suspendable"], plan["search"], plan["budget"], plan["emergency"], plan["trigger"]
+    )
+    for run in range(plan["runs"] + 1):
+        for mode in MODES:
+            print(json.dumps({"mode": mode, "run": run, **run_agent(problem, data, mode)}), flush=True)
     return 0
 
 
@@ -287,18 +291,19 @@ def worker(argv: Sequence[str]) -> int:
 
 def _call(
     problem: Problem, stage: str, extra: Sequence[str], limit: float, grace: float
-) -> tuple[dict[str, Any] | None, str]:
+) -> tuple[list[dict[str, Any]], str]:
+    """The worker's JSON lines (those printed before a kill too), and why it stopped short
+    ("" if it ended well)."""
     argv = [sys.executable, "-m", "bench.ipc_interrupt", "--worker", stage]
     argv += [str(problem.domain_file), str(problem.problem_file), *extra]
     outcome = run_process(argv, limit, grace)
+    got = [json.loads(line) for line in outcome.stdout.splitlines() if line.startswith("{")]
     if outcome.code is None:
-        return None, f"killed at the wall-clock limit of {limit:g} s"
-    lines = [line for line in outcome.stdout.splitlines() if line.startswith("{")]
-    if outcome.code != 0 or not lines:
+        return got, f"killed at the wall-clock limit of {limit:g} s"
+    if outcome.code != 0 or not got:
         tail = [line for line in outcome.stderr.splitlines() if line.strip()]
-        return None, f"exit {outcome.code}: {tail[-1][:300] if tail else 'no output'}"
-    result: dict[str, Any] = json.loads(lines[-1])
-    return result, ""
+        return got, f"exit {outcome.code}: {tail[-1][:300] if tail else 'no output'}"
+    return got, ""
 
 
 def _row(problem: Problem, mode: str | None, timeout: float, **fields: Any) -> dict[str, Any]:
@@ -329,17 +334,26 @@ def bench_problem(
 ) -> list[dict[str, Any]]:
     """The rows of one problem: one skipped row, or one per mode."""
     extra = [f"{timeout:g}", str(max_actions)]
-    plan, why = _call(problem, "prepare", extra, timeout + run_timeout, grace)
-    if plan is None:
+    prepared, why = _call(problem, "prepare", extra, timeout + run_timeout, grace)
+    if why:
         return [_row(problem, None, timeout, reason=f"preparing: {why}")]
+    plan = prepared[-1]
     if "skip" in plan:
         return [_row(problem, None, timeout, reason=plan["skip"])]
     keys = ("actions", "emergency", "emergency_kind", "changed", "trigger", "search")
     about = {k: plan[k] for k in keys}
+    limit = run_timeout * len(MODES)
+    got, why = _call(problem, "runs", [json.dumps({**plan, "runs": runs})], limit, grace)
+    # Stopped short, the mode whose run was going on failed; the other keeps the runs it
+    # finished (``runs`` says how many were measured).
+    running = MODES[len(got) % len(MODES)]
     rows = []
     for mode in MODES:
-        got, why = _call(problem, mode, [json.dumps({**plan, "runs": runs})], run_timeout, grace)
-        rows.append(_row(problem, mode, timeout, **about, **(got or {"reason": why})))
+        mine = [g for g in got if g["mode"] == mode]
+        if mine and (not why or mode != running):
+            rows.append(_row(problem, mode, timeout, **about, **combine(mine)))
+        else:
+            rows.append(_row(problem, mode, timeout, **about, reason=why or "no run ended"))
     return rows
 
 
@@ -487,14 +501,12 @@ def parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog=PROG, description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
     p.add_argument("--suite", type=Path, required=True, help="the folder of IPC domains (../shared/data/ipc)")
     p.add_argument("--timeout", type=positive, default=20.0, help="seconds to solve a problem (20)")
-    p.add_argument(
-        "--run-timeout", type=positive, default=60.0, help="wall-clock seconds an agent's run (60)"
-    )
+    p.add_argument("--run-timeout", type=positive, default=60.0, help="wall-clock seconds a mode's runs (60)")
     p.add_argument(
         "--runs",
         type=at_least_one,
         default=5,
-        help="measured runs a mode, after one warm-up run (5; medians)",
+        help="measured runs a mode, after one warm-up run; the modes in turn (5; medians)",
     )
     p.add_argument(
         "--max-actions",
