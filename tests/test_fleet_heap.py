@@ -1,8 +1,9 @@
-"""A fleet's long-lived objects stay out of the garbage collector's full passes while it runs.
+"""A fleet's long-lived objects stay out of the garbage collector's passes while it runs.
 
-:func:`htnagent.system.fleet.long_lived` freezes the heap (``gc.freeze``) around a fleet's
-run and a serving process's service, and thaws it after, however the run ends; a heap the
-caller froze is left to the caller.  In one process, with no network: the museum, twice.
+:func:`htnagent.system.fleet.long_lived` freezes the heap (``gc.freeze``) and collects the
+young generation less often around a fleet's run and a serving process's service, and puts
+both back after, however the run ends; a heap the caller froze is left to the caller.  In
+one process, with no network: the museum, twice.
 """
 
 from __future__ import annotations
@@ -17,7 +18,7 @@ import pytest
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import load_scenario
-from htnagent.system.fleet import long_lived, run_fleet
+from htnagent.system.fleet import YOUNG, long_lived, run_fleet
 from tests.support import SCENARIO_DIR
 
 
@@ -30,17 +31,21 @@ def thawed() -> Iterator[None]:
 
 
 def test_long_lived_freezes_and_thaws_even_on_error() -> None:
+    before = gc.get_threshold()
     with pytest.raises(RuntimeError), long_lived():
         assert gc.get_freeze_count() > 0
+        assert gc.get_threshold() == (YOUNG, *before[1:])
         raise RuntimeError("a run that fails")
     assert gc.get_freeze_count() == 0
+    assert gc.get_threshold() == before
 
 
 def test_long_lived_leaves_the_callers_freeze_alone() -> None:
     gc.freeze()
     frozen = gc.get_freeze_count()
+    before = gc.get_threshold()
     with long_lived():
-        pass
+        assert gc.get_threshold() == before
     assert gc.get_freeze_count() == frozen  # not thawed: the caller froze it
 
 
