@@ -197,6 +197,12 @@ class Clock:
         wait = self._wall + max(nxt.when - self._now, 0.0) / self.speed - time.monotonic()
         return wait if wait > 1e-6 else None
 
+    def _peer_next(self) -> bool:
+        """Whether what is due next is a peer's message (not stopped, no idle callbacks due)."""
+        while self._timers and self._timers[0].cancelled:
+            heapq.heappop(self._timers)
+        return not self._stopped and bool(self._timers) and not self._timers[0].paced
+
     async def _pace(self, wait: float) -> None:
         # Until the wall clock reaches a timer, or a poke (an earlier timer, a peer's message,
         # something settled to tell, an idle callback, an answer from outside, stop); work
@@ -225,20 +231,27 @@ class Clock:
                     self._idle = anyio.Event()
                 await self._idle.wait()
                 continue
-            # Let tasks that are ready but have not yet picked up their work run first
-            # (as soon as one has, it is work: wait for it instead).
-            for _ in range(3):
-                await anyio.lowlevel.checkpoint()
-                if self._busy > 0:
-                    break
-            if self._busy > 0:
-                continue
             if self._settled:
+                # Everything of this instant counted as work has been handled: what is to
+                # be told of it (a remote link's payload) goes now, before the rounds below.
+                # A task those rounds let run that still sends something at this instant
+                # sends it in a payload of its own, after this one.
                 settled, self._settled = self._settled, []
                 for cb in settled:
                     cb()
                 if self._busy > 0:
                     continue  # what they did is work: handled first
+            # Let tasks that are ready but have not yet picked up their work run first
+            # (as soon as one has, it is work: wait for it instead): three rounds of the
+            # event loop before a timer of ours; one before a peer's message, whose moment
+            # another process chose (a fleet's parent ran three rounds of every robot's
+            # keeper per message, each round a turn of all the others).
+            for _ in range(1 if self._peer_next() else 3):
+                await anyio.lowlevel.checkpoint()
+                if self._busy > 0:
+                    break
+            if self._busy > 0 or self._settled:
+                continue
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
                 self._renew_changed()
