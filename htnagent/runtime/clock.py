@@ -241,17 +241,19 @@ class Clock:
                     cb()
                 if self._busy > 0:
                     continue  # what they did is work: handled first
-            # Let tasks that are ready but have not yet picked up their work run first
-            # (as soon as one has, it is work: wait for it instead): three rounds of the
-            # event loop before a timer of ours; one before a peer's message, whose moment
-            # another process chose (a fleet's parent ran three rounds of every robot's
-            # keeper per message, each round a turn of all the others).
-            for _ in range(1 if self._peer_next() else 3):
-                await anyio.lowlevel.checkpoint()
-                if self._busy > 0:
-                    break
-            if self._busy > 0 or self._settled:
-                continue
+            if not self._peer_next():
+                # Let tasks that are ready but have not yet picked up their work run first
+                # (as soon as one has, it is work: wait for it instead).  Not before a peer's
+                # message: its moment is the network's, and a task still to act at this
+                # instant acts after it as if it had come a little sooner (a fleet's parent
+                # ran three rounds of the event loop per message and robot, each round a
+                # turn of every other robot's work).
+                for _ in range(3):
+                    await anyio.lowlevel.checkpoint()
+                    if self._busy > 0:
+                        break
+                if self._busy > 0 or self._settled:
+                    continue
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
                 self._renew_changed()
