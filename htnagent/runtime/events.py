@@ -60,10 +60,14 @@ def _field_names(cls: type[TraceEvent]) -> tuple[str, ...]:
     return names
 
 
+_SCALARS = (str, int, float, bool)
+_SEQUENCES = (tuple, list)  # tuples: ``A | B`` would build a union at every call (every field of every event)
+
+
 def _json(value: object) -> JSONValue:
-    if isinstance(value, str | int | float | bool) or value is None:
+    if isinstance(value, _SCALARS) or value is None:
         return value
-    if isinstance(value, tuple | list):
+    if isinstance(value, _SEQUENCES):
         return [_json(v) for v in value]
     if isinstance(value, dict):
         return {str(k): _json(v) for k, v in value.items()}
