@@ -18,6 +18,12 @@ stamped with its sender's time and delivered by :meth:`Clock.call_from_peer`,
 which moves this clock on to that time at once if it is behind.  An order
 awaiting a peer's answer is *outside work* (:meth:`Clock.add_outside`): time
 goes on meanwhile, but the runtime is not idle for good.
+
+How this fails: a task woken by anything but a mailbox (an event, say) is not
+work.  The time keeper lets the event loop run three rounds before a timer of
+its own fires, so that such a task acts at the instant it was woken if it is
+ready by then; a task that takes longer, or a message from a peer (handled
+without those rounds: its moment is the network's), may find time moved on.
 """
 
 from __future__ import annotations
