@@ -8,6 +8,7 @@ fields are checked like any other.
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -235,6 +236,56 @@ def test_a_settled_callback_runs_once_when_the_runtime_is_idle_before_time_moves
         return seen
 
     assert anyio.run(main) == [("work", 0.0), ("settled", 0.0), ("timer", 1.0), ("settled again", 1.0)]
+
+
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
+def test_a_peers_message_waits_for_no_loop_round_a_timer_of_ours_waits_three(backend: str) -> None:
+    # The time keeper lets the event loop run three rounds before a timer of its own fires (a
+    # task woken but not counted as work acts first); a peer's message, whose moment is the
+    # network's, is handled as soon as nothing is in flight.  Rounds counted by a task that
+    # does nothing else (trio orders a round's tasks at random: the time keeper's wake-up
+    # takes one round or two).
+    import anyio
+    import anyio.lowlevel
+
+    from htnagent.runtime.clock import Clock
+
+    async def main() -> tuple[int, int]:
+        clock = Clock(speed=1000.0)
+        rounds = 0
+        at: dict[str, int] = {}
+
+        async def count_rounds() -> None:
+            nonlocal rounds
+            while True:
+                rounds += 1
+                await anyio.lowlevel.checkpoint()
+
+        async def rounds_until(name: str, give: Callable[[Callable[[], None]], object]) -> int:
+            for _ in range(10):  # the time keeper settles into its wait
+                await anyio.lowlevel.checkpoint()
+            start = rounds
+
+            def handled() -> None:
+                at.setdefault(name, rounds)
+
+            give(handled)
+            with anyio.fail_after(5):
+                while name not in at:
+                    await anyio.lowlevel.checkpoint()
+            return at[name] - start
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            tg.start_soon(count_rounds)
+            timer = await rounds_until("timer", lambda fire: clock.call_later(0.0, fire))
+            peer = await rounds_until("peer", lambda fire: clock.call_from_peer(clock.now(), fire))
+            tg.cancel_scope.cancel()
+        return peer, timer
+
+    peer, timer = anyio.run(main, backend=backend)
+    assert timer >= 3
+    assert peer <= 2  # woken, then handled at once (with the rounds: 4 or 5)
 
 
 def test_robots_loaded_from_files_of_their_own_on_one_map_share_its_built_in_domains(tmp_path: Path) -> None:

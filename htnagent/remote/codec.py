@@ -214,7 +214,7 @@ def receive(payload: bytes) -> Received:
         listed = data["items"]
         if not isinstance(listed, list) or not 0 < len(listed) <= MAX_ITEMS:
             raise CodecError(f"items: not a list of 1 to {MAX_ITEMS} items: {payload[:80]!r}")
-        return Received(tuple(_timed(one, payload) for one in listed), sender, n)
+        return Received(tuple([_timed(one, payload) for one in listed]), sender, n)
     except CodecError:
         raise
     except (
@@ -249,6 +249,8 @@ def _atom(text: object) -> Atom:
     return atom
 
 
+_PHASES = {phase.value: phase for phase in Phase}
+"""Each phase by its name (a dictionary look-up: ``Phase(name)`` cost more, for every report)."""
 _NUMBER = (int, float)  # a tuple: ``int | float`` would build a union for every item
 
 
@@ -280,7 +282,7 @@ def _item(kind: object, body: dict[str, Any]) -> Item:
         return Progress(
             actor=str(body["actor"]),
             action=_atom(body["action"]),
-            phase=Phase(body["phase"]),
+            phase=_PHASES[body["phase"]],  # a KeyError (refused) if it is none of them
             duration=float(body["duration"]),
             done=float(body["done"]),
         )

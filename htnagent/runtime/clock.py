@@ -18,6 +18,12 @@ stamped with its sender's time and delivered by :meth:`Clock.call_from_peer`,
 which moves this clock on to that time at once if it is behind.  An order
 awaiting a peer's answer is *outside work* (:meth:`Clock.add_outside`): time
 goes on meanwhile, but the runtime is not idle for good.
+
+How this fails: a task woken by anything but a mailbox (an event, say) is not
+work.  The time keeper lets the event loop run three rounds before a timer of
+its own fires, so that such a task acts at the instant it was woken if it is
+ready by then; a task that takes longer, or a message from a peer (handled
+without those rounds: its moment is the network's), may find time moved on.
 """
 
 from __future__ import annotations
@@ -197,6 +203,12 @@ class Clock:
         wait = self._wall + max(nxt.when - self._now, 0.0) / self.speed - time.monotonic()
         return wait if wait > 1e-6 else None
 
+    def _peer_next(self) -> bool:
+        """Whether what is due next is a peer's message (not stopped, no idle callbacks due)."""
+        while self._timers and self._timers[0].cancelled:
+            heapq.heappop(self._timers)
+        return not self._stopped and bool(self._timers) and not self._timers[0].paced
+
     async def _pace(self, wait: float) -> None:
         # Until the wall clock reaches a timer, or a poke (an earlier timer, a peer's message,
         # something settled to tell, an idle callback, an answer from outside, stop); work
@@ -225,20 +237,29 @@ class Clock:
                     self._idle = anyio.Event()
                 await self._idle.wait()
                 continue
-            # Let tasks that are ready but have not yet picked up their work run first
-            # (as soon as one has, it is work: wait for it instead).
-            for _ in range(3):
-                await anyio.lowlevel.checkpoint()
-                if self._busy > 0:
-                    break
-            if self._busy > 0:
-                continue
             if self._settled:
+                # Everything of this instant counted as work has been handled: what is to
+                # be told of it (a remote link's payload) goes now, before the rounds below.
+                # A task those rounds let run that still sends something at this instant
+                # sends it in a payload of its own, after this one.
                 settled, self._settled = self._settled, []
                 for cb in settled:
                     cb()
                 if self._busy > 0:
                     continue  # what they did is work: handled first
+            if not self._peer_next():
+                # Let tasks that are ready but have not yet picked up their work run first
+                # (as soon as one has, it is work: wait for it instead).  Not before a peer's
+                # message: its moment is the network's, and a task still to act at this
+                # instant acts after it as if it had come a little sooner (a fleet's parent
+                # ran three rounds of the event loop per message and robot, each round a
+                # turn of every other robot's work).
+                for _ in range(3):
+                    await anyio.lowlevel.checkpoint()
+                    if self._busy > 0:
+                        break
+                if self._busy > 0 or self._settled:
+                    continue
             if self._stopped:
                 self._quiet.set()  # nothing in flight, and time is to stand still
                 self._renew_changed()

@@ -15,7 +15,7 @@ optional ones only when set.
 from __future__ import annotations
 
 import dataclasses
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import ClassVar, Literal
 
@@ -60,10 +60,14 @@ def _field_names(cls: type[TraceEvent]) -> tuple[str, ...]:
     return names
 
 
+_SCALARS = (str, int, float, bool)
+_SEQUENCES = (tuple, list)  # tuples: ``A | B`` would build a union at every call (every field of every event)
+
+
 def _json(value: object) -> JSONValue:
-    if isinstance(value, str | int | float | bool) or value is None:
+    if isinstance(value, _SCALARS) or value is None:
         return value
-    if isinstance(value, tuple | list):
+    if isinstance(value, _SEQUENCES):
         return [_json(v) for v in value]
     if isinstance(value, dict):
         return {str(k): _json(v) for k, v in value.items()}
@@ -421,20 +425,23 @@ def event_from_dict(data: Mapping[str, object]) -> TraceEvent:
     Raises :class:`~htnagent.errors.TraceFormatError` naming what is wrong: not an object,
     an unknown ``event``, a missing or mistyped field.
     """
-    if not isinstance(data, Mapping):
+    # A dict (what JSON reads) is known without the abstract class's slower check: every
+    # event a serving process relays comes through here.
+    if type(data) is not dict and not isinstance(data, Mapping):
         raise TraceFormatError(f"expected an event object, got {shown(data)}")
     kind = data.get("event")
     cls = EVENT_KINDS.get(kind) if isinstance(kind, str) else None
     if cls is None:
         raise TraceFormatError(f"unknown event {shown(kind)}")
-    adapter = _ADAPTERS.get(cls)
-    if adapter is None:
-        adapter = _ADAPTERS[cls] = TypeAdapter(cls)
+    validate = _VALIDATORS.get(cls)
+    if validate is None:
+        validate = _VALIDATORS[cls] = TypeAdapter(cls).validator.validate_python
     try:
         # ``event`` is a class variable, not a field: validation ignores it (as any key
         # that is not a field), so the object is read as it is, not copied without it
-        # first (every event a serving process relays comes through here).
-        event: TraceEvent = adapter.validate_python(data)
+        # first.  The adapter's own validator, called straight (its Python wrapper cost as
+        # much again as the checks of a small event).
+        event = validate(data)
     except ValidationError as e:
         first = e.errors()[0]
         where = ".".join(str(p) for p in first["loc"])
@@ -442,7 +449,8 @@ def event_from_dict(data: Mapping[str, object]) -> TraceEvent:
     return event
 
 
-_ADAPTERS: dict[type[TraceEvent], TypeAdapter[TraceEvent]] = {}
+_VALIDATORS: dict[type[TraceEvent], Callable[[object], TraceEvent]] = {}
+"""Each event kind's validation (its type adapter's own), made when first needed."""
 
 
 def fields_of(kind: str) -> tuple[str, ...]:

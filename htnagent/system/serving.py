@@ -63,7 +63,7 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.system.fleet import share_domains
+from htnagent.system.fleet import long_lived, share_domains
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
@@ -272,6 +272,7 @@ async def serve(
             runtime.subscribe(observer)
         hosts.append(Host(runtime, world, agent, parent, Keys(one.key_space, agent), listen, security))
     async with contextlib.AsyncExitStack() as stack:
+        stack.enter_context(long_lived())  # the scenarios, built: alive while serving
         for host in hosts:
             await stack.enter_async_context(host.runtime)
         async with anyio.create_task_group() as tg:

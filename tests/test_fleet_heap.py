@@ -1,0 +1,65 @@
+"""A fleet's long-lived objects stay out of the garbage collector's passes while it runs.
+
+:func:`htnagent.system.fleet.long_lived` freezes the heap (``gc.freeze``) and collects the
+young generation less often around a fleet's run and a serving process's service, and puts
+both back after, however the run ends; a heap the caller froze is left to the caller.  In
+one process, with no network: the museum, twice.
+"""
+
+from __future__ import annotations
+
+import functools
+import gc
+from collections.abc import Iterator
+
+import anyio
+import pytest
+
+from htnagent.runtime.events import TraceEvent
+from htnagent.runtime.trace import Observer
+from htnagent.scenario import load_scenario
+from htnagent.system.fleet import YOUNG, long_lived, run_fleet
+from tests.support import SCENARIO_DIR
+
+
+@pytest.fixture(autouse=True)
+def thawed() -> Iterator[None]:
+    """Every test starts and ends with nothing frozen (a failing one must not leak a freeze)."""
+    gc.unfreeze()
+    yield
+    gc.unfreeze()
+
+
+def test_long_lived_freezes_and_thaws_even_on_error() -> None:
+    before = gc.get_threshold()
+    with pytest.raises(RuntimeError), long_lived():
+        assert gc.get_freeze_count() > 0
+        assert gc.get_threshold() == (YOUNG, *before[1:])
+        raise RuntimeError("a run that fails")
+    assert gc.get_freeze_count() == 0
+    assert gc.get_threshold() == before
+
+
+def test_long_lived_leaves_the_callers_freeze_alone() -> None:
+    gc.freeze()
+    frozen = gc.get_freeze_count()
+    before = gc.get_threshold()
+    with long_lived():
+        assert gc.get_threshold() == before
+    assert gc.get_freeze_count() == frozen  # not thawed: the caller froze it
+
+
+def test_a_fleet_runs_frozen_and_ends_thawed() -> None:
+    scenarios = [load_scenario(SCENARIO_DIR / "museum.yaml") for _ in range(2)]
+    counts: list[int] = []
+
+    def observers(index: int) -> list[Observer]:
+        def seen(event: TraceEvent) -> None:
+            counts.append(gc.get_freeze_count())
+
+        return [seen]
+
+    report = anyio.run(functools.partial(run_fleet, scenarios, observers=observers))
+    assert report.succeeded
+    assert counts and min(counts) > 0  # the scenarios built before the run were frozen
+    assert gc.get_freeze_count() == 0
