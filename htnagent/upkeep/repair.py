@@ -163,12 +163,11 @@ class Repairer:
         """
         record = p.steps[index].record
         chain = record.chain() if record is not None else []
-        made_only = not alone
-        found = self._below_goal(p, index, states, chain, done, alone, made_only)
+        found = self._below_goal(p, index, states, chain, done, alone)
         if found is not None:
             return found
         # The goal itself, from the current belief: one search shared by all plans.
-        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings), made_only=made_only)
+        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings), made_only=not alone)
         if found is None and alone:
             self.unsolvable = states[0].key()
             if self.reserve > 0:
@@ -176,7 +175,7 @@ class Repairer:
                 # done): only a repair below the goal can keep it, and it gets the rest of
                 # its budget (test_repair_redo: doing a subtask again takes 700 expansions).
                 self.local_left, self.reserve = self.local_left + self.reserve, 0
-                found = self._below_goal(p, index, states, chain, done, alone, made_only)
+                found = self._below_goal(p, index, states, chain, done, alone)
         return found
 
     def _below_goal(
@@ -186,11 +185,10 @@ class Repairer:
         states: list[State],
         chain: list[Decomposition],
         done: Done | None,
-        redo: bool,
-        made_only: bool,
+        alone: bool,
     ) -> Plan | None:
         """§2.4's walk up from step ``index``: re-decompose the lowest of its ancestors
-        below the goal that can be, within ``local_left`` (see :meth:`repair`)."""
+        below the goal that can be, within ``local_left`` (``alone``: see :meth:`repair`)."""
         # A recursive method makes the record as long as the plan; past a few levels a
         # re-decomposition costs as much as planning the goal, so go straight to it.
         for record in chain[:_REPAIR_LEVELS]:
@@ -204,24 +202,24 @@ class Repairer:
             if record.parent is not None:
                 tasks: list[TaskEntry] = [(record.task, record.parent)]
                 tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-                result = self._local(states[start], tasks, made_only)
+                result = self._local(states[start], tasks, made_only=not alone)
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             # §2.4 (our choice): do again the subtasks of this task's method already done,
             # the last one first, then the plan's steps from there as they are.
             rest: list[TaskEntry] = [(s.action, s.record) for s in p.steps[start:]]
-            again = done_subtasks(done, record, _REDO) if redo else []
+            again = done_subtasks(done, record, _REDO) if alone else []
             for k in range(1, len(again) + 1):
                 if self.local_left <= 0:
                     break
-                result = self._local(states[start], [*again[-k:], *rest], made_only)
+                result = self._local(states[start], [*again[-k:], *rest])
                 if result is not None:
                     return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             if record.parent is None:
                 break  # the goal's own decomposition: below, shared
         return None
 
-    def _local(self, state: State, tasks: Sequence[TaskEntry], made_only: bool = False) -> Plan | None:
+    def _local(self, state: State, tasks: Sequence[TaskEntry], *, made_only: bool = False) -> Plan | None:
         """A search below the goal, within what is left of the local budget."""
         spent = self._stats.expansions
         local = replace(
