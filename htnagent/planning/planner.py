@@ -36,6 +36,7 @@ from htnagent.model.plans import Decomposition, Plan, Step, tidy
 from htnagent.model.preconditions import Decomposer, LazyDecomposer, satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
+from htnagent.planning.goal_support import GoalSupport
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -399,6 +400,26 @@ def _search(
     cost_of = collections.defaultdict(float, task_costs or {}).__getitem__
     goal_set = frozenset(goal_facts)
     distinct_goals = len(goal_set) == len(goal_facts)
+    # A state goal: a node where a goal fact is false and no task left may add it is a dead
+    # end (design §7.3), whatever the search -- found where it happens, not at the end.
+    support = GoalSupport(domain, domain.goal_facts) if domain.goal_facts else None
+    goal_deleters = support.deleters if support is not None else frozenset()
+
+    def undone(task: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: tuple[Atom, ...]) -> bool:
+        """After the action ``task``: a goal fact it deleted, or one it may add and did
+        not, that no task of ``rest`` may add."""
+        assert support is not None
+        missing = [g for g in support.may_add(task) if g not in after]
+        if task.name in goal_deleters:
+            missing.extend(support.goals.intersection(before).difference(after))
+        return support.lost(missing, rest)
+
+    def dropped(task: Atom, dynamic: frozenset[Atom], child_tasks: tuple[Atom, ...]) -> bool:
+        """After decomposing ``task``: a false goal fact it may add that none of its
+        subtasks and later tasks (``child_tasks``) may."""
+        assert support is not None
+        adds = support.may_add(task)
+        return bool(adds) and support.lost([g for g in adds if g not in dynamic], child_tasks)
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if guide is not None:
@@ -478,7 +499,8 @@ def _search(
             None,
         ),
     )
-    heappush(heap, root)
+    if support is None or not support.lost(goal_set.difference(state.dynamic), root_tasks):
+        heappush(heap, root)  # (else no task may add some goal fact: no plan)
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
@@ -546,6 +568,9 @@ def _search(
         if isinstance(popped_entry, _More):
             more = popped_entry
             way = next(more.ways, None)
+            if support is not None:
+                while way is not None and dropped(more.task, more.parent.dynamic, way + more.rest_tasks):
+                    way = next(more.ways, None)
             if way is not None:
                 up = more.parent
                 rec = _new(_Pending, (more.task, more.method, more.record))
@@ -627,6 +652,8 @@ def _search(
                     continue
                 if check_loops and _revisits(node, dyn, rest_t):
                     continue
+                if support is not None and undone(action, dynamic, dyn, rest_t):
+                    continue
                 child_g = g + c
                 if bounded and child_g + lb(rest_t) >= bound:
                     continue
@@ -650,6 +677,9 @@ def _search(
             for method_name, run in runs:
                 ways = run(task, st)
                 first_way = next(ways, None)
+                if support is not None:
+                    while first_way is not None and dropped(task, dynamic, first_way + rest_t):
+                        first_way = next(ways, None)
                 if first_way is None:
                     continue
                 child_tasks = first_way + rest_t
@@ -685,6 +715,8 @@ def _search(
                 if len(child_tasks) > max_tasks and too_long(len(child_tasks), node):
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
+                    continue
+                if support is not None and dropped(task, dynamic, child_tasks):
                     continue
                 h = h_of(child_tasks, dynamic, st)
                 if h == _INF:
