@@ -105,7 +105,9 @@ class GoalSupport:
         wanted = {g.name for g in self.goals}
         # The actions that may delete a goal fact: only after them is a lost fact possible.
         self.deleters = frozenset(
-            name for name, ops in domain.operators.items() if any(d.name in wanted for op in ops for d in op.delete)
+            name
+            for name, ops in domain.operators.items()
+            if any(d.name in wanted for op in ops for d in op.delete)
         )
 
     def may_add(self, task: Atom) -> frozenset[Atom]:
@@ -123,7 +125,7 @@ class GoalSupport:
                 if where is None:
                     continue
                 value = where[1] if where[0] == "c" else _arg(task, where[1])
-                if value is None:
+                if not isinstance(value, str):
                     continue  # a variable: any value
                 some = self._at.get((pred, i, value), frozenset())
                 chosen = some if chosen is None else chosen & some

@@ -399,6 +399,10 @@ def _search(
     # and h is worked out for every child.  A name without a cost counts 0, as before.
     cost_of = collections.defaultdict(float, task_costs or {}).__getitem__
     goal_set = frozenset(goal_facts)
+    # Depth-first search reads h only for ``inf`` (a task that can never be done): with the
+    # lifted sum, a child's list is its parent's with the first task replaced, so only the
+    # new tasks need looking at -- not the whole list, thousands long (Blocksworld).
+    new_only = dfs and task_costs is not None and guide is None
     distinct_goals = len(goal_set) == len(goal_facts)
     # A state goal: a node where a goal fact is false and no task left may add it is a dead
     # end (design §7.3), whatever the search -- found where it happens, not at the end.
@@ -499,7 +503,9 @@ def _search(
             None,
         ),
     )
-    if support is None or not support.lost(goal_set.difference(state.dynamic), root_tasks):
+    if new_only and root.f == _INF:
+        pass  # a task that can never be done: no plan (its children are not checked again)
+    elif support is None or not support.lost(support.goals.difference(state.dynamic), root_tasks):
         heappush(heap, root)  # (else no task may add some goal fact: no plan)
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
@@ -657,7 +663,7 @@ def _search(
                 child_g = g + c
                 if bounded and child_g + lb(rest_t) >= bound:
                     continue
-                h = h_of(rest_t, dyn, None)
+                h = 0.0 if new_only else h_of(rest_t, dyn, None)
                 if h == _INF:
                     continue
                 step = (action, c, record)
@@ -687,7 +693,8 @@ def _search(
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
                     continue  # every way alike: the same names
-                h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
+                # The same for every way: the same names.
+                h = h_of(first_way if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
                 f = node.f - 1.0 if dfs else g * wg + h
@@ -718,7 +725,7 @@ def _search(
                     continue
                 if support is not None and dropped(task, dynamic, child_tasks):
                     continue
-                h = h_of(child_tasks, dynamic, st)
+                h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
