@@ -144,3 +144,12 @@ def test_without_a_goal_nothing_is_dropped() -> None:
     result = plan(planning.domain, planning.state, planning.tasks, settings)
     assert result.best is not None
     assert any(s.action.name == "unstack" for s in result.best.steps)
+
+
+def test_a_list_without_the_goal_check_is_not_held_to_the_goal() -> None:
+    # An agent plans one task of the domain alone (an emergency): the problem's goal need
+    # not hold after it, so a goal fact it cannot add is no dead end.
+    planning = _planning(3)
+    settings = PlannerSettings(alternatives=1, budget=1_000, search=Search.DFS)
+    result = plan(planning.domain, planning.state, [Atom("put", ("b1", "b0"))], settings)
+    assert result.status is PlanStatus.SOLVED

@@ -22,6 +22,7 @@ from collections.abc import Iterable, Sequence
 
 from htnagent.model.domain import Domain
 from htnagent.model.terms import Atom, is_variable
+from htnagent.planning.hddl_translation import GOAL
 
 _Spec = tuple[tuple[str, object] | None, ...]
 """How a fact's arguments come from a task's: ``("p", j)`` the task's j-th argument,
@@ -84,6 +85,14 @@ def _through(spec: _Spec, sub: Atom, head: Atom) -> _Spec:
         else:
             out.append(("c", term))
     return tuple(out)
+
+
+def checks_goal(domain: Domain, tasks: Sequence[Atom]) -> bool:
+    """Whether the test applies to a search of ``tasks``: the domain has goal facts and the
+    list ends with the task that checks them (:data:`~htnagent.planning.hddl_translation.GOAL`),
+    so that they must hold once every task before it is done.  Another list (an agent's
+    emergency task alone) need not make the problem's goal true."""
+    return bool(domain.goal_facts) and bool(tasks) and tasks[-1].name == GOAL
 
 
 class GoalSupport:
@@ -158,4 +167,4 @@ def _arg(task: Atom, j: object) -> str | None:
     return a if isinstance(a, str) and not is_variable(a) else None
 
 
-__all__ = ["GoalSupport", "adders"]
+__all__ = ["GoalSupport", "adders", "checks_goal"]

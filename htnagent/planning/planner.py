@@ -36,7 +36,7 @@ from htnagent.model.plans import Decomposition, Plan, Step, tidy
 from htnagent.model.preconditions import Decomposer, LazyDecomposer, satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
-from htnagent.planning.goal_support import GoalSupport
+from htnagent.planning.goal_support import GoalSupport, checks_goal
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -404,9 +404,11 @@ def _search(
     # new tasks need looking at -- not the whole list, thousands long (Blocksworld).
     new_only = dfs and task_costs is not None and guide is None
     distinct_goals = len(goal_set) == len(goal_facts)
-    # A state goal: a node where a goal fact is false and no task left may add it is a dead
-    # end (design §7.3), whatever the search -- found where it happens, not at the end.
-    support = GoalSupport(domain, domain.goal_facts) if domain.goal_facts else None
+    # A state goal checked at the end of the list: a node where a goal fact is false and no
+    # task left may add it is a dead end (design §7.3), whatever the search -- found where it
+    # happens, not at the end.
+    given_tasks = [t for t, _ in entries]
+    support = GoalSupport(domain, domain.goal_facts) if checks_goal(domain, given_tasks) else None
     goal_deleters = support.deleters if support is not None else frozenset()
 
     def undone(task: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: tuple[Atom, ...]) -> bool:
