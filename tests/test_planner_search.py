@@ -259,3 +259,22 @@ def test_greedy_search_counts_the_goal_facts_still_missing() -> None:
     result = solve(domain, problem, search=Search.GBFS, budget=5_000).result
     assert result.best is not None
     assert check_plan(domain, problem, ipc_plan(result.best)) == []
+
+
+def test_depth_first_search_drops_a_task_that_can_never_be_done_wherever_it_comes_from() -> None:
+    # Depth-first search looks only at a child's new tasks for one that can never be done
+    # (cost inf): one in the list given ends the search at once, one a method brings is
+    # dropped with its way, and the other way is taken.
+    d = _choice_domain(task_costs=True)
+    d.method("stuck", "never", do=["stuck"])
+    d.method("pick", "bad", do=["stuck", "a"])
+    d.method("pick", "good", do=["b"])
+    assert d.task_costs is not None
+    d.task_costs.update({"stuck": float("inf"), "pick": 1.0})
+    settings = PlannerSettings(alternatives=1, budget=1_000, search=Search.DFS)
+    given = plan(d, State.from_facts((), d.dynamic_predicates), [atom("a"), atom("stuck")], settings)
+    assert given.status is PlanStatus.UNSOLVABLE and given.expansions == 0
+    found = plan(d, State.from_facts((), d.dynamic_predicates), [atom("pick"), atom("a")], settings)
+    assert found.best is not None
+    assert [s.action.name for s in found.best.steps] == ["b", "a"]
+    assert found.expansions <= 3

@@ -36,6 +36,7 @@ from htnagent.model.plans import Decomposition, Plan, Step, tidy
 from htnagent.model.preconditions import Decomposer, LazyDecomposer, satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
+from htnagent.planning.goal_support import GoalSupport, checks_goal
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -398,7 +399,33 @@ def _search(
     # and h is worked out for every child.  A name without a cost counts 0, as before.
     cost_of = collections.defaultdict(float, task_costs or {}).__getitem__
     goal_set = frozenset(goal_facts)
+    # Depth-first search reads h only for ``inf`` (a task that can never be done): with the
+    # lifted sum, a child's list is its parent's with the first task replaced, so only the
+    # new tasks need looking at -- not the whole list, thousands long (Blocksworld).
+    new_only = dfs and task_costs is not None and guide is None
     distinct_goals = len(goal_set) == len(goal_facts)
+    # A state goal checked at the end of the list: a node where a goal fact is false and no
+    # task left may add it is a dead end (design §7.3), whatever the search -- found where it
+    # happens, not at the end.
+    given_tasks = [t for t, _ in entries]
+    support = GoalSupport(domain, domain.goal_facts) if checks_goal(domain, given_tasks) else None
+    goal_deleters = support.deleters if support is not None else frozenset()
+
+    def undone(task: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: tuple[Atom, ...]) -> bool:
+        """After the action ``task``: a goal fact it deleted, or one it may add and did
+        not, that no task of ``rest`` may add."""
+        assert support is not None
+        missing = [g for g in support.may_add(task) if g not in after]
+        if task.name in goal_deleters:
+            missing.extend(support.goals.intersection(before).difference(after))
+        return support.lost(missing, rest)
+
+    def dropped(task: Atom, dynamic: frozenset[Atom], child_tasks: tuple[Atom, ...]) -> bool:
+        """After decomposing ``task``: a false goal fact it may add that none of its
+        subtasks and later tasks (``child_tasks``) may."""
+        assert support is not None
+        adds = support.may_add(task)
+        return bool(adds) and support.lost([g for g in adds if g not in dynamic], child_tasks)
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if guide is not None:
@@ -478,7 +505,10 @@ def _search(
             None,
         ),
     )
-    heappush(heap, root)
+    if new_only and root.f == _INF:
+        pass  # a task that can never be done: no plan (its children are not checked again)
+    elif support is None or not support.lost(support.goals.difference(state.dynamic), root_tasks):
+        heappush(heap, root)  # (else no task may add some goal fact: no plan)
     if recover:
         # A suspended action's facts are in the state: try finishing or undoing it first.
         for op in domain.recovery_operators():
@@ -546,6 +576,9 @@ def _search(
         if isinstance(popped_entry, _More):
             more = popped_entry
             way = next(more.ways, None)
+            if support is not None:
+                while way is not None and dropped(more.task, more.parent.dynamic, way + more.rest_tasks):
+                    way = next(more.ways, None)
             if way is not None:
                 up = more.parent
                 rec = _new(_Pending, (more.task, more.method, more.record))
@@ -627,10 +660,12 @@ def _search(
                     continue
                 if check_loops and _revisits(node, dyn, rest_t):
                     continue
+                if support is not None and undone(action, dynamic, dyn, rest_t):
+                    continue
                 child_g = g + c
                 if bounded and child_g + lb(rest_t) >= bound:
                     continue
-                h = h_of(rest_t, dyn, None)
+                h = 0.0 if new_only else h_of(rest_t, dyn, None)
                 if h == _INF:
                     continue
                 step = (action, c, record)
@@ -650,6 +685,9 @@ def _search(
             for method_name, run in runs:
                 ways = run(task, st)
                 first_way = next(ways, None)
+                if support is not None:
+                    while first_way is not None and dropped(task, dynamic, first_way + rest_t):
+                        first_way = next(ways, None)
                 if first_way is None:
                     continue
                 child_tasks = first_way + rest_t
@@ -657,7 +695,8 @@ def _search(
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
                     continue  # every way alike: the same names
-                h = h_of(child_tasks, dynamic, st)  # the same for every way: the same names
+                # The same for every way: the same names.
+                h = h_of(first_way if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
                 f = node.f - 1.0 if dfs else g * wg + h
@@ -686,7 +725,9 @@ def _search(
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
                     continue
-                h = h_of(child_tasks, dynamic, st)
+                if support is not None and dropped(task, dynamic, child_tasks):
+                    continue
+                h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
