@@ -21,8 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
-import gc
-from collections.abc import Callable, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -31,14 +30,11 @@ import anyio
 from htnagent.errors import HtnAgentError, ScenarioError
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
+from htnagent.system.heap import long_lived
 from htnagent.system.simulation import RunReport, link_security, run_scenario
 
 if TYPE_CHECKING:
     from htnagent.remote.link import Security
-
-YOUNG = 20_000
-"""Allocations between two collections of the youngest generation while a fleet runs
-(:func:`long_lived`; Python's default is 700)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -167,32 +163,6 @@ async def _share_sessions(stack: contextlib.AsyncExitStack, scenarios: Sequence[
         await stack.enter_async_context(SESSIONS.hold(connect=endpoints, security=security))
 
 
-@contextlib.contextmanager
-def long_lived() -> Iterator[None]:
-    """What exists now (the scenarios, their maps and domains) out of the garbage collector's
-    passes until the end (``gc.freeze``: a long-running server's advice in Python's gc docs),
-    and the youngest generation collected every :data:`YOUNG` allocations, not 700; both
-    as they were after, unless someone has frozen the heap already (then left alone).
-
-    A fleet's process holds many long-lived objects and makes many short-lived ones, which
-    reference counting frees.  A full collection walked the long-lived ones, in one pause of
-    the event loop (about 0.1 s with 100 robots) during which every robot waited, and the
-    young collections (a hundred in a 100-robot museum run, 0.05 s) walked the messages
-    and events of the moment, alive for a few steps more.  Only garbage in cycles waits
-    longer (for the next pass, or the thaw: what is frozen was alive then)."""
-    if gc.get_freeze_count():
-        yield  # frozen by the caller, who thaws it
-        return
-    gc.freeze()
-    thresholds = gc.get_threshold()
-    gc.set_threshold(YOUNG, *thresholds[1:])
-    try:
-        yield
-    finally:
-        gc.set_threshold(*thresholds)
-        gc.unfreeze()
-
-
 def _first(group: BaseExceptionGroup[HtnAgentError]) -> HtnAgentError:
     first: HtnAgentError | BaseExceptionGroup[HtnAgentError] = group.exceptions[0]
     while isinstance(first, BaseExceptionGroup):
@@ -200,4 +170,4 @@ def _first(group: BaseExceptionGroup[HtnAgentError]) -> HtnAgentError:
     return first
 
 
-__all__ = ["FleetReport", "check_fleet", "long_lived", "run_fleet", "share_domains"]
+__all__ = ["FleetReport", "check_fleet", "run_fleet", "share_domains"]

@@ -63,7 +63,8 @@ from htnagent.runtime.messages import (
 from htnagent.runtime.progress import Progress
 from htnagent.runtime.trace import Observer
 from htnagent.scenario import Scenario
-from htnagent.system.fleet import long_lived, share_domains
+from htnagent.system.fleet import share_domains
+from htnagent.system.heap import long_lived
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import build_runtime, robot_status, world_changed
 
