@@ -18,7 +18,7 @@ from htnagent.scenario import parse_map
 from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
 from htnagent.upkeep import online as online_module
 from htnagent.upkeep.quality import COMPARISON_FLOOR
-from htnagent.upkeep.repair import LOCAL_SHARE
+from htnagent.upkeep.repair import LOCAL_MIN, LOCAL_SHARE
 from tests.support import record_repair_searches
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -347,6 +347,9 @@ def test_repairs_below_the_goal_get_a_share_of_what_planning_it_afresh_took(
     # §2.4's repair is worth making because it is cheaper than planning afresh: repairs
     # below the goal share LOCAL_SHARE of the expansions the goal's last plan from scratch
     # took; then the goal is re-planned (one search, naive's), and no comparison follows.
+    # (The museum's first plan takes 10 expansions: its share is below LOCAL_MIN, which the
+    # next test is about; here any share is searched.)
+    monkeypatch.setattr(online_module, "LOCAL_MIN", 1)
     areas = areas_domain(world)
     belief = areas.initial_state("n40")
     ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
@@ -366,6 +369,25 @@ def test_repairs_below_the_goal_get_a_share_of_what_planning_it_afresh_took(
     naive = plan(areas, closed, [a("goto(n1)")], PlannerSettings(alternatives=1)).best
     assert naive is not None and ps.best is not None and ps.best.actions == naive.actions
     assert ps.stats.repairs == 1 and ps.stats.fresher == 0
+
+
+def test_a_share_too_small_to_pay_for_a_search_goes_straight_to_the_goal(
+    world: WorldMap, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A search's own cost is a few expansions' worth: a tenth of the museum's 10 is one
+    # expansion, less than LOCAL_MIN -- no search below the goal; the goal is re-planned.
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert ps.scratch_expansions is not None
+    assert math.ceil(LOCAL_SHARE * ps.scratch_expansions) < LOCAL_MIN
+    searched = record_repair_searches(monkeypatch)
+    closed = belief.updated(add=[a("closed(arc12)")])
+    ps.belief_changed(belief, closed)
+    assert [(s.tasks, s.settings.max_tasks) for s in searched] == [(["goto(n1)"], None)]
+    naive = plan(areas, closed, [a("goto(n1)")], PlannerSettings(alternatives=1)).best
+    assert naive is not None and ps.best is not None and ps.best.actions == naive.actions
 
 
 def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -> None:

@@ -408,7 +408,7 @@ def _search(
     # task left may add it is a dead end (design §7.3), whatever the search -- found where it
     # happens, not at the end.
     given_tasks = [t for t, _ in entries]
-    support = GoalSupport(domain, domain.goal_facts) if checks_goal(domain, given_tasks) else None
+    support = GoalSupport.of(domain) if checks_goal(domain, given_tasks) else None
     goal_deleters = support.deleters if support is not None else frozenset()
 
     def undone(task: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: tuple[Atom, ...]) -> bool:

@@ -39,7 +39,7 @@ from htnagent.upkeep.base import PlanSet
 from htnagent.upkeep.failure import means_it_again, new_alternatives, starts_with, without_failed
 from htnagent.upkeep.quality import first_own_step, fresher_kept, rival_from
 from htnagent.upkeep.recheck import recheck_all
-from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
+from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
 from htnagent.upkeep.stats import PlanningStats
 from htnagent.upkeep.success import kept_after_success, moved_on, ran
@@ -270,13 +270,15 @@ class OnlinePlanSet(PlanSet):
     def _repairer(self, memo: SearchMemo | None = None, *, local: bool = False) -> Repairer:
         """The searches of one update; with ``local``, the repairs' budgets: below the goal,
         :data:`~htnagent.upkeep.repair.LOCAL_SHARE` of what planning the goal from scratch
-        took (the rest of :data:`~htnagent.upkeep.repair.LOCAL_BUDGET` once the goal has no
-        plan afresh)."""
+        took, none if that is less than :data:`~htnagent.upkeep.repair.LOCAL_MIN` (the rest
+        of :data:`~htnagent.upkeep.repair.LOCAL_BUDGET` once the goal has no plan afresh)."""
         if not local:
             return Repairer(self.domain, self.goal, self.settings, self.stats, self._avoided, memo)
         whole = min(self.settings.budget, LOCAL_BUDGET)
         known = self.scratch_expansions
         first = whole if known is None else min(whole, math.ceil(LOCAL_SHARE * known))
+        if first < LOCAL_MIN:
+            first = 0  # too small a share to pay for a search
         return Repairer(
             self.domain,
             self.goal,

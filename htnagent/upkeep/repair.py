@@ -73,6 +73,12 @@ expansions of local searches, then a plan afresh in 70).  Measured on the IPC in
 bench (docs/benchmarks.md): a half or a quarter left on-line's whole-run planning 10-30%
 above naive's in six domains, a tenth within 8% in all."""
 
+LOCAL_MIN = 8
+"""The least share (expansions) worth searching below the goal for: a search's own cost --
+its set-up, the task list and the plan it gives -- is a few expansions' worth, so a share
+smaller than this cannot pay for itself (Snake: three local searches of a few expansions
+each, 0.4 ms, in a run whose planning was 4 ms); the goal is then re-planned at once."""
+
 LOCAL_GROWTH = 64
 """How much longer than the task list it was given a repair below the goal may let a list
 grow.  A recursive method that puts its task back in front of more (Hiking's trips) grows
@@ -332,6 +338,7 @@ def done_subtasks(done: Done | None, record: Decomposition, limit: int) -> list[
 __all__ = [
     "LOCAL_BUDGET",
     "LOCAL_GROWTH",
+    "LOCAL_MIN",
     "LOCAL_SHARE",
     "OnDemand",
     "Repairer",
