@@ -405,6 +405,36 @@ def test_plan_is_removed_when_no_ancestor_can_be_redecomposed(world: WorldMap) -
 # -- §2.5 revival ---------------------------------------------------------------------------------
 
 
+def test_plans_kept_for_revival_follow_the_actions_the_one_plan_takes() -> None:
+    # After a repair the plan as it was waits for revival (§2.5) while the one plan runs on
+    # (its common case, no re-check): it follows each action -- its undo put in front -- so
+    # that, revived, it is valid from where the robot is then.
+    d = Domain("corridor")
+    d.operator(
+        "step(?x,?y)",
+        pre=["at(?x)", "link(?x,?y)", "not closed(?x,?y)"],
+        add=["at(?y)"],
+        delete=["at(?x)"],
+        undo="step(?y,?x)",
+    )
+    d.operator("shut(?x,?y)", add=["closed(?x,?y)"])  # makes closed(...) a dynamic fact
+    d.method("reach(?n)", "here", when=["at(?n)"], do=[])
+    d.method("reach(?n)", "go", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"])
+    links = [("p0", "p1"), ("p1", "p2"), ("p2", "p3"), ("p0", "p2")]
+    d.facts = tuple(Atom("link", pair) for x, y in links for pair in ((x, y), (y, x)))
+    belief = State.from_facts([*d.facts, a("at(p0)")], d.dynamic_predicates)
+    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
+    ps.make(belief)
+    assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)"]
+    shut = belief.updated(add=[a("closed(p0,p2)")])
+    ps.belief_changed(belief, shut)
+    assert texts(ps.best) == ["step(p0,p1)", "step(p1,p2)", "step(p2,p3)"] and len(ps.revival) == 1
+    after = execute(ps, d, shut, "step(p0,p1)")
+    kept = ps.revival.plans
+    assert [q.text() for q in kept] == [["step(p1,p0)", "step(p0,p2)", "step(p2,p3)"]]
+    assert replay(d, after.updated(delete=[a("closed(p0,p2)")]), kept[0].actions) is not None
+
+
 def test_plan_removed_by_a_closed_door_is_revived_when_it_opens(world: WorldMap) -> None:
     areas = areas_domain(world)
     belief = areas.initial_state("n1")

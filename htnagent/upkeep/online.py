@@ -143,17 +143,23 @@ class OnlinePlanSet(PlanSet):
                 rewrite = moved_on(self.domain, action, self.domain.actions.undo_of(action))
                 self._follow_lazily(lambda p: rewrite(p) or p, after)
             return
-        if len(self.plans) == 1 and not self.revival and before is self._checked:
+        if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
-            # valid from ``before``, ran the action; it moves on and is valid from ``after``.
+            # valid from ``before``, ran the action; it moves on and is valid from ``after``
+            # -- and plans kept for revival follow, none coming back (after a repair, the
+            # plan as it was waits there for 64 updates).
             only = self.plans[0]
             steps = only.steps
-            if steps and steps[0].action == action:
+            if steps and steps[0].action == action and not self.revival.due(before, after):
                 with self._timed():
                     self.done = Done(steps[0], self.done)
                     self.plans = [only.rest()]
                     self._checked = after
+                    if self.revival:
+                        undo = self.domain.actions.undo_of(action)
+                        self.revival.rewrite(moved_on(self.domain, action, undo))
                     self.revival.tick()
+                    self.revival.expire()
                 return
         with self._timed():
             undo = self.domain.actions.undo_of(action)

@@ -109,6 +109,10 @@ class Revival:
         """An update of the plan set begins."""
         self._updates += 1
 
+    def due(self, before: State, after: State) -> bool:
+        """Whether :meth:`revive` would take a plan out for this change."""
+        return any(_came_back(r, before, after) for r in self._kept)
+
     def revive(self, before: State, after: State) -> list[Plan]:
         """Take out the plans whose breaking fact changed the right way between the states."""
         if not self._kept:
@@ -116,9 +120,7 @@ class Revival:
         out: list[Plan] = []
         keep: list[_Removed] = []
         for r in self._kept:
-            fact, positive = r.key
-            # It holds (is false) now, and did not (did) before: it became as the plan needs.
-            if after.holds(fact) is positive and before.holds(fact) is not positive:
+            if _came_back(r, before, after):
                 out.append(self._rewritten(r))
             else:
                 keep.append(r)
@@ -132,6 +134,13 @@ class Revival:
         self._kept = [r for r in self._kept if self._updates - r.update <= self.window]
         if not self._kept:
             self._changes.clear()
+
+
+def _came_back(r: _Removed, before: State, after: State) -> bool:
+    """Whether ``r``'s breaking fact holds (is false) after, and did not (did) before: it
+    became as the plan needs."""
+    fact, positive = r.key
+    return after.holds(fact) is positive and before.holds(fact) is not positive
 
 
 def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] | None:
