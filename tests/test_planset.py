@@ -423,7 +423,7 @@ def test_plans_kept_for_revival_follow_the_actions_the_one_plan_takes() -> None:
     links = [("p0", "p1"), ("p1", "p2"), ("p2", "p3"), ("p0", "p2")]
     d.facts = tuple(Atom("link", pair) for x, y in links for pair in ((x, y), (y, x)))
     belief = State.from_facts([*d.facts, a("at(p0)")], d.dynamic_predicates)
-    ps = new_plan_set(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
+    ps = OnlinePlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)"]
     shut = belief.updated(add=[a("closed(p0,p2)")])
