@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from htnagent.model.actions import ROLLBACK, action_rolled_back_by
 from htnagent.model.domain import Domain
@@ -127,13 +128,13 @@ class Plan:
         return "[" + ", ".join(self.shown) + f"] cost {self.cost:g}"
 
 
-@dataclass(frozen=True, slots=True)
-class Done:
+class Done(NamedTuple):
     """The steps a goal has carried out, newest first, as a linked list.
 
     A link per step, so that adding one is O(1) and a plan set's forks share what
     came before.  Repair reads it to find the subtasks of a method already done
-    (:func:`htnagent.upkeep.repair.done_subtasks`).
+    (:func:`htnagent.upkeep.repair.done_subtasks`).  A named tuple: one is made at
+    every action a goal's plan takes.
     """
 
     step: Step

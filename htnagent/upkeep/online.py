@@ -155,11 +155,11 @@ class OnlinePlanSet(PlanSet):
                     self.done = Done(steps[0], self.done)
                     self.plans = [only.rest()]
                     self._checked = after
+                    self.revival.tick()
                     if self.revival:
                         undo = self.domain.actions.undo_of(action)
                         self.revival.rewrite(moved_on(self.domain, action, undo))
-                    self.revival.tick()
-                    self.revival.expire()
+                        self.revival.expire()
                 return
         with self._timed():
             undo = self.domain.actions.undo_of(action)

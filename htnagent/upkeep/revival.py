@@ -111,7 +111,7 @@ class Revival:
 
     def due(self, before: State, after: State) -> bool:
         """Whether :meth:`revive` would take a plan out for this change."""
-        return any(_came_back(r, before, after) for r in self._kept)
+        return bool(self._kept) and any(_came_back(r, before, after) for r in self._kept)
 
     def revive(self, before: State, after: State) -> list[Plan]:
         """Take out the plans whose breaking fact changed the right way between the states."""
