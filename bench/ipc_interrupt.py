@@ -389,7 +389,8 @@ def markdown(
         "",
         "Each problem's own task network is one goal (`tasks: problem`); an emergency task of the "
         "domain, chosen from the problem (docs/benchmarks.md), arrives half way through its plan. "
-        f"Limits: solve {timeout:g} s, {run_timeout:g} s a mode (all its runs), plans of at most "
+        f"Limits: solve {timeout:g} s, {run_timeout:g} s a mode's runs (both modes in one process, "
+        "in turn), plans of at most "
         f"{max_actions:,} actions. `replan_ms` is the agent's own replanning when the network "
         "resumes (the paper's measure), the window the wall clock from the emergency's end to the "
         "resumed goal's first order; each a problem's median of its measured runs, then the median "
@@ -407,7 +408,8 @@ def markdown(
     ]
     counts = sorted({r["runs"] for r in rows if r.get("runs")})
     if counts:
-        out[2] += f" Measured runs a mode, after one warm-up run: {', '.join(map(str, counts))}."
+        measured = ", ".join(map(str, counts))
+        out[2] += f" Measured runs a mode, after a warm-up run of each, the modes in turn: {measured}."
     if not_run:
         out[2] += (
             f" **{not_run} problems of the suite were not run** (the run was stopped part way; "
