@@ -57,17 +57,20 @@ def repairs_given_all_they_need(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(online_module, "LOCAL_SHARE", 1e9)
 
 
-def line_domain(undo: bool) -> Domain:
-    """Nodes p0..p4 on a line plus a shortcut p0-p2; step(X,Y) moves; goal reach(X)."""
+def line_domain(undo: bool, doors: bool = False) -> Domain:
+    """Nodes p0..p4 on a line plus a shortcut p0-p2; step(X,Y) moves; goal reach(X).
+    With ``doors`` a link may be shut: ``closed(X,Y)``, a dynamic fact."""
     d = Domain("line")
     d.operator(
         "step(?x,?y)",
-        pre=["at(?x)", "link(?x,?y)"],
+        pre=["at(?x)", "link(?x,?y)", *(["not closed(?x,?y)"] if doors else [])],
         add=["at(?y)"],
         delete=["at(?x)"],
         cost=1.0,
         undo="step(?y,?x)" if undo else None,
     )
+    if doors:
+        d.operator("shut(?x,?y)", add=["closed(?x,?y)"])  # makes closed(...) a dynamic fact
     d.method("reach(?n)", "here", when=["at(?n)"], do=[])
     d.method("reach(?n)", "go", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"])
     links = [("p0", "p1"), ("p1", "p2"), ("p2", "p3"), ("p3", "p4"), ("p0", "p2")]
@@ -409,20 +412,8 @@ def test_plans_kept_for_revival_follow_the_actions_the_one_plan_takes() -> None:
     # After a repair the plan as it was waits for revival (§2.5) while the one plan runs on
     # (its common case, no re-check): it follows each action -- its undo put in front -- so
     # that, revived, it is valid from where the robot is then.
-    d = Domain("corridor")
-    d.operator(
-        "step(?x,?y)",
-        pre=["at(?x)", "link(?x,?y)", "not closed(?x,?y)"],
-        add=["at(?y)"],
-        delete=["at(?x)"],
-        undo="step(?y,?x)",
-    )
-    d.operator("shut(?x,?y)", add=["closed(?x,?y)"])  # makes closed(...) a dynamic fact
-    d.method("reach(?n)", "here", when=["at(?n)"], do=[])
-    d.method("reach(?n)", "go", when=["not at(?n)", "at(?x)", "link(?x,?y)"], do=["step(?x,?y)", "reach(?n)"])
-    links = [("p0", "p1"), ("p1", "p2"), ("p2", "p3"), ("p0", "p2")]
-    d.facts = tuple(Atom("link", pair) for x, y in links for pair in ((x, y), (y, x)))
-    belief = State.from_facts([*d.facts, a("at(p0)")], d.dynamic_predicates)
+    d = line_domain(undo=True, doors=True)
+    belief = line_state(d, "p0")
     ps = OnlinePlanSet(d, a("reach(p3)"), settings=PlannerSettings(alternatives=1))
     ps.make(belief)
     assert texts(ps.best) == ["step(p0,p2)", "step(p2,p3)"]
