@@ -7,6 +7,7 @@ import pytest
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
+from htnagent.model.networks import network_task
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom
 from htnagent.planning.goal_support import GoalSupport, adders
@@ -144,6 +145,26 @@ def test_without_a_goal_nothing_is_dropped() -> None:
     result = plan(planning.domain, planning.state, planning.tasks, settings)
     assert result.best is not None
     assert any(s.action.name == "unstack" for s in result.best.steps)
+
+
+def test_a_network_goal_ending_with_the_goal_check_is_searched_with_the_test() -> None:
+    # An agent's goal ``tasks: problem`` is the one task tasks(t1,...,tn,__goal) (design §4):
+    # it is held to the goal as the problem's own list is, with the same search and
+    # expansions, not only once the network has been decomposed.
+    planning = _planning(14)
+    settings = PlannerSettings(alternatives=1, budget=5_000, search=Search.DFS)
+    listed = plan(planning.domain, planning.state, planning.tasks, settings)
+    # Another network first, so that the domain's methods for ``tasks`` change after the
+    # test was made: what a network may add is read from its own tasks.
+    network_task(planning.domain, planning.tasks[:1])
+    whole = network_task(planning.domain, planning.tasks)
+    result = plan(planning.domain, planning.state, [whole], settings)
+    assert result.status is PlanStatus.SOLVED
+    assert result.expansions <= listed.expansions + 1  # the network's own decomposition
+    assert result.best is not None and listed.best is not None
+    assert [s.action for s in result.best.steps] == [s.action for s in listed.best.steps]
+    support = GoalSupport.of(planning.domain)
+    assert support.may_add(whole) == support.goals
 
 
 def test_a_list_without_the_goal_check_is_not_held_to_the_goal() -> None:

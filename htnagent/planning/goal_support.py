@@ -21,6 +21,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from htnagent.model.domain import Domain
+from htnagent.model.networks import is_network
 from htnagent.model.terms import Atom, is_variable
 from htnagent.planning.hddl_translation import GOAL
 
@@ -96,8 +97,15 @@ def checks_goal(domain: Domain, tasks: Sequence[Atom]) -> bool:
     """Whether the test applies to a search of ``tasks``: the domain has goal facts and the
     list ends with the task that checks them (:data:`~htnagent.planning.hddl_translation.GOAL`),
     so that they must hold once every task before it is done.  Another list (an agent's
-    emergency task alone) need not make the problem's goal true."""
-    return bool(domain.goal_facts) and bool(tasks) and tasks[-1].name == GOAL
+    emergency task alone) need not make the problem's goal true.  A goal given as a network
+    (``tasks(t1,...,tn,__goal)``, an agent's ``tasks: problem``) ends the way its last task
+    does."""
+    if not domain.goal_facts or not tasks:
+        return False
+    last: object = tasks[-1]
+    while isinstance(last, Atom) and is_network(last):
+        last = last.args[-1]
+    return isinstance(last, Atom) and last.name == GOAL
 
 
 class GoalSupport:
@@ -149,6 +157,14 @@ class GoalSupport:
         if known is not None:
             return known
         out: set[Atom] = set()
+        if is_network(task):
+            # A network may add what its tasks may; its method is one the scenario adds to the
+            # domain, perhaps after this test was made, so it is not read from the fixed point.
+            for sub in task.args:
+                assert isinstance(sub, Atom)
+                out.update(self.may_add(sub))
+            known = self._cache[task] = frozenset(out)
+            return known
         for pred, spec in self._adders.get(task.name, ()):
             pool = self._by_pred.get(pred)
             if not pool:
