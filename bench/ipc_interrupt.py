@@ -159,7 +159,8 @@ def prepare(problem: Problem, timeout: float, max_actions: int = MAX_ACTIONS) ->
             "carries out (--max-actions)"
         }
     suspendable = [name for name in domain.actions if unsuspendable(domain, name) is None]
-    search = solved.search.value
+    # The search that answered, the grounded one told by its guide: the agent plans the same way.
+    search = "grounded" if solved.settings.guide is not None else solved.search.value
     budget = min(HDDL_BUDGET, max(AGENT_BUDGET, 2 * solved.result.expansions))
     scenario = parse_scenario(
         scenario_data(problem, suspendable, search, budget),
@@ -170,13 +171,14 @@ def prepare(problem: Problem, timeout: float, max_actions: int = MAX_ACTIONS) ->
     state = scenario.initial_state(AGENT)
     goal = scenario.goal_task(0)
     # The agent's first plan, as it makes it (one plan, its search and budget).
-    first = plan(agent_domain, state, [goal], one_plan(scenario.settings))
+    settings = scenario.settings_for(AGENT)
+    first = plan(agent_domain, state, [goal], one_plan(settings))
     if first.best is None:
         return {"skip": f"the agent's {search} search finds no plan for the network: {first.status.value}"}
     actions = sum(1 for s in first.best.steps if not is_marker(s.action))
     if actions < 1:
         return {"skip": "the agent's plan has no action: nothing to interrupt"}
-    chosen = choose_interruption(agent_domain, state, goal, first.best, domain, hddl, scenario.settings)
+    chosen = choose_interruption(agent_domain, state, goal, first.best, domain, hddl, settings)
     if chosen.emergency is None:
         return {
             "skip": f"no task of the domain ({chosen.tried} tried) has a plan that changes a fact half way"

@@ -383,7 +383,7 @@ BROKEN: list[tuple[str, Callable[[], Any], str, str]] = [
         "search-unknown",
         edited(lambda d: d["planner"].update(search="bogo")),
         "planner.search",
-        "'astar', 'gbfs' or 'dfs'",
+        "'astar', 'gbfs', 'dfs' or 'grounded'",
     ),
     ("timeout-negative", edited(lambda d: d.update(action_timeout=-5)), "action_timeout", "greater than 0"),
     ("no-goals", edited(lambda d: d.update(goals=[])), "goals", "must not be empty"),

@@ -398,11 +398,11 @@ def _plan(args: argparse.Namespace) -> int:
         raise ScenarioError(file, "--task", str(e)) from None
     check_task(scenario, args.agent, task, "--task")
     domain = scenario.domain_for(args.agent)
-    settings = scenario.settings
+    settings = scenario.settings_for(args.agent)
     if args.search == "auto":
         return _fail(f"--search auto is for plan --hddl (see {PROG} plan --help)")
     if args.search is not None:
-        settings = dataclasses.replace(settings, search=Search(args.search))
+        settings = dataclasses.replace(settings, search=Search(args.search), guide=None)
     try:
         result = plan(domain, scenario.initial_state(args.agent), [task], settings)
     except HtnAgentError:

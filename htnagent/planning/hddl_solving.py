@@ -53,7 +53,8 @@ SolveProgress = Callable[[Search, int, float], None]
 @dataclass(frozen=True, slots=True)
 class Solved:
     """What :func:`solve` found: the translated problem, the search that ended it with its
-    settings, and the result (expansions and seconds of every search it ran).
+    settings, and the result (expansions and seconds of every search it ran).  The grounded
+    search's settings carry its guide (:attr:`PlannerSettings.guide`).
 
     ``planning`` is None when the time ran out during the translation: the result is then
     :attr:`~htnagent.planning.planner.PlanStatus.TIMED_OUT`, after no expansion.
@@ -240,6 +241,8 @@ def _portfolio(
     def depth_first(paced: _Paced) -> PlanResult:
         return run(dfs_settings, checkpoint=paced.pace, progress=dfs_told)
 
+    guided_settings: list[PlannerSettings] = []
+
     def guided(paced: _Paced) -> PlanResult | None:
         # The grounding counts against the search's share: it is paced like the search.
         left = time_left()
@@ -253,8 +256,16 @@ def _portfolio(
         composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=checkpoint)
         if composition is None or paced.stop.is_set():
             return None
-        settings = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
-        return run(settings, checkpoint=paced.pace, progress=grounded_told, guide=composition.estimate)
+        # The settings carry the guide: what answered is then told by its settings.
+        settings = PlannerSettings(
+            alternatives=1,
+            budget=budget,
+            search=Search.GBFS,
+            time_limit=time_left(),
+            guide=composition.estimate,
+        )
+        guided_settings.append(settings)
+        return run(settings, checkpoint=paced.pace, progress=grounded_told)
 
     # One collector pause for all the searches (each pauses it itself only when it runs).
     collecting = gc.isenabled()
@@ -288,7 +299,7 @@ def _portfolio(
             helper.others_on.clear()
         if collecting:
             gc.enable()
-    others = [(Search.DFS, dfs_settings, dfs.out), (Search.GBFS, greedy, grounded.out)]
+    others = [(Search.DFS, dfs_settings, dfs.out), (Search.GBFS, (*guided_settings, greedy)[0], grounded.out)]
     both = found.expansions + sum(out[0].expansions for _, _, out in others if out)
     seconds = time.perf_counter() - started
     if found.status not in _FINAL:

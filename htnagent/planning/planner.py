@@ -25,7 +25,7 @@ import itertools
 import operator
 import time
 from collections.abc import Callable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from enum import Enum
 from typing import NamedTuple
 
@@ -136,6 +136,10 @@ class PlannerSettings:
     """The longest task list followed: a child whose list is longer is not (growth: a
     method that puts its own task back in front of more), and the search ends as out of
     budget.  None: at least 10,000, and four times the tasks given (see ``_search``)."""
+    guide: Guide | None = field(default=None, compare=False)
+    """The estimate every search with these settings uses in place of the domain's, unless
+    :func:`plan` is given one: a grounded one (:mod:`htnagent.planning.composition`), for
+    an agent whose scenario plans with ``search: grounded``."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -328,6 +332,8 @@ def plan(
     would scan them again and again (a search of 17,000 steps took twice as long
     with it).  The nodes form no cycles: reference counting frees them.
     """
+    if guide is None and settings is not None:
+        guide = settings.guide
     if not gc.isenabled():
         return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide)
     gc.disable()

@@ -12,6 +12,7 @@ from __future__ import annotations
 import ipaddress
 import re
 from collections.abc import Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -34,6 +35,7 @@ from htnagent.limits import MAX_SECONDS, MAX_SPEED, MIN_SPEED
 from htnagent.model.actions import RECOVERY
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
+from htnagent.planning.composition import ground
 from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, Search
 from htnagent.scenario.hddl_agent import HddlDomainSpec
@@ -41,6 +43,7 @@ from htnagent.scenario.specs import Name, Spec, TextForm, parse_text_form
 from htnagent.scenario.wording import ENDPOINT_PATTERN, kind_of
 
 __all__ = [
+    "GROUNDED",
     "PROBLEM_NETWORK",
     "ROBOT",
     "AgentSpec",
@@ -242,9 +245,10 @@ class PlannerSpec(Spec):
 
     alternatives: Annotated[int, Strict(), Field(ge=1)] = 2
     budget: Annotated[int, Strict(), Field(ge=1)] = 200_000
-    search: Literal["astar", "gbfs", "dfs"] = "astar"
+    search: Literal["astar", "gbfs", "dfs", "grounded"] = "astar"
     """The search order (docs/design.md §1.1): cost-optimal A*, greedy best-first, or
-    depth-first in method order."""
+    depth-first in method order; ``grounded``: greedy best-first guided, for an agent of an
+    HDDL domain, by the problem grounded (§7.2, what ``plan --hddl`` may answer with)."""
 
 
 class Trigger(Spec):
@@ -273,6 +277,8 @@ class Trigger(Spec):
         return self
 
 
+GROUNDED = "grounded"
+"""The planner's ``search`` that guides greedy search by the grounded problem (§7.2)."""
 PROBLEM_NETWORK = "problem"
 """``tasks: problem``: an HDDL agent's goal is its problem's own initial task network."""
 
@@ -401,6 +407,7 @@ class Scenario(Spec):
     _domains: dict[str, ResolvedDomain] = PrivateAttr(default_factory=dict)
     _hddl: dict[str, HddlPlanning] = PrivateAttr(default_factory=dict)
     _goal_tasks: tuple[Atom, ...] = PrivateAttr(default=())
+    _guided: dict[str, PlannerSettings] = PrivateAttr(default_factory=dict)
 
     @property
     def file(self) -> str:
@@ -416,11 +423,24 @@ class Scenario(Spec):
 
     @property
     def settings(self) -> PlannerSettings:
-        """The planner settings every agent uses."""
+        """The planner settings every agent uses (:meth:`settings_for` an agent's own)."""
         planner = self.planner
-        return PlannerSettings(
-            alternatives=planner.alternatives, budget=planner.budget, search=Search(planner.search)
-        )
+        search = Search.GBFS if planner.search == GROUNDED else Search(planner.search)
+        return PlannerSettings(alternatives=planner.alternatives, budget=planner.budget, search=search)
+
+    def settings_for(self, agent_name: str) -> PlannerSettings:
+        """The agent's planner settings: :attr:`settings`, and with ``search: grounded`` for an
+        agent of an HDDL domain, the grounded estimate of its goals' tasks from its start
+        state as their guide (made once; none where the grounding is past its cap)."""
+        if self.planner.search != GROUNDED or self.hddl_for(agent_name) is None:
+            return self.settings
+        known = self._guided.get(agent_name)
+        if known is None:
+            tasks = [self.goal_task(i) for i, g in enumerate(self.goals) if g.agent == agent_name]
+            made = ground(self.domain_for(agent_name), self.initial_state(agent_name), tasks)
+            guide = None if made is None else made.estimate
+            known = self._guided[agent_name] = replace(self.settings, guide=guide)
+        return known
 
     @property
     def key_space(self) -> str:

@@ -113,7 +113,7 @@ def build_runtime(
             domain=scenario.domain_for(spec.name),
             belief=scenario.initial_state(spec.name),
             replanning=mode,
-            settings=scenario.settings,
+            settings=scenario.settings_for(spec.name),
             action_timeout=scenario.action_timeout,
             look_ahead=look_ahead,
         )
