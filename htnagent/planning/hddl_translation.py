@@ -53,6 +53,9 @@ TOP = "__top"
 """The task whose one method is the problem's initial task network."""
 ROOT_METHOD = "__root"
 """The method of :data:`TOP`."""
+PART = "__part"
+"""The prefix of the tasks that bind the network's open parameters where they are used
+(:func:`_network_parts`): ``__part1(...)``, with its one method ``__part1_m``."""
 GOAL = "__goal"
 """The task checking the problem's ``:goal`` after the initial task network."""
 DONE = "__done"
@@ -259,10 +262,11 @@ class _Translator:
         for method in self.hddl.methods.values():
             self.method(method)
         p = self.problem
-        root = m.Method(
-            ROOT_METHOD, p.htn_params, Atom(TOP), m.TRUE, p.htn, p.htn_constraints, at=p.domain_at
-        )
+        kept, htn, parts = _network_parts(p)
+        root = m.Method(ROOT_METHOD, kept, Atom(TOP), m.TRUE, htn, p.htn_constraints, at=p.domain_at)
         self.method(root, source=p.source)
+        for part in parts:
+            self.method(part, source=p.source)
         tasks = [Atom(TOP)]
         if p.goal != m.TRUE:
             conjuncts = self.dnf(p.goal, {}, True, p.source, p.domain_at)
@@ -767,6 +771,57 @@ def _bound_formula(f: m.Formula, b: Mapping[str, str]) -> m.Formula:
     raise AssertionError(f"not a formula: {f!r}")  # pragma: no cover
 
 
+def _network_parts(p: m.Problem) -> tuple[tuple[m.Typed, ...], tuple[m.Subtask, ...], list[m.Method]]:
+    """The initial network with its open parameters bound where they are used: the
+    parameters the root keeps, its subtasks, and one method per part.
+
+    A parameter the network's constraints do not mention is bound by a task of its own,
+    ``__partK(...)``, whose one method does the stretch of the network from the first task
+    using it to the last (stretches that overlap are one part).  So each is bound when its
+    stretch starts, and a grounding takes the parts one by one -- not all at once at the
+    root, where a dozen parameters of a few objects each (Woodworking's surfaces and
+    colours) make millions of roots.  The same plans exist; the parts are left out of an
+    IPC plan (:mod:`htnagent.planning.ipc_output`).
+    """
+    calls = [s.call for s in p.htn]
+    open_names = {
+        q.name
+        for q in p.htn_params
+        if not _mentions(p.htn_constraints, q.name) and any(q.name in c.variables() for c in calls)
+    }
+    spans = sorted(
+        (used[0], used[-1])
+        for q in p.htn_params
+        if q.name in open_names
+        for used in [[i for i, c in enumerate(calls) if q.name in c.variables()]]
+    )
+    if not spans:
+        return p.htn_params, p.htn, []
+    merged: list[list[int]] = []
+    for first, last in spans:
+        if merged and first <= merged[-1][1]:
+            merged[-1][1] = max(merged[-1][1], last)
+        else:
+            merged.append([first, last])
+    htn: list[m.Subtask] = []
+    parts: list[m.Method] = []
+    done = 0
+    for first, last in merged:
+        htn.extend(p.htn[done:first])
+        stretch = p.htn[first : last + 1]
+        inside = {v for s in stretch for v in s.call.variables()}
+        given = tuple(q for q in p.htn_params if q.name in inside and q.name not in open_names)
+        own = tuple(q for q in p.htn_params if q.name in inside and q.name in open_names)
+        name = f"{PART}{len(parts) + 1}"
+        head = Atom(name, tuple(q.name for q in given))
+        parts.append(m.Method(f"{name}_m", given + own, head, m.TRUE, stretch, at=p.domain_at))
+        htn.append(m.Subtask(head, at=stretch[0].at))
+        done = last + 1
+    htn.extend(p.htn[done:])
+    kept = tuple(q for q in p.htn_params if q.name not in open_names)
+    return kept, tuple(htn), parts
+
+
 def _mentions(f: m.Formula, var: str) -> bool:
     match f:
         case m.Pred(atom=a):
@@ -859,6 +914,7 @@ __all__ = [
     "DONE",
     "GOAL",
     "MARKERS",
+    "PART",
     "RESERVED",
     "SUSPENDED",
     "TOP",

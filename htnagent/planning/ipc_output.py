@@ -1,7 +1,7 @@
 """A plan of a translated HDDL problem in the IPC's terms: its HDDL actions, and the
 decompositions the IPC plan format lists, without what the translation added
-(:mod:`htnagent.planning.hddl_translation`: the ``__top`` and ``__goal`` tasks, the
-``__done`` marker).
+(:mod:`htnagent.planning.hddl_translation`: the ``__top``, ``__goal`` and ``__partK``
+tasks, the ``__done`` marker).
 """
 
 from __future__ import annotations
@@ -11,7 +11,7 @@ import itertools
 from htnagent.hddl.plan_file import IpcDecomposition, IpcPlan, IpcStep
 from htnagent.model.plans import Decomposition, Plan
 from htnagent.model.terms import Atom
-from htnagent.planning.hddl_translation import GOAL, MARKERS, TOP
+from htnagent.planning.hddl_translation import GOAL, MARKERS, PART, TOP
 
 
 def actions_of(plan: Plan) -> list[Atom]:
@@ -51,7 +51,7 @@ def ipc_plan(plan: Plan) -> IpcPlan:
             known = id(record) in ids
             if not known:
                 # The translation's own tasks are not in the plan: they take no ID.
-                hidden = record.task.name in (TOP, GOAL)
+                hidden = _hidden(record.task)
                 ids[id(record)] = -1 - len(ids) if hidden else next(next_id)
                 records.append(record)
                 children[id(record)] = []
@@ -61,13 +61,24 @@ def ipc_plan(plan: Plan) -> IpcPlan:
                 break
             child = ids[id(record)]
             record = record.parent
-    root: tuple[int, ...] = tuple(children[id(top)]) if top is not None else ()
+    # A part of the network (a stretch binding its open parameters) is its tasks in the root.
+    inner = {ids[id(r)]: children[id(r)] for r in records if r.task.name.startswith(PART)}
+
+    def shown(kids: list[int]) -> tuple[int, ...]:
+        return tuple(k for kid in kids for k in (shown(inner[kid]) if kid in inner else (kid,)))
+
+    root: tuple[int, ...] = shown(children[id(top)]) if top is not None else ()
     decompositions = tuple(
         IpcDecomposition(ids[id(r)], r.task, r.method, tuple(children[id(r)]))
         for r in records
-        if r.task.name not in (TOP, GOAL)
+        if not _hidden(r.task)
     )
     return IpcPlan("<plan>", tuple(steps), root, decompositions)
+
+
+def _hidden(task: Atom) -> bool:
+    """Whether ``task`` is one the translation added (no HDDL task: not in an IPC plan)."""
+    return task.name in (TOP, GOAL) or task.name.startswith(PART)
 
 
 __all__ = ["actions_of", "ipc_plan"]
