@@ -121,7 +121,8 @@ class RemoteChild(ExecutorActor):
             self._me = link.session_id
             link.on_sample(self.keys.up, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.host_alive, self._liveliness)
-            self._out = link.outbox(self.keys.down, self._pack, self.clock.when_settled)
+            # To the serving process bound to, with the other robots' payloads of the round.
+            self._out = link.outbox(self.keys.down, self._pack, self.clock.when_settled, peer=self._peer)
             link.token(self.keys.parent_alive)
             with anyio.move_on_after(self.wait):
                 await self._joined.wait()
@@ -137,6 +138,9 @@ class RemoteChild(ExecutorActor):
                 tg.start_soon(report_refusals, self.gate, self.trace.emit, self.name, "serving")
                 while True:
                     self._forward(await self.inbox.receive())
+
+    def _peer(self) -> str | None:
+        return self.gate.peer
 
     # -- down ------------------------------------------------------------------------------------
 

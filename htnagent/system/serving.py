@@ -42,7 +42,7 @@ from htnagent.log import library_log
 from htnagent.model.terms import Atom
 from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
-from htnagent.remote.link import Keys, Link, Outbox, Security
+from htnagent.remote.link import LINKS, Keys, Link, Outbox, Security
 from htnagent.remote.proxy import RemoteChild, report_refusals
 from htnagent.runtime.clock import Mailbox
 from htnagent.runtime.events import PeerJoined, PeerLost, Summary, TraceEvent
@@ -137,7 +137,9 @@ class Host:
             self._me = link.session_id
             link.on_sample(self.keys.down, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.parent_alive, self._liveliness)
-            self._out = link.outbox(self.keys.up, self._pack, self.runtime.clock.when_settled)
+            # To the parent bound to, with the payloads of the process's other robots of the round.
+            settled = self.runtime.clock.when_settled
+            self._out = link.outbox(self.keys.up, self._pack, settled, peer=self._peer)
             self.runtime.subscribe(self._event)
             self.runtime.on_progress(self._progress)
             link.token(self.keys.host_alive)  # last: what the parent sends from now on is heard
@@ -151,6 +153,9 @@ class Host:
                     self._publish(RobotStatus(robot=robot, visited=visited, distance=distance))
                 if isinstance(answer, Success | Failure | Suspended | Refused):
                     self._publish(answer)
+
+    def _peer(self) -> str | None:
+        return self.gate.peer
 
     def _pack(self, items: Sequence[tuple[float, Item]], n: int) -> bytes:
         return encode_batch(items, self._me, n)
@@ -262,7 +267,8 @@ async def serve(
     share_domains(scenarios)  # robots on one map: one domain each, built once
     if security is not None and security.allow:
         # Zenoh's access control: the allowed parents on these robots' keys, nothing else.
-        keys = tuple(f"{Keys(one.key_space, agent).base}/**" for one in scenarios)
+        # And the sessions' own keys, where each side puts its robots' payloads together.
+        keys = (*(f"{Keys(one.key_space, agent).base}/**" for one in scenarios), f"{LINKS}/**")
         security = dataclasses.replace(security, keys=keys)
     hosts = []
     for one in scenarios:
