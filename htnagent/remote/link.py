@@ -682,15 +682,13 @@ class Link:
         assert self._bridge is not None, "the link is not open"
         return self._bridge
 
-    def on_sample(
-        self, key: str, handler: Callable[[T], None], admit: Callable[[bytes | memoryview], T | None]
-    ) -> None:
+    def on_sample(self, key: str, handler: Callable[[T], None], admit: Callable[[bytes], T | None]) -> None:
         """Call ``handler`` in the event loop with ``admit(payload)`` of every payload put on
         ``key`` (or sent for it with others', :class:`Mux`) unless that is None.  ``admit``
         runs on Zenoh's thread: what it refuses never reaches the event loop."""
         bridge = self.bridge
 
-        def admitted(payload: bytes | memoryview) -> None:  # a Zenoh thread: hand over, never wait
+        def admitted(payload: bytes) -> None:  # a Zenoh thread: hand over, never wait
             got = admit(payload)
             if got is not None:
                 bridge.call_soon(handler, got)
@@ -698,9 +696,12 @@ class Link:
         def arrived(sample: zenoh.Sample) -> None:
             admitted(sample.payload.to_bytes())
 
+        def part(payload: memoryview) -> None:
+            admitted(bytes(payload))
+
         self._keep.append(self.session.declare_subscriber(key, _direct(arrived)))
         assert self._shared is not None and self._shared.mux is not None  # the session is open
-        self._unroute.append(self._shared.mux.route(key, admitted))
+        self._unroute.append(self._shared.mux.route(key, part))
 
     def on_liveliness(self, key: str, handler: Callable[[bool, str], None]) -> None:
         """Call ``handler(True, ID)`` when a liveliness token ``KEY/ID`` appears (or is there
