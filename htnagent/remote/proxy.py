@@ -30,7 +30,7 @@ from anyio.abc import TaskStatus
 from htnagent.errors import RemoteError
 from htnagent.log import library_log
 from htnagent.model.domain import Domain
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
+from htnagent.remote.codec import Item, Received, Relay, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
 from htnagent.remote.link import Keys, Link, Outbox, Security
 from htnagent.runtime.clock import Clock
@@ -94,8 +94,10 @@ class RemoteChild(ExecutorActor):
         wait: float = 10.0,
         where: str = "",
         security: Security | None = None,
+        relay: frozenset[str] | None = None,
     ) -> None:
-        """``where``: the scenario file and key naming the endpoint, for the start-up error."""
+        """``where``: the scenario file and key naming the endpoint, for the start-up error;
+        ``relay``: the serving process's trace events (by name) to relay here (None: all)."""
         super().__init__(name, clock, trace)
         self.agent_domain = domain
         self.endpoint = endpoint
@@ -111,6 +113,7 @@ class RemoteChild(ExecutorActor):
         self._lost_once = False
         self._out: Outbox[tuple[float, Item]] | None = None
         self.security = security
+        self.relay = relay
         self.gate = Gate(_goes_up, "results, progress, events and the robot's state go up")
         self._me = ""
 
@@ -221,6 +224,8 @@ class RemoteChild(ExecutorActor):
             self.up = True
             self._joined.set()
             self.trace.emit(PeerJoined(agent=self.name, side="serving", endpoint=self.endpoint))
+            if self.relay is not None:
+                self._publish(Relay(events=self.relay))  # first: before anything it would trace
             if self._lost_once:
                 # It may be the same process, come back from a freeze, still holding what was
                 # ordered before: nobody awaits that any more.

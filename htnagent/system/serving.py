@@ -40,7 +40,7 @@ from htnagent.errors import ScenarioError
 from htnagent.executors.robot import RobotWorld
 from htnagent.log import library_log
 from htnagent.model.terms import Atom
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
+from htnagent.remote.codec import Item, Received, Relay, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
 from htnagent.remote.link import LINKS, Keys, Link, Outbox, Security
 from htnagent.remote.proxy import RemoteChild, report_refusals
@@ -86,7 +86,7 @@ def check_served(scenario: Scenario, agent: str) -> None:
         )
 
 
-_DOWN = (Execute, Suspend, Resume, Clear, Prepare, ParentLost, BeliefUpdate, WorldChange)
+_DOWN = (Execute, Suspend, Resume, Clear, Prepare, ParentLost, BeliefUpdate, WorldChange, Relay)
 WAITING = 16
 """Other parents' sessions remembered while one is served (the next to serve when it goes)."""
 
@@ -127,6 +127,7 @@ class Host:
         self._waiting: dict[str, None] = {}  # other parents' live sessions, oldest first
         self._out: Outbox[tuple[float, Item]] | None = None
         self._me = ""
+        self._relay: frozenset[str] | None = None  # the events the parent wants (None: all)
 
     async def serve(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         """Serve until cancelled; started once the parent can connect."""
@@ -165,7 +166,9 @@ class Host:
             self._out.send((self.runtime.clock.now(), item))
 
     def _event(self, event: TraceEvent) -> None:
-        if not isinstance(event, _KEPT_HERE):
+        # Only what the parent asked for (Relay): the rest would cost encoding here, and
+        # reading, checking and tracing there, for nobody (most are the robot's actions).
+        if not isinstance(event, _KEPT_HERE) and (self._relay is None or event.event in self._relay):
             self._publish(event)
 
     def _progress(self, progress: Progress) -> None:
@@ -183,6 +186,8 @@ class Host:
     def _handle(self, item: Item) -> None:
         if isinstance(item, WorldChange):
             self._world_changed(item.arc, item.close)
+        elif isinstance(item, Relay):
+            self._relay = item.events
         elif isinstance(item, Execute | Resume):
             if item.seq <= self._last_seq:
                 # The parent numbers its orders upwards: this one was ordered before.
@@ -231,6 +236,7 @@ class Host:
             return
         self.parent_up = True
         self._last_seq = 0
+        self._relay = None  # a new parent is sent every event until it says otherwise
         self.runtime.trace.emit(PeerJoined(agent=self.agent.name, side="parent", endpoint=self.listen))
         for got in held:
             self._arrived(got)
