@@ -382,6 +382,7 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
         "wall_s": round(wall, 3),
         "speed": SPEED,
         "tls": "mutual",
+        "relayed": sorted(relayed),
         "setup_s": round(max(joined) - start, 3),
         # CPU seconds during the run: this process (its guides, the relayed traces, Zenoh's
         # threads) and the serving processes together; on 2 cores, wall >= their sum / 2.
