@@ -355,7 +355,11 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
             served_cpu = sum(_cpu_s(host.pid) for host in hosts)
             load = os.getloadavg()[0]  # others' work on a shared machine slows the CPU seconds too
             start, cpu = time.perf_counter(), time.process_time()
-            report = anyio.run(functools.partial(run_fleet, scenarios, speed=SPEED, observers=observers))
+            # The serving side's events this counts (messages) besides the summary's own: the
+            # robots' actions and motions are not sent to the parent (run_fleet's ``relayed``).
+            relayed = {"message"}
+            run = functools.partial(run_fleet, scenarios, speed=SPEED, observers=observers, relayed=relayed)
+            report = anyio.run(run)
             wall, cpu = time.perf_counter() - start, time.process_time() - cpu
             served_cpu = sum(_cpu_s(host.pid) for host in hosts) - served_cpu
         finally:
@@ -378,6 +382,7 @@ def _fleet(robots: int, certs: Path) -> dict[str, Any]:
         "wall_s": round(wall, 3),
         "speed": SPEED,
         "tls": "mutual",
+        "relayed": sorted(relayed),
         "setup_s": round(max(joined) - start, 3),
         # CPU seconds during the run: this process (its guides, the relayed traces, Zenoh's
         # threads) and the serving processes together; on 2 cores, wall >= their sum / 2.

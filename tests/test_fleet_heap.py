@@ -81,3 +81,23 @@ def test_a_scenario_runs_frozen_and_ends_thawed() -> None:
     assert report.succeeded
     assert counts and min(counts) > 0
     assert gc.get_freeze_count() == 0
+
+
+def test_nested_runs_ask_the_collector_once(monkeypatch: pytest.MonkeyPatch) -> None:
+    # ``gc.get_freeze_count`` walks every frozen object: a fleet's parent asked it once
+    # per robot with the whole fleet frozen.  Only the outermost asks.
+    asked: list[int] = []
+    count = gc.get_freeze_count
+
+    def counted() -> int:
+        asked.append(1)
+        return count()
+
+    monkeypatch.setattr(gc, "get_freeze_count", counted)
+    with long_lived():
+        for _ in range(5):
+            with long_lived():
+                pass
+        assert gc.get_threshold()[0] == YOUNG  # still the outer one's, not put back by an inner
+    assert len(asked) == 1
+    assert count() == 0

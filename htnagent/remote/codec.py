@@ -16,7 +16,9 @@ simulated time when it sent the item (the receiver's clock keeps in step with it
   so that the parent's triggers follow a remote robot;
 - ``event``: a trace event of the serving process, as ``run --json`` prints it;
 - ``status``: where the robot is, the nodes it reached and how far it went;
-- ``world``: a door shut or opened (``arc``, ``close``).
+- ``world``: a door shut or opened (``arc``, ``close``);
+- ``relay``: down, the trace events (by name, ``events``) the parent wants relayed; without
+  one, every event is.
 
 What does not decode is refused with :class:`CodecError`, never half read: a payload
 with one bad item is refused whole.
@@ -111,7 +113,18 @@ class WorldChange:
     close: bool
 
 
-Item = Wire | Progress | TraceEvent | RobotStatus | WorldChange
+@dataclass(frozen=True, slots=True)
+class Relay:
+    """The serving process's trace events the parent wants (by name, ``event``), from now on;
+    the rest are not sent.  Without one, every event is."""
+
+    events: frozenset[str]
+
+
+RELAY_NAMES = 256
+"""Event names a :class:`Relay` may carry, at most (each of at most 64 characters)."""
+
+Item = Wire | Progress | TraceEvent | RobotStatus | WorldChange | Relay
 """Anything a payload carries."""
 
 
@@ -173,6 +186,8 @@ def _wire(item: Item) -> tuple[str, dict[str, Any]]:
         kind, body = "status", {"robot": item.robot, "visited": list(item.visited), "distance": item.distance}
     elif isinstance(item, WorldChange):
         kind, body = "world", {"arc": item.arc, "close": item.close}
+    elif isinstance(item, Relay):
+        kind, body = "relay", {"events": sorted(item.events)}
     else:
         kind, body = "message", _message_body(item)
     return kind, body
@@ -297,4 +312,11 @@ def _item(kind: object, body: dict[str, Any]) -> Item:
         )
     if kind == "world":
         return WorldChange(arc=str(body["arc"]), close=bool(body["close"]))
+    if kind == "relay":
+        names = body["events"]
+        if not isinstance(names, list) or len(names) > RELAY_NAMES:
+            raise CodecError(f"relay: events is not a list of at most {RELAY_NAMES} names")
+        if not all(isinstance(name, str) and len(name) <= 64 for name in names):
+            raise CodecError("relay: an event name is not a string of at most 64 characters")
+        return Relay(events=frozenset(names))
     raise CodecError(f"unknown payload type {kind!r}")

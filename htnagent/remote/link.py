@@ -15,6 +15,9 @@
   while the loop is busy.  Waiting there (``from_thread.run_sync``) would
   deadlock closing the session, which waits for its callbacks.
 - :class:`Outbox`: what one side sends at one instant, put as one payload.
+- :class:`Mux`: the payloads of all the robots a session sends to one peer session in a
+  round of the event loop, put together as one (``htnagent/~links/<peer's session id>``);
+  the peer splits them and hands each to the link of its key, as if put there.
 - :class:`Link`: one robot's use of a session, as an async context manager, with
   its subscribers, publishers and liveliness tokens (undeclared when it ends).
   The session itself is the process's: :data:`SESSIONS` opens one per set of
@@ -29,6 +32,7 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import json
+import struct
 import threading
 import weakref
 from collections import deque
@@ -60,6 +64,11 @@ BLOCKED_PUT_MS = 2000
 """A put blocked this long by a peer that reads nothing closes the link (Zenoh's default: 5 s)."""
 BATCH = 256
 """Items one payload of an :class:`Outbox` carries, at most."""
+LINKS = "htnagent/~links"
+"""Where a session is sent the payloads of many robots together: ``LINKS/<its session id>``
+(a namespace has no ``~``: no robot's keys are there)."""
+MUX_PARTS = 4096
+"""Payloads one put of a :class:`Mux` may carry, at most."""
 
 
 @dataclass(frozen=True)
@@ -348,6 +357,156 @@ class Outbox(Generic[T]):
         self._put(payload)
 
 
+_MUX_MAGIC = b"htn1"
+_PART = struct.Struct("<HI")  # a part's key length, its payload's length
+
+
+class Mux:
+    """The payloads one session puts for many robots' links, together: one put per peer
+    session and round of the event loop, instead of one per robot; and the other way, the
+    parts of such a put handed each to the link of its key.
+
+    A serving process's robots act at the same instants (one scenario, one pace), and so do
+    a fleet's guides: every Zenoh put is a sample to route and a callback on the peer's
+    Zenoh thread, which takes the GIL from the event loop for it (a 100-robot parent read
+    2,400 samples a museum run; now about 330).  Nothing about who may speak changes: each
+    part is one robot's numbered payload, as it would have been put on its key, and goes
+    through that link's gate (:mod:`htnagent.remote.gate`) exactly as one put there would.
+    A put that does not parse, is too large, or holds too many parts is dropped whole
+    (counted in :attr:`refused`); a part for a key no link here listens on is dropped, as a
+    put on such a key would be.  Wire form: ``htn1``, then per part its key's and its
+    payload's lengths (little-endian ``uint16``, ``uint32``), the key (UTF-8), the payload.
+    """
+
+    def __init__(self, session: zenoh.Session) -> None:
+        self._session = session
+        self._routes: dict[bytes, list[Callable[[memoryview], None]]] = {}
+        self._listening: Any = None
+        self._pending: dict[str, list[tuple[bytes, bytes]]] = {}
+        self._sizes: dict[str, int] = {}
+        self._publishers: dict[str, Any] = {}
+        self._scheduled = False
+        self.refused = 0
+        """Puts dropped whole, and parts for keys nobody here listens on."""
+
+    # -- receiving (the route table is changed on the event loop, read on Zenoh's threads) --
+
+    def route(self, key: str, arrived: Callable[[memoryview], None]) -> Callable[[], None]:
+        """Hand ``arrived`` (on Zenoh's thread) every part for ``key``; returns the undo."""
+        if self._listening is None:
+            me = str(self._session.info.zid())
+            self._listening = self._session.declare_subscriber(f"{LINKS}/{me}", _direct(self._arrived))
+        name = key.encode()
+        self._routes[name] = [*self._routes.get(name, ()), arrived]  # a new list: read elsewhere
+
+        def unroute() -> None:
+            left = [f for f in self._routes.get(name, ()) if f is not arrived]
+            if left:
+                self._routes[name] = left
+            else:
+                self._routes.pop(name, None)
+
+        return unroute
+
+    def _arrived(self, sample: zenoh.Sample) -> None:
+        self.deliver(sample.payload.to_bytes())
+
+    def deliver(self, data: bytes) -> None:
+        """Hand each part of a put to the links of its key (on the calling thread)."""
+        parts = self.split(data)
+        if parts is None:
+            self.refused += 1
+            return
+        for key, payload in parts:
+            routes = self._routes.get(key)
+            if routes is None:
+                self.refused += 1
+                continue
+            for arrived in routes:
+                arrived(payload)
+
+    @staticmethod
+    def split(data: bytes) -> list[tuple[bytes, memoryview]] | None:
+        """The ``(key, payload)`` parts of a put, in order; None if it is not one :meth:`pack`
+        makes (then nothing of it is acted on)."""
+        if len(data) > MAX_PAYLOAD_BYTES + 64 * 1024 or not data.startswith(_MUX_MAGIC):
+            return None
+        view = memoryview(data)
+        parts: list[tuple[bytes, memoryview]] = []
+        at = len(_MUX_MAGIC)
+        while at < len(data):
+            if at + _PART.size > len(data) or len(parts) >= MUX_PARTS:
+                return None
+            key_len, size = _PART.unpack_from(data, at)
+            at += _PART.size
+            end = at + key_len + size
+            if end > len(data):
+                return None
+            parts.append((data[at : at + key_len], view[at + key_len : end]))
+            at = end
+        return parts if parts else None
+
+    @staticmethod
+    def pack(parts: Sequence[tuple[bytes, bytes]]) -> bytes:
+        """One put of ``(key, payload)`` parts (:meth:`split` reads it)."""
+        out = bytearray(_MUX_MAGIC)
+        for key, payload in parts:
+            out += _PART.pack(len(key), len(payload))
+            out += key
+            out += payload
+        return bytes(out)
+
+    # -- sending (on the event loop's thread) --------------------------------------------
+
+    def send(
+        self, peer: str, key: bytes, payload: bytes, soon: Callable[[Callable[[], None]], object]
+    ) -> None:
+        """Put ``payload`` for ``key`` to session ``peer`` with the rest of this round's;
+        ``soon(flush)`` runs the flush after this round."""
+        pending = self._pending.setdefault(peer, [])
+        size = self._sizes.get(peer, 0) + len(key) + len(payload) + _PART.size
+        if pending and (size > MAX_PAYLOAD_BYTES or len(pending) >= MUX_PARTS):
+            self._put(peer)  # full: this one starts the next put
+            pending = self._pending.setdefault(peer, [])
+            size = len(key) + len(payload) + _PART.size
+        pending.append((key, payload))
+        self._sizes[peer] = size
+        if not self._scheduled:
+            self._scheduled = True
+            soon(self._flush_scheduled)
+
+    def _flush_scheduled(self) -> None:
+        self._scheduled = False
+        self.flush()
+
+    def flush(self) -> None:
+        """Put everything gathered now."""
+        for peer in list(self._pending):
+            self._put(peer)
+
+    def _put(self, peer: str) -> None:
+        parts = self._pending.pop(peer, [])
+        self._sizes.pop(peer, None)
+        if not parts:
+            return
+        publisher = self._publishers.get(peer)
+        if publisher is None:
+            if len(self._publishers) >= MUX_PEERS:
+                # Peers come and go (a parent restarts): forget the oldest's publisher.
+                oldest = next(iter(self._publishers))
+                with contextlib.suppress(zenoh.ZError):
+                    self._publishers.pop(oldest).undeclare()
+            publisher = self._session.declare_publisher(
+                f"{LINKS}/{peer}", congestion_control=zenoh.CongestionControl.BLOCK
+            )
+            self._publishers[peer] = publisher
+        publisher.put(self.pack(parts))
+
+
+MUX_PEERS = 64
+"""Peer sessions a :class:`Mux` keeps a publisher for (the oldest is forgotten first)."""
+
+
 class _Shared:
     """One open (or opening) session and how many links use it."""
 
@@ -357,6 +516,7 @@ class _Shared:
         self.security = security
         self.users = 0
         self.session: zenoh.Session | None = None
+        self.mux: Mux | None = None
         self.error: RemoteError | None = None
         self.ready = anyio.Event()
 
@@ -398,6 +558,7 @@ class Sessions:
         try:
             config = zenoh_config(listen, connect, security)
             shared.session = await anyio.to_thread.run_sync(zenoh.open, config)
+            shared.mux = Mux(shared.session)
         except zenoh.ZError as e:
             where = ", ".join(listen or connect)
             shared.error = RemoteError(f"cannot open a Zenoh session at {where}: {' '.join(str(e).split())}")
@@ -465,6 +626,7 @@ class Link:
         self._bridge: LoopBridge | None = None
         self._keep: list[Any] = []  # what this link declared, undeclared when it ends
         self._outboxes: list[Outbox[Any]] = []
+        self._unroute: list[Callable[[], None]] = []
 
     async def __aenter__(self) -> Self:
         self._bridge = LoopBridge()
@@ -481,10 +643,16 @@ class Link:
             with contextlib.suppress(zenoh.ZError, RemoteError):  # the session closed under it
                 outbox.flush()
             outbox.closed = True
+        for unroute in self._unroute:
+            unroute()
+        self._unroute.clear()
         shared, self._shared = self._shared, None
         kept, self._keep = self._keep, []
         if shared is None:
             return
+        if self._outboxes and shared.mux is not None:
+            with contextlib.suppress(zenoh.ZError):  # the session closed under it
+                shared.mux.flush()  # this link's last payloads, gathered with others', go now too
         with anyio.CancelScope(shield=True):
             if shared.users > 1:
                 # The session goes on for other links: undeclare ours (the token last but
@@ -512,17 +680,25 @@ class Link:
         return self._bridge
 
     def on_sample(self, key: str, handler: Callable[[T], None], admit: Callable[[bytes], T | None]) -> None:
-        """Call ``handler`` in the event loop with ``admit(payload)`` of every sample put on
-        ``key`` unless that is None.  ``admit`` runs on Zenoh's thread: what it refuses
-        never reaches the event loop."""
+        """Call ``handler`` in the event loop with ``admit(payload)`` of every payload put on
+        ``key`` (or sent for it with others', :class:`Mux`) unless that is None.  ``admit``
+        runs on Zenoh's thread: what it refuses never reaches the event loop."""
         bridge = self.bridge
 
-        def arrived(sample: zenoh.Sample) -> None:  # a Zenoh thread: hand over, never wait
-            got = admit(sample.payload.to_bytes())
+        def admitted(payload: bytes) -> None:  # a Zenoh thread: hand over, never wait
+            got = admit(payload)
             if got is not None:
                 bridge.call_soon(handler, got)
 
+        def arrived(sample: zenoh.Sample) -> None:
+            admitted(sample.payload.to_bytes())
+
+        def part(payload: memoryview) -> None:
+            admitted(bytes(payload))
+
         self._keep.append(self.session.declare_subscriber(key, _direct(arrived)))
+        assert self._shared is not None and self._shared.mux is not None  # the session is open
+        self._unroute.append(self._shared.mux.route(key, part))
 
     def on_liveliness(self, key: str, handler: Callable[[bool, str], None]) -> None:
         """Call ``handler(True, ID)`` when a liveliness token ``KEY/ID`` appears (or is there
@@ -555,10 +731,28 @@ class Link:
         key: str,
         pack: Callable[[Sequence[T], int], bytes],
         soon: Callable[[Callable[[], None]], object] | None = None,
+        peer: Callable[[], str | None] | None = None,
     ) -> Outbox[T]:
         """An :class:`Outbox` putting on ``key`` (flushed, then closed, when the link ends);
-        ``soon`` runs its flush (by default after this round of the event loop)."""
-        outbox = Outbox(self.publisher(key), pack, self.bridge.soon if soon is None else soon)
+        ``soon`` runs its flush (by default after this round of the event loop).
+
+        ``peer`` gives the session id of the one peer this link speaks to (None while there
+        is none): its payloads then go to that session with the other links' of this round
+        (:class:`Mux`), one put for them all, and arrive as if put on ``key``."""
+        direct = self.publisher(key)
+        put = direct
+        if peer is not None:
+            mux, name, after = self._shared.mux if self._shared else None, key.encode(), self.bridge.soon
+            assert mux is not None  # the session is open
+
+            def put(payload: bytes) -> None:
+                to = peer()
+                if to is None:
+                    direct(payload)  # nobody bound: to whoever listens on the key
+                else:
+                    mux.send(to, name, payload, after)
+
+        outbox = Outbox(put, pack, self.bridge.soon if soon is None else soon)
         self._outboxes.append(outbox)
         return outbox
 

@@ -30,7 +30,7 @@ from anyio.abc import TaskStatus
 from htnagent.errors import RemoteError
 from htnagent.log import library_log
 from htnagent.model.domain import Domain
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
+from htnagent.remote.codec import Item, Received, Relay, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
 from htnagent.remote.link import Keys, Link, Outbox, Security
 from htnagent.runtime.clock import Clock
@@ -94,8 +94,10 @@ class RemoteChild(ExecutorActor):
         wait: float = 10.0,
         where: str = "",
         security: Security | None = None,
+        relay: frozenset[str] | None = None,
     ) -> None:
-        """``where``: the scenario file and key naming the endpoint, for the start-up error."""
+        """``where``: the scenario file and key naming the endpoint, for the start-up error;
+        ``relay``: the serving process's trace events (by name) to relay here (None: all)."""
         super().__init__(name, clock, trace)
         self.agent_domain = domain
         self.endpoint = endpoint
@@ -111,6 +113,7 @@ class RemoteChild(ExecutorActor):
         self._lost_once = False
         self._out: Outbox[tuple[float, Item]] | None = None
         self.security = security
+        self.relay = relay
         self.gate = Gate(_goes_up, "results, progress, events and the robot's state go up")
         self._me = ""
 
@@ -121,7 +124,8 @@ class RemoteChild(ExecutorActor):
             self._me = link.session_id
             link.on_sample(self.keys.up, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.host_alive, self._liveliness)
-            self._out = link.outbox(self.keys.down, self._pack, self.clock.when_settled)
+            # To the serving process bound to, with the other robots' payloads of the round.
+            self._out = link.outbox(self.keys.down, self._pack, self.clock.when_settled, peer=self._peer)
             link.token(self.keys.parent_alive)
             with anyio.move_on_after(self.wait):
                 await self._joined.wait()
@@ -137,6 +141,9 @@ class RemoteChild(ExecutorActor):
                 tg.start_soon(report_refusals, self.gate, self.trace.emit, self.name, "serving")
                 while True:
                     self._forward(await self.inbox.receive())
+
+    def _peer(self) -> str | None:
+        return self.gate.peer
 
     # -- down ------------------------------------------------------------------------------------
 
@@ -217,6 +224,8 @@ class RemoteChild(ExecutorActor):
             self.up = True
             self._joined.set()
             self.trace.emit(PeerJoined(agent=self.name, side="serving", endpoint=self.endpoint))
+            if self.relay is not None:
+                self._publish(Relay(events=self.relay))  # first: before anything it would trace
             if self._lost_once:
                 # It may be the same process, come back from a freeze, still holding what was
                 # ordered before: nobody awaits that any more.

@@ -21,7 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import functools
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
@@ -98,11 +98,13 @@ async def run_fleet(
     speed: float | None = None,
     observers: Callable[[int], Iterable[Observer]] | None = None,
     stop: anyio.Event | None = None,
+    relayed: Collection[str] | None = None,
 ) -> FleetReport:
     """Run every scenario (one robot each) to its end, side by side; their reports.
 
     ``observers(i)`` gives the observers of the ``i``-th robot's run.  Setting
-    ``stop`` stops every run as :func:`~htnagent.system.simulation.run_scenario` does.
+    ``stop`` stops every run as :func:`~htnagent.system.simulation.run_scenario` does;
+    ``relayed`` too (the serving processes' trace events the observers look at).
     An error at start-up (a serving process not reached within the scenario's
     ``peer_wait``: :class:`~htnagent.errors.RemoteError`) ends the whole fleet and
     is raised as it is (the first, if several robots could not start): a fleet
@@ -120,6 +122,7 @@ async def run_fleet(
             speed=speed,
             observers=() if observers is None else observers(index),
             stop=stop,
+            relayed=relayed,
         )
         reports[index] = await run()
 

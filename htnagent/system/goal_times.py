@@ -35,7 +35,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from htnagent.runtime.events import (
     GoalFinished,
@@ -111,6 +111,12 @@ class GoalClock:
     each goal's ticket as soon as it is given (:meth:`given`): the ticket names the goal in
     the trace.
     """
+
+    EVENTS: ClassVar[frozenset[str]] = frozenset(
+        kind.event
+        for kind in (GoalReceived, PlanSelected, GoalSuspended, GoalResumed, GoalFinished, MessageSent)
+    )
+    """The events it reads (by name): a process serving agents below must relay them."""
 
     def __init__(self, chain: Sequence[str], goals: Iterable[tuple[str, str, bool]]) -> None:
         self.chain = tuple(chain)

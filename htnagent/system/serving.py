@@ -40,9 +40,9 @@ from htnagent.errors import ScenarioError
 from htnagent.executors.robot import RobotWorld
 from htnagent.log import library_log
 from htnagent.model.terms import Atom
-from htnagent.remote.codec import Item, Received, RobotStatus, WorldChange, encode_batch
+from htnagent.remote.codec import Item, Received, Relay, RobotStatus, WorldChange, encode_batch
 from htnagent.remote.gate import Gate
-from htnagent.remote.link import Keys, Link, Outbox, Security
+from htnagent.remote.link import LINKS, Keys, Link, Outbox, Security
 from htnagent.remote.proxy import RemoteChild, report_refusals
 from htnagent.runtime.clock import Mailbox
 from htnagent.runtime.events import PeerJoined, PeerLost, Summary, TraceEvent
@@ -86,7 +86,7 @@ def check_served(scenario: Scenario, agent: str) -> None:
         )
 
 
-_DOWN = (Execute, Suspend, Resume, Clear, Prepare, ParentLost, BeliefUpdate, WorldChange)
+_DOWN = (Execute, Suspend, Resume, Clear, Prepare, ParentLost, BeliefUpdate, WorldChange, Relay)
 WAITING = 16
 """Other parents' sessions remembered while one is served (the next to serve when it goes)."""
 
@@ -127,6 +127,7 @@ class Host:
         self._waiting: dict[str, None] = {}  # other parents' live sessions, oldest first
         self._out: Outbox[tuple[float, Item]] | None = None
         self._me = ""
+        self._relay: frozenset[str] | None = None  # the events the parent wants (None: all)
 
     async def serve(self, *, task_status: TaskStatus[None] = anyio.TASK_STATUS_IGNORED) -> None:
         """Serve until cancelled; started once the parent can connect."""
@@ -137,7 +138,9 @@ class Host:
             self._me = link.session_id
             link.on_sample(self.keys.down, self._arrived, self.gate.admit)
             link.on_liveliness(self.keys.parent_alive, self._liveliness)
-            self._out = link.outbox(self.keys.up, self._pack, self.runtime.clock.when_settled)
+            # To the parent bound to, with the payloads of the process's other robots of the round.
+            settled = self.runtime.clock.when_settled
+            self._out = link.outbox(self.keys.up, self._pack, settled, peer=self._peer)
             self.runtime.subscribe(self._event)
             self.runtime.on_progress(self._progress)
             link.token(self.keys.host_alive)  # last: what the parent sends from now on is heard
@@ -152,6 +155,9 @@ class Host:
                 if isinstance(answer, Success | Failure | Suspended | Refused):
                     self._publish(answer)
 
+    def _peer(self) -> str | None:
+        return self.gate.peer
+
     def _pack(self, items: Sequence[tuple[float, Item]], n: int) -> bytes:
         return encode_batch(items, self._me, n)
 
@@ -160,7 +166,9 @@ class Host:
             self._out.send((self.runtime.clock.now(), item))
 
     def _event(self, event: TraceEvent) -> None:
-        if not isinstance(event, _KEPT_HERE):
+        # Only what the parent asked for (Relay): the rest would cost encoding here, and
+        # reading, checking and tracing there, for nobody (most are the robot's actions).
+        if not isinstance(event, _KEPT_HERE) and (self._relay is None or event.event in self._relay):
             self._publish(event)
 
     def _progress(self, progress: Progress) -> None:
@@ -178,6 +186,8 @@ class Host:
     def _handle(self, item: Item) -> None:
         if isinstance(item, WorldChange):
             self._world_changed(item.arc, item.close)
+        elif isinstance(item, Relay):
+            self._relay = item.events
         elif isinstance(item, Execute | Resume):
             if item.seq <= self._last_seq:
                 # The parent numbers its orders upwards: this one was ordered before.
@@ -226,6 +236,7 @@ class Host:
             return
         self.parent_up = True
         self._last_seq = 0
+        self._relay = None  # a new parent is sent every event until it says otherwise
         self.runtime.trace.emit(PeerJoined(agent=self.agent.name, side="parent", endpoint=self.listen))
         for got in held:
             self._arrived(got)
@@ -262,7 +273,8 @@ async def serve(
     share_domains(scenarios)  # robots on one map: one domain each, built once
     if security is not None and security.allow:
         # Zenoh's access control: the allowed parents on these robots' keys, nothing else.
-        keys = tuple(f"{Keys(one.key_space, agent).base}/**" for one in scenarios)
+        # And the sessions' own keys, where each side puts its robots' payloads together.
+        keys = (*(f"{Keys(one.key_space, agent).base}/**" for one in scenarios), f"{LINKS}/**")
         security = dataclasses.replace(security, keys=keys)
     hosts = []
     for one in scenarios:

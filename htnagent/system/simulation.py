@@ -15,7 +15,7 @@ serving process last told.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Collection, Iterable
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -91,6 +91,7 @@ def build_runtime(
     speed: float | None = None,
     first: str | None = None,
     look_ahead: bool = True,
+    relayed: Collection[str] | None = None,
 ) -> tuple[Runtime, RobotWorld]:
     """The scenario's agents over a simulated robot, ready to enter (``async with``).
 
@@ -102,6 +103,8 @@ def build_runtime(
     ``first``: the agents from this one down (a process serving it); by default from
     the first.  The chain stops above an agent served elsewhere (``remote``).
     ``look_ahead``: the agents' :attr:`AgentConfig.look_ahead` (it changes no outcome).
+    ``relayed``: the trace events (by name) a process serving the agents below relays to
+    this runtime's trace (None: all of them).
     """
     mode = Replanning(replanning or scenario.replanning)
     world = RobotWorld(scenario.world, at=scenario.robot.start, keep_path=True)
@@ -163,6 +166,7 @@ def build_runtime(
                 domain=scenario.domain_for(served.name),
                 wait=scenario.peer_wait,
                 where=f"{scenario.file}: agents[{scenario.agent_names.index(served.name)}].remote",
+                relay=None if relayed is None else frozenset(relayed),
             )
 
         # Another process acts meanwhile: time is the wall clock's.
@@ -233,6 +237,7 @@ async def run_scenario(
     on_start: Callable[[Runtime], None] | None = None,
     stop: anyio.Event | None = None,
     look_ahead: bool = True,
+    relayed: Collection[str] | None = None,
 ) -> RunReport:
     """Run the scenario to the end and return its summary (the last event published).
 
@@ -240,9 +245,16 @@ async def run_scenario(
     Setting ``stop`` ends the run early: goals not yet ended fail as interrupted,
     and the summary of what was done is still published.
     ``look_ahead``: the agents' :attr:`AgentConfig.look_ahead` (it changes no outcome).
+    ``relayed``: with agents served by another process, the trace events of theirs (by
+    name, ``event``) the observers look at; by default all of them.  The summary's own
+    (:attr:`GoalClock.EVENTS`) always are; the others are not even sent.
     """
     interrupted = False
-    runtime, world = build_runtime(scenario, replanning=replanning, speed=speed, look_ahead=look_ahead)
+    if relayed is not None:
+        relayed = frozenset(relayed) | GoalClock.EVENTS
+    runtime, world = build_runtime(
+        scenario, replanning=replanning, speed=speed, look_ahead=look_ahead, relayed=relayed
+    )
     # The goal clock reads the wall clock before the other observers (an interval ends at
     # the event) and after them (one starts once the event is seen): printing is not timed.
     goal_clock = GoalClock.of(scenario)
