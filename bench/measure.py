@@ -20,7 +20,8 @@ nothing else runs.  Beside the window, the agents' own replanning at that resump
 paper's measure, the summary's ``replan_ms``): the top agent's ``goal_resumed`` replan_ms
 (**parent**) and the child's planning of its first order after it (**child**).
 ``planning_ms`` is the agents' own count of wall-clock time spent planning and keeping
-plans, over the whole run.
+plans, over the whole run; ``planning_cpu_ms`` the CPU time of the same work, which other
+processes on a shared machine do not add to.
 """
 
 from __future__ import annotations
@@ -47,6 +48,7 @@ class RunFigures:
     """The agents' below it: each one's planning of its first order after the resumption."""
     distance: float = 0.0
     planning_ms: float = 0.0
+    planning_cpu_ms: float = 0.0
     succeeded: bool = False
     resumes: list[float] = field(default_factory=list)
     """The top agent's own ``replan_ms`` of every resumption (for nested emergencies)."""
@@ -88,8 +90,15 @@ async def measure_run(
         if isinstance(event, GoalResumed) and event.agent == top:
             figures.resumes.append(event.replan_ms)
 
+    runtimes: list[Runtime] = []
+
+    def started(runtime: Runtime) -> None:
+        runtimes.append(runtime)
+        if on_start is not None:
+            on_start(runtime)
+
     report = await run_scenario(
-        scenario, replanning=mode, observers=[observe, *observers], on_start=on_start, look_ahead=look_ahead
+        scenario, replanning=mode, observers=[observe, *observers], on_start=started, look_ahead=look_ahead
     )
     first = next(iter(report.resumptions(top)), None)
     if first is not None:
@@ -104,5 +113,6 @@ async def measure_run(
         figures.child_ms = 0.0 if len(names) == 1 else window - first.order_ms
     figures.distance = report.summary.distance
     figures.planning_ms = sum(report.summary.planning_ms.values())
+    figures.planning_cpu_ms = 1000 * sum(a.stats.cpu_seconds for r in runtimes for a in r.agents.values())
     figures.succeeded = report.succeeded
     return figures

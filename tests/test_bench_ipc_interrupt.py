@@ -55,6 +55,8 @@ def test_every_problem_gets_its_network_and_an_emergency_that_breaks_the_rest(tm
         assert {"resume_ms", "replan_ms", "planning_ms", "cost", "success", "beliefs_match"} <= set(row)
         assert row["success"] is True and row["beliefs_match"] is True and row["reason"] is None
         assert row["replan_ms"] > 0 and row["resume_ms"] > 0
+        # The same work on the CPU clock: some, and (one thread) no more than the wall clock's.
+        assert 0 < row["planning_cpu_ms"] <= row["planning_ms"] * 1.05 + 0.05
     lamps = by[("Lamps", "p01.hddl", "online")]
     # The plan: walk(s1,s2), switch-on(s2), walk(s2,s3), switch-on(s3); half way is the walk
     # to s3.  The domain's one compound task only lights the lamp where the walker stands:
@@ -79,6 +81,7 @@ def test_every_problem_gets_its_network_and_an_emergency_that_breaks_the_rest(tm
     assert "Keys/p01.hddl: 3 actions, emergency open-box(b1) (most changes): online replan" in done.stderr
     table = (tmp_path / "rows.md").read_text()
     assert "| Keys | 1 | 0 | 0/1 | 1/1 | 1/1 |" in table
+    assert "| planning CPU on-line / naive |" in table
     assert "| Lamps | 1 | 0 | 1/1 | 1/1 | 1/1 |" in table
     assert "- Keys/p01.hddl: open-box(b1) (0 facts)" in table
 

@@ -24,6 +24,9 @@ class PlanningStats:
     removed: int = 0
     expansions: int = 0
     seconds: float = 0.0
+    cpu_seconds: float = 0.0
+    """The agent's thread's CPU time in the same blocks as :attr:`seconds`: what other
+    processes on a shared machine do not add to (benchmarks compare modes by it)."""
 
     def as_dict(self) -> dict[str, float]:
         """The figures, for traces and benchmarks."""
@@ -42,20 +45,23 @@ class PlanningStats:
 
 
 class Timed:
-    """Adds the wall-clock time of a ``with`` block to the statistics (a plain class:
-    it wraps every plan-set update, so it should cost next to nothing)."""
+    """Adds the wall-clock and CPU time of a ``with`` block to the statistics (a plain
+    class: it wraps every plan-set update, so it should cost next to nothing)."""
 
-    __slots__ = ("_started", "_stats")
+    __slots__ = ("_cpu", "_started", "_stats")
 
     def __init__(self, stats: PlanningStats) -> None:
         self._stats = stats
         self._started = 0.0
+        self._cpu = 0.0
 
     def __enter__(self) -> None:
+        self._cpu = time.thread_time()
         self._started = time.perf_counter()
 
     def __exit__(self, *exc: object) -> None:
         self._stats.seconds += time.perf_counter() - self._started
+        self._stats.cpu_seconds += time.thread_time() - self._cpu
 
 
 __all__ = ["PlanningStats", "Timed"]
