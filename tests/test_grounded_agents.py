@@ -16,6 +16,8 @@ from htnagent.scenario import Scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import run_scenario
 from tests.support import summary_of
+from tests.test_composition import DOMAIN as CABLES
+from tests.test_composition import _problem as cables_problem
 
 # t ends only where q holds, and nothing makes q: the lifted searches decompose t into t
 # and one more action for ever (the task list grows until the budget runs out), while the
@@ -27,35 +29,6 @@ FOREVER = (
     " (:action a :parameters () :effect (p)))"
 )
 FOREVER_PROBLEM = "(define (problem p) (:domain forever) (:htn :ordered-subtasks (t)) (:init))"
-
-# Ports joined by wires, each link checked (tests/test_composition.py's domain).
-CABLES = """
-(define (domain cables)
-  (:requirements :typing :hierarchy :negative-preconditions)
-  (:types port)
-  (:predicates (wire ?a ?b - port) (linked ?a ?b - port) (free ?p - port))
-  (:task join :parameters (?a ?b - port))
-  (:task connect :parameters (?a ?b - port))
-  (:method join-direct :parameters (?a ?b - port) :task (join ?a ?b)
-    :ordered-subtasks (connect ?a ?b))
-  (:method join-via :parameters (?a ?b ?c - port) :task (join ?a ?c)
-    :precondition (wire ?a ?b)
-    :ordered-subtasks (and (connect ?a ?b) (join ?b ?c)))
-  (:method connect-m :parameters (?a ?b - port) :task (connect ?a ?b)
-    :ordered-subtasks (and (link ?a ?b) (check ?a ?b)))
-  (:action link :parameters (?a ?b - port)
-    :precondition (and (wire ?a ?b) (free ?a))
-    :effect (and (linked ?a ?b) (not (free ?a))))
-  (:action check :parameters (?a ?b - port) :precondition (linked ?a ?b))
-)
-"""
-CABLES_PROBLEM = """
-(define (problem two-wires) (:domain cables)
-  (:objects p1 p2 p3 p4 - port)
-  (:htn :ordered-subtasks (join p1 p3))
-  (:init (wire p1 p2) (wire p2 p3) (free p1) (free p2) (free p3) (free p4))
-)
-"""
 
 
 def _scenario(tmp_path: Path, domain: str, problem: str, search: str) -> Scenario:
@@ -108,7 +81,8 @@ def test_the_running_agent_plans_with_the_guide(tmp_path: Path) -> None:
 
 
 def test_a_grounded_agent_carries_out_its_network(tmp_path: Path) -> None:
-    summary, runtime = _run(_scenario(tmp_path, CABLES, CABLES_PROBLEM, "grounded"))
+    # Ports joined by wires, each link checked (tests/test_composition.py's domain).
+    summary, runtime = _run(_scenario(tmp_path, CABLES, cables_problem("join p1 p3"), "grounded"))
     assert runtime.agents["agent"].settings.guide is not None
     assert [g["status"] for g in summary["goals"]] == ["success"]
 
