@@ -299,7 +299,8 @@ def _portfolio(
             helper.others_on.clear()
         if collecting:
             gc.enable()
-    others = [(Search.DFS, dfs_settings, dfs.out), (Search.GBFS, (*guided_settings, greedy)[0], grounded.out)]
+    grounded_settings = guided_settings[0] if guided_settings else greedy
+    others = [(Search.DFS, dfs_settings, dfs.out), (Search.GBFS, grounded_settings, grounded.out)]
     both = found.expansions + sum(out[0].expansions for _, _, out in others if out)
     seconds = time.perf_counter() - started
     if found.status not in _FINAL:
