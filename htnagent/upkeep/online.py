@@ -37,7 +37,7 @@ from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.upkeep.base import PlanSet
 from htnagent.upkeep.failure import means_it_again, new_alternatives, starts_with, without_failed
-from htnagent.upkeep.quality import first_own_step, fresher_kept, rival_from
+from htnagent.upkeep.quality import comparison_budget, first_own_step, fresher_kept, rival_from
 from htnagent.upkeep.recheck import recheck_all
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
@@ -274,10 +274,13 @@ class OnlinePlanSet(PlanSet):
     # -- re-check, repair, quality --------------------------------------------
 
     def _repairer(self, memo: SearchMemo | None = None, *, local: bool = False) -> Repairer:
-        """The searches of one update; with ``local``, the repairs' budgets: below the goal,
-        :data:`~htnagent.upkeep.repair.LOCAL_SHARE` of what planning the goal from scratch
-        took, none if that is less than :data:`~htnagent.upkeep.repair.LOCAL_MIN` (the rest
-        of :data:`~htnagent.upkeep.repair.LOCAL_BUDGET` once the goal has no plan afresh)."""
+        """The searches of one update; with ``local``, the repairs' budgets: the goal's plan
+        afresh gets what planning it from scratch took (:func:`~htnagent.upkeep.quality.comparison_budget`);
+        below the goal, :data:`~htnagent.upkeep.repair.LOCAL_SHARE` of what that plan afresh
+        took (:meth:`Repairer.repair`) -- or, where it found none, of what planning the goal
+        from scratch took -- none if that is less than :data:`~htnagent.upkeep.repair.LOCAL_MIN`
+        (the rest of :data:`~htnagent.upkeep.repair.LOCAL_BUDGET` once the goal has no plan
+        afresh)."""
         if not local:
             return Repairer(self.domain, self.goal, self.settings, self.stats, self._avoided, memo)
         whole = min(self.settings.budget, LOCAL_BUDGET)
@@ -294,6 +297,7 @@ class OnlinePlanSet(PlanSet):
             memo,
             local_budget=first,
             reserve=whole - first,
+            fresh_budget=comparison_budget(self),
         )
 
     def _revise(

@@ -20,6 +20,7 @@ searches of one update between all the plan sets of an agent.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field, replace
 
@@ -65,7 +66,7 @@ LOCAL_BUDGET = 2_000
 
 LOCAL_SHARE = 0.1
 """The share of what the goal's last plan from scratch took that repairs below the goal get
-before the goal is re-planned (the rest of :data:`LOCAL_BUDGET` waits until that finds none).
+(the rest of :data:`LOCAL_BUDGET` waits until the goal is found to have no plan afresh).
 A repair is worth making because it is cheaper than planning afresh (§2.4); one that has cost
 a tenth as much and found nothing seldom is: local searches with the plan's later steps
 fixed often cannot meet them, and spend their whole budget finding so (Depots: 725
@@ -73,11 +74,15 @@ expansions of local searches, then a plan afresh in 70).  Measured on the IPC in
 bench (docs/benchmarks.md): a half or a quarter left on-line's whole-run planning 10-30%
 above naive's in six domains, a tenth within 8% in all."""
 
+_SAME = 1e-9
+"""Costs closer than this are equal."""
+
 LOCAL_MIN = 8
-"""The least share (expansions) worth searching below the goal for: a search's own cost --
-its set-up, the task list and the plan it gives -- is a few expansions' worth, so a share
-smaller than this cannot pay for itself (Snake: three local searches of a few expansions
-each, 0.4 ms, in a run whose planning was 4 ms); the goal is then re-planned at once."""
+"""The least share (expansions) worth searching below the goal for, and what each search
+there is charged at least: a search's own cost -- its set-up, the task list and the plan it
+gives -- is a few expansions' worth, so a share smaller than this cannot pay for itself
+(Snake: three local searches of a few expansions each, 0.4 ms, in a run whose planning was
+4 ms)."""
 
 LOCAL_GROWTH = 64
 """How much longer than the task list it was given a repair below the goal may let a list
@@ -109,6 +114,7 @@ class Repairer:
         "_results",
         "_settings",
         "_stats",
+        "fresh_budget",
         "local_left",
         "reserve",
         "unsolvable",
@@ -124,6 +130,7 @@ class Repairer:
         memo: SearchMemo | None = None,
         local_budget: int = 0,
         reserve: int = 0,
+        fresh_budget: int | None = None,
     ) -> None:
         memo = memo if memo is not None else SearchMemo()
         self._domain = domain
@@ -139,6 +146,9 @@ class Repairer:
         """Expansions left for repairs below the goal in this update."""
         self.reserve = reserve
         """Expansions more for repairs below the goal, once the goal itself has no plan."""
+        self.fresh_budget = fresh_budget
+        """Expansions the goal's plan afresh gets before repairs below it are tried (None:
+        the planner's budget)."""
         self.unsolvable: tuple[object, ...] | None = None
         """The key of a belief from which the goal itself has no plan, once a repair found so."""
 
@@ -151,8 +161,9 @@ class Repairer:
         steps.  The last ancestor is the goal itself; steps inserted by maintenance
         (undo, rollback) belong to no task, so for them the goal is the only
         ancestor.  The goal is re-decomposed from the current belief, once per
-        update, and the result is shared by every plan that needs it.  Repairs below
-        the goal come first, within ``local_left``.
+        update, and the result is shared by every plan that needs it.  It comes first;
+        repairs below the goal follow, within ``local_left`` and a share of what the plan
+        afresh took, where the steps they keep do not already cost as much as it.
 
         ``alone``: no other plan of the goal is kept.  Only then does the repair make
         searches of its own: an alternative kept beside a valid plan is repaired only
@@ -169,11 +180,28 @@ class Repairer:
         """
         record = p.steps[index].record
         chain = record.chain() if record is not None else []
-        found = self._below_goal(p, index, states, chain, done, alone)
+        # The goal itself first, from the current belief: one search shared by all plans.
+        # §2.4 keeps a repair only if no plan made afresh from the same belief is cheaper,
+        # so that plan is needed whatever the repair finds.  Made first, it tells what the
+        # repairs below the goal may spend -- a share of what it took (the goal's first plan
+        # from scratch planned the whole network: Satellite p19's took 11,264 expansions,
+        # the rest of it 1,682, and a tenth of the first cost the repair as much as the
+        # plan afresh) -- and where they cannot be cheaper.
+        # It gets what the goal's last plan from scratch took (``fresh_budget``): a network
+        # that cannot be planned afresh is not searched through the planner's whole budget
+        # before a repair below the goal is tried; only once that finds none.
+        goal: list[TaskEntry] = [(self._goal, None)]
+        whole = one_plan(self._settings)
+        first = whole if self.fresh_budget is None else replace(whole, budget=self.fresh_budget)
+        spent = self._stats.expansions
+        fresh = self.search(states[0], goal, first, made_only=not alone)
+        if fresh is not None and self._stats.expansions > spent:
+            share = math.ceil(LOCAL_SHARE * (self._stats.expansions - spent))
+            self.local_left = share if share >= LOCAL_MIN else 0
+        found = self._below_goal(p, index, states, chain, done, alone, within=fresh)
         if found is not None:
             return found
-        # The goal itself, from the current belief: one search shared by all plans.
-        found = self.search(states[0], [(self._goal, None)], one_plan(self._settings), made_only=not alone)
+        found = fresh if fresh is not None else self.search(states[0], goal, whole, made_only=not alone)
         if found is None and alone:
             self.unsolvable = states[0].key()
             if self.reserve > 0:
@@ -192,9 +220,12 @@ class Repairer:
         chain: list[Decomposition],
         done: Done | None,
         alone: bool,
+        within: Plan | None = None,
     ) -> Plan | None:
         """§2.4's walk up from step ``index``: re-decompose the lowest of its ancestors
-        below the goal that can be, within ``local_left`` (``alone``: see :meth:`repair`)."""
+        below the goal that can be, within ``local_left`` (``alone``: see :meth:`repair`);
+        with ``within`` (the goal's plan afresh), not where the steps a repair keeps
+        already cost more than it (a repair no cheaper is not kept, §2.4)."""
         # A recursive method makes the record as long as the plan; past a few levels a
         # re-decomposition costs as much as planning the goal, so go straight to it.
         for record in chain[:_REPAIR_LEVELS]:
@@ -203,20 +234,31 @@ class Repairer:
                 continue
             # Repairs below the goal are local fixes: together, in one update, they get
             # a small budget; what they cannot fix the goal's re-decomposition will.
-            if self.local_left <= 0:
+            if self.local_left < LOCAL_MIN:
                 break
+            # What the steps a repair from here keeps cost: one that cannot be cheaper than
+            # the plan afresh is not searched for (§2.4 would not keep it).
+            before = sum(s.cost for s in p.steps[:start])
+            if within is not None and before > within.cost + _SAME:
+                break  # the steps before already cost more than the plan afresh
             if record.parent is not None:
                 tasks: list[TaskEntry] = [(record.task, record.parent)]
                 tasks += [(s.action, s.record) for s in p.steps[end + 1 :]]
-                result = self._local(states[start], tasks, made_only=not alone)
-                if result is not None:
-                    return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
+                if start == 0 and within is not None and [t for t, _ in tasks] == [self._goal]:
+                    return within  # a recursive method's task equal to the goal: that very search
+                after = sum(s.cost for s in p.steps[end + 1 :])
+                if within is None or before + after <= within.cost + _SAME:
+                    result = self._local(states[start], tasks, made_only=not alone)
+                    if result is not None:
+                        return Plan(tidy(self._domain, (*p.steps[:start], *result.steps)))
             # §2.4 (our choice): do again the subtasks of this task's method already done,
             # the last one first, then the plan's steps from there as they are.
             rest: list[TaskEntry] = [(s.action, s.record) for s in p.steps[start:]]
             again = done_subtasks(done, record, _REDO) if alone else []
+            if within is not None and before + sum(s.cost for s in p.steps[start:]) > within.cost + _SAME:
+                again = []
             for k in range(1, len(again) + 1):
-                if self.local_left <= 0:
+                if self.local_left < LOCAL_MIN:
                     break
                 result = self._local(states[start], [*again[-k:], *rest])
                 if result is not None:
@@ -227,12 +269,20 @@ class Repairer:
 
     def _local(self, state: State, tasks: Sequence[TaskEntry], *, made_only: bool = False) -> Plan | None:
         """A search below the goal, within what is left of the local budget."""
+        if self.known_cost(state, tasks) is not None:
+            # These very tasks were planned from this belief in this update (a recursive
+            # method's task equal to the goal): under other records, the same plan.
+            return None
         spent = self._stats.expansions
         local = replace(
             self._settings, alternatives=1, budget=self.local_left, max_tasks=len(tasks) + LOCAL_GROWTH
         )
         result = self.search(state, tasks, local, made_only=made_only)
-        self.local_left -= self._stats.expansions - spent
+        # Each search is charged its own cost too (:data:`LOCAL_MIN`): a search that ends at
+        # once still set up, and the share is what the repairs may cost, not only expand
+        # (Depots: three searches of 1, 3 and 10 expansions cost 1 ms beside the plan
+        # afresh's 3.7 ms of 136).
+        self.local_left -= max(self._stats.expansions - spent, LOCAL_MIN)
         return result
 
     def known_cost(self, state: State, tasks: Sequence[TaskEntry]) -> float | None:
