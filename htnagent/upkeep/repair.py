@@ -208,7 +208,7 @@ class Repairer:
                 # No plan afresh (the goal's methods may not start again from part of it
                 # done): only a repair below the goal can keep it, and it gets the rest of
                 # its budget (test_repair_redo: doing a subtask again takes 700 expansions).
-                self.local_left, self.reserve = self.local_left + self.reserve, 0
+                self.local_left, self.reserve = max(self.local_left, 0) + self.reserve, 0
                 found = self._below_goal(p, index, states, chain, done, alone)
         return found
 
