@@ -131,8 +131,11 @@ class Revival:
 
     def expire(self) -> None:
         """An update ended: forget the plans that waited more than ``window`` updates."""
-        self._kept = [r for r in self._kept if self._updates - r.update <= self.window]
-        if not self._kept:
+        # Kept in the order they came (``update`` grows): the oldest are first.
+        kept = self._kept
+        while kept and self._updates - kept[0].update > self.window:
+            del kept[0]
+        if not kept:
             self._changes.clear()
 
 
