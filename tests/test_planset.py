@@ -18,7 +18,7 @@ from htnagent.scenario import parse_map
 from htnagent.upkeep import OnlinePlanSet, PlanSet, Replanning, new_plan_set
 from htnagent.upkeep import online as online_module
 from htnagent.upkeep import repair as repair_module
-from htnagent.upkeep.quality import COMPARISON_FLOOR
+from htnagent.upkeep.quality import COMPARISON_FACTOR, COMPARISON_FLOOR, comparison_budget
 from htnagent.upkeep.repair import LOCAL_MIN, LOCAL_SHARE
 from tests.support import record_repair_searches
 
@@ -348,7 +348,20 @@ def test_the_fresh_comparison_plans_as_naive_would_within_what_planning_afresh_t
     # the planner's whole budget: a network that cannot be planned afresh is not searched
     # through to the end of it.
     first = plan(areas, belief, [a("goto(n1)")], PlannerSettings(alternatives=1)).expansions
-    assert comparison[0].budget == max(COMPARISON_FLOOR, first) < PlannerSettings().budget
+    assert comparison[0].budget == max(COMPARISON_FLOOR, COMPARISON_FACTOR * first) < PlannerSettings().budget
+
+
+def test_the_plan_afresh_may_take_twice_what_the_first_plan_from_scratch_took(world: WorldMap) -> None:
+    # The rest of a recursive network planned afresh from its middle can take as many
+    # expansions as the whole from the start (IPC Towers): a search given only that many is
+    # cut just short of its plan and made again with the whole budget.
+    areas = areas_domain(world)
+    ps = new_plan_set(areas, a("goto(n1)"), settings=PlannerSettings(alternatives=1))
+    ps.make(areas.initial_state("n40"))
+    ps.scratch_expansions = 400
+    assert comparison_budget(ps) == 800
+    ps.scratch_expansions = 10
+    assert comparison_budget(ps) == COMPARISON_FLOOR
 
 
 def test_repairs_below_the_goal_get_a_share_of_what_planning_it_afresh_took(
