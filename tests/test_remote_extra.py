@@ -308,6 +308,8 @@ def test_robots_loaded_from_files_of_their_own_on_one_map_share_its_built_in_dom
     for agent in ("guide", "navigator"):
         assert second.domain_for(agent) is first.domain_for(agent)
         assert elsewhere.domain_for(agent) is not first.domain_for(agent)  # another map: its own
+        # One start belief: what is kept per fact base (indexes, an action's ways) made once.
+        assert second.initial_state(agent).static is first.initial_state(agent).static
     report = anyio.run(run_fleet, [first, second])
     assert report.succeeded
     assert report.runs[0].summary.distance == report.runs[1].summary.distance
