@@ -228,11 +228,12 @@ class Clock:
             # deadline cancelled the wait instead: a CancelledError raised through the frames
             # and caught, for every paced timer of every robot (about 30 us each; a fleet's
             # serving process paces some 30 times a robot).
-            turn = loop.call_later(wait, changed.set)
+            turn = None if math.isinf(wait) else loop.call_later(wait, changed.set)
             try:
                 await changed.wait()
             finally:
-                turn.cancel()
+                if turn is not None:
+                    turn.cancel()
         finally:
             self._pacing = False
 
