@@ -159,7 +159,7 @@ class Domain:
     _dynamic: frozenset[str] | None = field(default=None, repr=False, compare=False)
     _read: tuple[frozenset[str], frozenset[str]] | None = field(default=None, repr=False, compare=False)
     _starts: dict[str | None, tuple[object, object, State]] = field(
-        default_factory=dict, repr=False, compare=False
+        default_factory=dict, init=False, repr=False, compare=False
     )
 
     def __post_init__(self) -> None:
