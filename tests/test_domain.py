@@ -78,6 +78,22 @@ def test_fact_base_changes_make_a_new_fact_base() -> None:
     assert fb.candidates("edge", 0, "a") == [parse("edge(a,b)")]
 
 
+def test_a_start_belief_is_made_once_and_robots_at_other_starts_share_its_static_facts() -> None:
+    d = _nav()
+    d.world_facts = lambda start: [parse(f"at({start})"), parse("edge(a,b)"), parse("edge(b,a)")]
+    at_a = d.initial_state("a")
+    assert d.initial_state("a") is at_a  # a value: one for every robot on the map
+    at_b = d.initial_state("b")
+    assert at_b.dynamic == {parse("at(b)")} and at_a.dynamic == {parse("at(a)")}
+    assert at_b.static is at_a.static  # one fact base: its indexes, an action's ways, made once
+    # A domain still being built gives the start as it is now.
+    d.world_facts = lambda start: [parse(f"at({start})"), parse("edge(a,b)")]
+    assert d.initial_state("a").static.facts == {parse("edge(a,b)")}
+    d.operator("shut(?f,?t)", pre=["edge(?f,?t)"], add=["closed(?f,?t)"])  # closed is dynamic now
+    again = d.initial_state("a")
+    assert "closed" in again.dynamic_predicates and again.static.facts == {parse("edge(a,b)")}
+
+
 def test_state_splits_facts_into_dynamic_and_static() -> None:
     d = _nav()
     s = _state(d, "at(a)", "edge(a,b)", "closed(a,b)")

@@ -239,6 +239,44 @@ def test_a_settled_callback_runs_once_when_the_runtime_is_idle_before_time_moves
 
 
 @pytest.mark.parametrize("backend", ["asyncio", "trio"])
+def test_a_paced_wait_ends_at_its_wall_time_or_at_once_when_a_peers_message_comes(backend: str) -> None:
+    # The time keeper's wait for the wall clock (asyncio: the loop's timer pokes it; trio: a
+    # cancel scope's deadline) ends early for a peer's message, and the timer still fires
+    # no sooner than its wall time.
+    import anyio
+
+    from htnagent.runtime.clock import Clock
+
+    async def main() -> tuple[list[tuple[str, float, float]], float]:
+        clock = Clock(speed=10.0)
+        seen: list[tuple[str, float, float]] = []
+        done = anyio.Event()
+        start = anyio.current_time()
+
+        def note(name: str) -> None:
+            seen.append((name, clock.now(), anyio.current_time() - start))
+            if name == "timer":
+                done.set()
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(clock.keep_time)
+            with anyio.fail_after(5):
+                clock.call_at(3.0, lambda: note("timer"))  # 0.3 s of wall time away
+                await anyio.sleep(0.05)  # the time keeper waits for the wall clock
+                clock.call_from_peer(1.0, lambda: note("peer"))
+                await done.wait()
+            tg.cancel_scope.cancel()
+        return seen, anyio.current_time() - start
+
+    seen, waited = anyio.run(main, backend=backend)
+    assert [(name, t) for name, t, _ in seen] == [("peer", 1.0), ("timer", 3.0)]
+    assert seen[0][2] < 0.25  # handled at once, not at the timer's time
+    # The peer's time was reached at once: the timer is 2 s of simulated time (0.2 s) after it.
+    assert seen[1][2] >= seen[0][2] + 0.19
+    assert waited < 2.0
+
+
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
 def test_a_peers_message_waits_for_no_loop_round_a_timer_of_ours_waits_three(backend: str) -> None:
     # The time keeper lets the event loop run three rounds before a timer of its own fires (a
     # task woken but not counted as work acts first); a peer's message, whose moment is the
@@ -308,6 +346,8 @@ def test_robots_loaded_from_files_of_their_own_on_one_map_share_its_built_in_dom
     for agent in ("guide", "navigator"):
         assert second.domain_for(agent) is first.domain_for(agent)
         assert elsewhere.domain_for(agent) is not first.domain_for(agent)  # another map: its own
+        # One start belief: what is kept per fact base (indexes, an action's ways) made once.
+        assert second.initial_state(agent).static is first.initial_state(agent).static
     report = anyio.run(run_fleet, [first, second])
     assert report.succeeded
     assert report.runs[0].summary.distance == report.runs[1].summary.distance

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import functools
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import anyio
@@ -25,7 +25,7 @@ from htnagent.limits import MAX_PAYLOAD_BYTES
 from htnagent.model.terms import parse
 from htnagent.remote.codec import Received, encode
 from htnagent.remote.gate import Gate
-from htnagent.remote.link import MUX_PARTS, Mux, zenoh_config
+from htnagent.remote.link import MUX_PARTS, Link, Mux, zenoh_config
 from htnagent.runtime.events import PeerJoined, Summary, TraceEvent
 from htnagent.runtime.messages import Execute, Success
 from htnagent.runtime.trace import Observer
@@ -152,6 +152,14 @@ def test_a_fleets_robots_served_by_one_process_share_its_puts(
         return pack(put)
 
     monkeypatch.setattr(Mux, "pack", staticmethod(counted))
+    declared: list[str] = []
+    publisher = Link.publisher
+
+    def declaring(link: Link, key: str) -> Callable[[bytes], None]:
+        declared.append(key)
+        return publisher(link, key)
+
+    monkeypatch.setattr(Link, "publisher", declaring)
     joined: list[TraceEvent] = []
 
     def observers(index: int) -> list[Observer]:
@@ -179,3 +187,6 @@ def test_a_fleets_robots_served_by_one_process_share_its_puts(
         assert run.summary.visited == expected.visited
     assert len(joined) == 2
     assert max(parts) == 2 and sum(parts) > len(parts)  # both robots' payloads in some puts
+    # Everything went through the mux, to the peer bound: no robot's key needed a publisher
+    # of its own (each one a declaration sent to every peer session).
+    assert declared == []

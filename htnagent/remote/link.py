@@ -739,18 +739,24 @@ class Link:
         ``peer`` gives the session id of the one peer this link speaks to (None while there
         is none): its payloads then go to that session with the other links' of this round
         (:class:`Mux`), one put for them all, and arrive as if put on ``key``."""
-        direct = self.publisher(key)
-        put = direct
-        if peer is not None:
+        if peer is None:
+            put = self.publisher(key)
+        else:
             mux, name, after = self._shared.mux if self._shared else None, key.encode(), self.bridge.soon
             assert mux is not None  # the session is open
+            # The key's own publisher is declared when first needed: with a peer bound, never.
+            # A declaration goes to every peer session (a fleet's parent: one per serving
+            # process), and a 100-robot fleet's parent made one per robot as it started.
+            direct: list[Callable[[bytes], None]] = []
 
             def put(payload: bytes) -> None:
                 to = peer()
-                if to is None:
-                    direct(payload)  # nobody bound: to whoever listens on the key
-                else:
+                if to is not None:
                     mux.send(to, name, payload, after)
+                    return
+                if not direct:
+                    direct.append(self.publisher(key))
+                direct[0](payload)  # nobody bound: to whoever listens on the key
 
         outbox = Outbox(put, pack, self.bridge.soon if soon is None else soon)
         self._outboxes.append(outbox)
