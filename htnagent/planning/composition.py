@@ -35,14 +35,15 @@ from __future__ import annotations
 
 import heapq
 from collections import defaultdict
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 
-from htnagent.model.domain import Domain
+from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import Literal, satisfiers
 from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.hddl_translation import EQ, TYPE
+from htnagent.planning.producible import Producible, enumerated
 
 MAX_GROUND = 20_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
@@ -100,11 +101,13 @@ class Composition:
         methods: Sequence[_GroundMethod],
         least: dict[Atom, float],
         fallback: dict[str, float],
+        producible: Producible | None = None,
     ) -> None:
         self.least = least
         self.actions = len(actions)
         self.methods = len(methods)
         self._fallback = fallback
+        self._producible = producible
         # One id space for what can be reached: facts first, then tasks.
         ids: dict[Atom, int] = {}
         task_ids: dict[Atom, int] = {}
@@ -214,7 +217,8 @@ class Composition:
     def estimate(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
         """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
         when one of them cannot be done any more.  A task the grounding never met (it
-        cannot come from the tasks grounded) counts its name's least cost."""
+        cannot come from the tasks grounded) counts its name's least cost -- or ``inf``
+        where the grounding worked out what can be produced at all and it is not."""
         # The children of one node mostly share its state: the same object, asked again.
         last_dynamic, dist = self._last
         if dynamic is not last_dynamic:
@@ -224,7 +228,14 @@ class Composition:
         total = 0.0
         for t in tasks:
             i = ids.get(t)
-            total += dist[i] if i is not None else self._fallback.get(t.name, 0.0)
+            if i is not None:
+                total += dist[i]
+            elif self._producible is not None and t not in self._producible:
+                # The grounder no longer meets what a join left out (the search still
+                # makes it, binding by types): it costs what the old grounding gave it.
+                return _INF
+            else:
+                total += self._fallback.get(t.name, 0.0)
         return total
 
 
@@ -257,6 +268,30 @@ class _Grounder:
         self.checkpoint = checkpoint
         self.made = 0
         self.work = 0
+        self._producible: Producible | None = None
+        self.roots: tuple[Atom, ...] = ()
+
+    def producible(self) -> Producible:
+        """The ground tasks that can be produced at all, worked out the first time a method
+        needs them (its cost counts against the cap like the rest)."""
+        if self._producible is None:
+            self._producible = Producible(
+                self.domain, self.start, self.roots, self.relaxed, _binding_order, self.count
+            )
+        return self._producible
+
+    def bindings(self, way: _Way, task: Atom, reached: State) -> Iterator[Bindings]:
+        """The method's bindings for the task whose relaxed precondition holds among the
+        facts reached (design §7.2, step 1).  A method with parameters only an enumeration
+        would bind (by type) is first joined with the producible tasks, then checked."""
+        b0 = unify(way.method.head, task, {})
+        if b0 is None:
+            return
+        if way.joined is None:
+            yield from satisfiers(way.pre, reached, b0)
+            return
+        for b in self.producible().join(way.method.subtasks, b0):
+            yield from satisfiers(way.joined, reached, b)
 
     def count(self) -> None:
         """One more ground action or method binding: past the cap, give up."""
@@ -285,6 +320,7 @@ class _Grounder:
         return tuple(out)
 
     def run(self, roots: Sequence[Atom]) -> Composition:
+        self.roots = tuple(roots)
         actions, methods, tasks = self.reachable(roots)
         return self.pruned(actions, methods, tasks)
 
@@ -305,10 +341,7 @@ class _Grounder:
         domain = self.domain
         facts: set[Atom] = set(self.start.facts())
         reached = State(FactBase(facts), frozenset(), _NONE)
-        orders = {
-            name: [(me, _binding_order(self.relaxed(me.pre), me.head.variables())) for me in ms]
-            for name, ms in domain.methods.items()
-        }
+        orders = {name: [_Way.of(me, self.relaxed(me.pre)) for me in ms] for name, ms in domain.methods.items()}
         op_orders = {
             name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
             for name, ops in domain.operators.items()
@@ -316,7 +349,7 @@ class _Grounder:
         # The predicates each method or operator reads: what makes it worth trying again.
         reads: dict[str, set[str]] = defaultdict(set)
         for name, pres in (
-            *((n, [pre for _, pre in pairs]) for n, pairs in orders.items()),
+            *((n, [way.pre for way in ways]) for n, ways in orders.items()),
             *((n, [pre for _, pre in pairs]) for n, pairs in op_orders.items()),
         ):
             for pre in pres:
@@ -354,11 +387,9 @@ class _Grounder:
 
         def decompose(task: Atom, queue: list[Atom]) -> None:
             self.tick()
-            for me, pre in orders.get(task.name, ()):
-                b0 = unify(me.head, task, {})
-                if b0 is None:
-                    continue
-                for b in satisfiers(pre, reached, b0):
+            for way in orders.get(task.name, ()):
+                me = way.method
+                for b in self.bindings(way, task, reached):
                     self.count()  # every binding: a method with free variables may have millions
                     subtasks = tuple(substitute(t, b) for t in me.subtasks)
                     # Two bindings with the same subtasks may need other facts (a variable
@@ -416,7 +447,28 @@ class _Grounder:
         # Every task met keeps its id (a task no decomposition finishes is never reached):
         # only a task the grounding never met falls back on its name's least cost.
         fallback = self.domain.task_costs or {}
-        return Composition(kept_actions, kept, least, fallback)
+        return Composition(kept_actions, kept, least, fallback, self._producible)
+
+
+@dataclass(frozen=True, slots=True)
+class _Way:
+    """A method as the grounder binds it: its relaxed precondition in binding order from
+    its task's variables, and -- where that order would enumerate a parameter's type and a
+    subtask names the parameter -- in binding order from the subtasks' variables too, for
+    after the join with the producible tasks (design §7.2)."""
+
+    method: Method
+    pre: tuple[Literal, ...]
+    joined: tuple[Literal, ...] | None
+
+    @staticmethod
+    def of(method: Method, relaxed: Sequence[Literal]) -> _Way:
+        bound = method.head.variables()
+        pre = _binding_order(relaxed, bound)
+        named = {v for t in method.subtasks for v in t.variables()}
+        if not enumerated(pre, bound) & named:
+            return _Way(method, pre, None)
+        return _Way(method, pre, _binding_order(relaxed, bound | named))
 
 
 def _binding_order(pre: Sequence[Literal], bound: Iterable[str]) -> tuple[Literal, ...]:

@@ -1,0 +1,286 @@
+"""The ground tasks that can be done at all, bottom up: what binds a method's parameters
+that only its subtasks name (docs/design.md §7.2).
+
+The grounder of :mod:`htnagent.planning.composition` works top down, from the tasks to
+plan: a method's parameters are bound by its task, then by its precondition's facts.  A
+parameter that only a subtask names has nothing to bind it but its type, and a learned
+method (Woodworking's) has a dozen of them -- surfaces, colours, treatments, machines,
+boards: the product of their types runs to millions of bindings, nearly all of them with a
+subtask nothing can do.  PANDA grounds such methods against the ground tasks that can
+actually occur; so does this module:
+
+1. **Reachable actions.** From the start state, every ground action whose relaxed
+   precondition (delete relaxation, as the grounder's) can come to hold, whatever the
+   hierarchy -- the facts reached over-approximate those the hierarchy reaches.
+2. **Producible tasks,** a bottom-up fixed point: a primitive task is producible when one of
+   its actions is reachable; a compound task when one of its methods has every subtask
+   producible and its relaxed precondition holding among the reached facts.  Each round
+   joins a method's subtasks only where one of them is newly producible (semi-naive).
+3. **Binding by joining** (:meth:`Producible.join`): a method's subtasks matched, one after
+   the other, against the producible tasks -- the most constrained first, through an index
+   on each argument -- binds every parameter the subtasks name.
+
+Why the estimate does not change: whatever the top-down grounder can finish is producible
+here (its facts are among these, and a finished task has a finished method), so a binding
+the join leaves out has a subtask that costs ``inf`` and would have been pruned anyway (the
+grounder's step 3).  The join only stops making those bindings.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+from dataclasses import dataclass
+from collections.abc import Callable, Iterable, Iterator, Sequence
+
+from htnagent.model.domain import Domain, Method, Operator
+from htnagent.model.preconditions import Literal, satisfiers
+from htnagent.model.state import FactBase, State
+from htnagent.model.terms import Atom, Bindings, Term, is_variable, substitute, unify
+from htnagent.planning.hddl_translation import EQ, TYPE
+
+Order = Callable[[Sequence[Literal], Iterable[str]], tuple[Literal, ...]]
+"""How the grounder orders a relaxed precondition's literals, given the variables bound."""
+
+
+def enumerated(order: tuple[Literal, ...], bound: Iterable[str]) -> set[str]:
+    """The variables of an ordered precondition that only an enumeration binds: first bound
+    by a type (every object of it) or by an equality between two unbound variables (every
+    object with itself), rather than by a fact.  The join binds them instead, where a
+    subtask names them."""
+    known = set(bound)
+    out: set[str] = set()
+    for lit in order:
+        new = lit.variables - known
+        name = lit.atom.name
+        if new and lit.positive and (name.startswith(TYPE) or (name == EQ and new == lit.variables)):
+            out |= new
+        known |= lit.variables
+    return out
+
+
+class Producible:
+    """The ground tasks the problem can produce from its start state (the module's steps 1
+    and 2), and the join of a method's subtasks against them (step 3).
+
+    ``count`` is called for every ground action and method binding made, so the caller's
+    cap and checkpoint bound this work too (:class:`~htnagent.planning.composition.TooLarge`
+    comes through).
+    """
+
+    def __init__(
+        self,
+        domain: Domain,
+        start: State,
+        roots: Sequence[Atom],
+        relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+        order: Order,
+        count: Callable[[], None],
+    ) -> None:
+        self._count = count
+        self._tasks: dict[str, set[Atom]] = defaultdict(set)
+        self._index: dict[tuple[str, int, Term], list[Atom]] = defaultdict(list)
+        reached = self._reachable_actions(domain, start, roots, relaxed, order)
+        self._producible_tasks(domain, reached, relaxed, order)
+
+    def __contains__(self, task: Atom) -> bool:
+        return task in self._tasks.get(task.name, ())
+
+    def __len__(self) -> int:
+        return sum(len(s) for s in self._tasks.values())
+
+    def _add(self, task: Atom) -> bool:
+        """Record a producible task; False when it was known already."""
+        known = self._tasks[task.name]
+        if task in known:
+            return False
+        known.add(task)
+        for i, a in enumerate(task.args):
+            self._index[(task.name, i, a)].append(task)
+        return True
+
+    # -- step 1: reachable actions, whatever the hierarchy -----------------------------------
+
+    def _reachable_actions(
+        self,
+        domain: Domain,
+        start: State,
+        roots: Sequence[Atom],
+        relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+        order: Order,
+    ) -> State:
+        """Every ground action reachable under the delete relaxation as a task to plan or a
+        method's subtask names it (its constants kept: Woodworking's actions have
+        parameters only their effects name, which the methods fix), recorded as producible
+        tasks; gives the facts reached."""
+        facts: set[Atom] = set(start.facts())
+        patterns = {t for t in roots if t.name in domain.operators}
+        patterns |= {t for ms in domain.methods.values() for me in ms for t in me.subtasks if t.name in domain.operators}
+        ways: list[tuple[Atom, Operator, Bindings, tuple[Literal, ...]]] = []
+        for pattern in sorted(patterns, key=str):
+            for op in domain.operators[pattern.name]:
+                b0 = _fixed(op.head, pattern)
+                if b0 is not None:
+                    ways.append((pattern, op, b0, order(relaxed(op.pre), b0)))
+        reads = [{lit.atom.name for lit in pre if lit.positive} for *_, pre in ways]
+        todo: Iterable[int] = range(len(ways))
+        while True:
+            reached = State(FactBase(facts), frozenset(), frozenset())
+            fresh: set[Atom] = set()
+            for k in todo:
+                pattern, op, b0, pre = ways[k]
+                for b in satisfiers(pre, reached, b0):
+                    task = substitute(op.head, b)
+                    if not task.is_ground or unify(pattern, task, {}) is None:
+                        continue  # a parameter no literal names, or a pattern's repeated variable
+                    self._count()
+                    self._add(task)
+                    fresh.update(f for f in (substitute(x, b) for x in op.add) if f not in facts)
+            if not fresh:
+                return reached
+            facts |= fresh
+            changed = {f.name for f in fresh}
+            todo = [k for k in range(len(ways)) if reads[k] & changed]
+
+    # -- step 2: producible compound tasks, a semi-naive fixed point ------------------------
+
+    def _producible_tasks(
+        self,
+        domain: Domain,
+        reached: State,
+        relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+        order: Order,
+    ) -> None:
+        self._reached = reached
+        methods = [_Bottom.of(me, relaxed(me.pre), order) for ms in domain.methods.values() for me in ms]
+        # The first round joins every method in full; later ones only where a subtask has
+        # a task new in the round before, that subtask going over the new tasks alone.
+        delta: dict[str, list[Atom]] = {name: list(ts) for name, ts in self._tasks.items()}
+        first = True
+        while delta or first:
+            new: dict[str, list[Atom]] = defaultdict(list)
+            for way in methods:
+                for b in self._new_bindings(way, delta, first):
+                    for full in satisfiers(way.pre, reached, b):
+                        head = substitute(way.method.head, full)
+                        self._count()
+                        if head.is_ground and self._add(head):
+                            new[head.name].append(head)
+            delta, first = dict(new), False
+
+    def _new_bindings(self, way: _Bottom, delta: dict[str, list[Atom]], first: bool) -> Iterator[Bindings]:
+        """The method's subtasks joined with the producible tasks, where (after the first
+        round) at least one of them is a task of ``delta``."""
+        subtasks = list(way.method.subtasks)
+        if first:
+            yield from self._project_join([{}], subtasks, way)
+            return
+        for i, t in enumerate(subtasks):
+            starts = [b for b in (unify(t, task, {}) for task in delta.get(t.name, ())) if b is not None]
+            starts = [b for b in starts if self._typed(way, t, b)]
+            if starts:
+                yield from self._project_join(starts, subtasks[:i] + subtasks[i + 1 :], way)
+
+    def _typed(self, way: _Bottom, t: Atom, b: Bindings) -> bool:
+        """Whether the variables the subtask bound are of the method's types."""
+        return all(self._reached.holds(substitute(lit.atom, b)) for lit in way.types.get(t, ()))
+
+    def _project_join(self, rows: list[Bindings], subtasks: list[Atom], way: _Bottom) -> list[Bindings]:
+        """The join, a subtask at a time over all the partial bindings at once, each step
+        dropping the variables nothing later reads (neither the head, nor the precondition,
+        nor a subtask to come), and then the repeats: bindings that differ only in a
+        subtask's own variables (method16's any part coloured by any machine) count once."""
+        bound = set(rows[0]) if rows else set()
+        todo = list(subtasks)
+        while todo and rows:
+            t = max(todo, key=lambda x: (len(x.variables() & bound), -len(x.variables())))
+            todo.remove(t)
+            bound |= t.variables()
+            live = way.kept.union(*(x.variables() for x in todo))
+            seen: dict[tuple[tuple[str, Term], ...], Bindings] = {}
+            for row in rows:
+                for task in self.candidates(t, row):
+                    b = unify(t, task, row)
+                    if b is None or not self._typed(way, t, b):
+                        continue
+                    self._count()
+                    key = tuple(sorted((v, x) for v, x in b.items() if v in live))
+                    seen.setdefault(key, b)
+            rows = [dict(key) for key in seen]
+        return rows
+
+    # -- step 3: the join --------------------------------------------------------------------
+
+    def candidates(self, pattern: Atom, b: Bindings) -> Sequence[Atom]:
+        """The producible tasks the pattern may match under ``b``: through the index on its
+        most selective bound argument (all of them, when none is bound)."""
+        known = self._tasks.get(pattern.name)
+        if not known:
+            return ()
+        task = substitute(pattern, b)
+        best: Sequence[Atom] | None = None
+        for i, a in enumerate(task.args):
+            if isinstance(a, str) and not is_variable(a):
+                found = self._index.get((task.name, i, a), ())
+                if best is None or len(found) < len(best):
+                    best = found
+        if best is None:
+            return tuple(known)
+        return best
+
+    def join(self, subtasks: Sequence[Atom], b: Bindings) -> Iterator[Bindings]:
+        """Every extension of ``b`` under which each subtask is a producible task: the
+        subtask with the fewest candidates first, then again with what it bound."""
+        if not subtasks:
+            yield b
+            return
+        sizes = [(len(self.candidates(t, b)), i) for i, t in enumerate(subtasks)]
+        _, i = min(sizes)
+        first, rest = subtasks[i], [*subtasks[:i], *subtasks[i + 1 :]]
+        for task in self.candidates(first, b):
+            matched = unify(first, task, b)
+            if matched is not None:
+                yield from self.join(rest, matched)
+
+
+@dataclass(frozen=True, slots=True)
+class _Bottom:
+    """A method as the bottom-up pass binds it: its subtasks first (each with the types of
+    the variables it names, checked as it is joined), then what is left of its relaxed
+    precondition, in binding order from the subtasks' variables."""
+
+    method: Method
+    types: dict[Atom, tuple[Literal, ...]]
+    pre: tuple[Literal, ...]
+    kept: frozenset[str]
+    """The variables the head or the precondition left reads: the only ones kept."""
+
+    @staticmethod
+    def of(method: Method, relaxed: Sequence[Literal], order: Order) -> _Bottom:
+        named = {v for t in method.subtasks for v in t.variables()}
+        types = [
+            lit for lit in relaxed if lit.positive and lit.atom.name.startswith(TYPE) and lit.variables <= named
+        ]
+        rest = [lit for lit in relaxed if lit not in types]
+        by_subtask = {t: tuple(lit for lit in types if lit.variables <= t.variables()) for t in method.subtasks}
+        kept = method.head.variables().union(*(lit.variables for lit in rest))
+        return _Bottom(method, by_subtask, order(rest, named), frozenset(kept))
+
+
+def _fixed(head: Atom, pattern: Atom) -> Bindings | None:
+    """The bindings of the action's parameters that the pattern's constants fix; None when
+    the two cannot match."""
+    if len(head.args) != len(pattern.args):
+        return None
+    out: Bindings = {}
+    for h, p in zip(head.args, pattern.args, strict=True):
+        if is_variable(p):
+            continue
+        if not isinstance(h, str) or not is_variable(h):
+            if h != p:
+                return None
+        elif out.setdefault(h, p) != p:
+            return None
+    return out
+
+
+__all__ = ["Producible", "enumerated"]
