@@ -276,7 +276,7 @@ class _Grounder:
         needs them (its cost counts against the cap like the rest)."""
         if self._producible is None:
             self._producible = Producible(
-                self.domain, self.start, self.roots, self.relaxed, _binding_order, self.count
+                self.domain, self.start, self.roots, self.relaxed, _binding_order, self.count, self.tick
             )
         return self._producible
 
@@ -284,13 +284,13 @@ class _Grounder:
         """The method's bindings for the task whose relaxed precondition holds among the
         facts reached (design §7.2, step 1).  A method with parameters only an enumeration
         would bind (by type) is first joined with the producible tasks, then checked."""
-        b0 = unify(way.method.head, task, {})
+        b0 = unify(way.head, task, {})
         if b0 is None:
             return
         if way.joined is None:
-            yield from satisfiers(way.pre, reached, b0)
+            yield from satisfiers(way.order, reached, b0)
             return
-        for b in self.producible().join(way.method.subtasks, b0):
+        for b in self.producible().join(way.subtasks, b0):
             yield from satisfiers(way.joined, reached, b)
 
     def count(self) -> None:
@@ -341,7 +341,10 @@ class _Grounder:
         domain = self.domain
         facts: set[Atom] = set(self.start.facts())
         reached = State(FactBase(facts), frozenset(), _NONE)
-        orders = {name: [_Way.of(me, self.relaxed(me.pre)) for me in ms] for name, ms in domain.methods.items()}
+        orders: dict[str, list[_Way]] = defaultdict(list)
+        for me in (me for ms in domain.methods.values() for me in ms):
+            for way in _ways(me, self.relaxed):
+                orders[way.head.name].append(way)
         op_orders = {
             name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
             for name, ops in domain.operators.items()
@@ -349,7 +352,7 @@ class _Grounder:
         # The predicates each method or operator reads: what makes it worth trying again.
         reads: dict[str, set[str]] = defaultdict(set)
         for name, pres in (
-            *((n, [way.pre for way in ways]) for n, ways in orders.items()),
+            *((n, [way.order for way in ways]) for n, ways in orders.items()),
             *((n, [pre for _, pre in pairs]) for n, pairs in op_orders.items()),
         ):
             for pre in pres:
@@ -388,14 +391,13 @@ class _Grounder:
         def decompose(task: Atom, queue: list[Atom]) -> None:
             self.tick()
             for way in orders.get(task.name, ()):
-                me = way.method
                 for b in self.bindings(way, task, reached):
                     self.count()  # every binding: a method with free variables may have millions
-                    subtasks = tuple(substitute(t, b) for t in me.subtasks)
+                    subtasks = tuple(substitute(t, b) for t in way.subtasks)
                     # Two bindings with the same subtasks may need other facts (a variable
                     # of the precondition alone): each is a way of its own.
-                    needs = self.changing(me.pre, b)
-                    key = (task, me.name, subtasks, needs)
+                    needs = self.changing(way.pre, b)
+                    key = (task, way.name, subtasks, needs)
                     if key in made or not all(t.is_ground for t in subtasks):
                         continue
                     made.add(key)
@@ -404,13 +406,13 @@ class _Grounder:
                         if t in met:
                             continue
                         met[t] = None
-                        if t.name in domain.methods:
+                        if t.name in orders:
                             queue.append(t)
                         elif t.name in domain.operators:
                             primitive.append(t)
                             act(t)
 
-        queue = [t for t in met if t.name in domain.methods]
+        queue = [t for t in met if t.name in orders]
         for t in met:
             if t.name in domain.operators:
                 primitive.append(t)
@@ -428,7 +430,7 @@ class _Grounder:
             for t in primitive:
                 if reads[t.name] & changed:
                     act(t)
-            queue = [t for t in met if t.name in domain.methods and reads[t.name] & changed]
+            queue = [t for t in met if t.name in orders and reads[t.name] & changed]
         return actions, methods, list(met)
 
     # -- step 3: least costs, and what is left ----------------------------------------------
@@ -452,23 +454,92 @@ class _Grounder:
 
 @dataclass(frozen=True, slots=True)
 class _Way:
-    """A method as the grounder binds it: its relaxed precondition in binding order from
-    its task's variables, and -- where that order would enumerate a parameter's type and a
-    subtask names the parameter -- in binding order from the subtasks' variables too, for
-    after the join with the producible tasks (design §7.2)."""
+    """A method as the grounder binds it (design §7.2, step 1): its relaxed precondition in
+    binding order from its task's variables (``order``); and -- where that order would
+    enumerate a parameter's type and a subtask names the parameter -- in binding order from
+    the subtasks' variables too (``joined``), for after the join of its subtasks with the
+    producible tasks."""
 
-    method: Method
-    pre: tuple[Literal, ...]
+    name: str
+    head: Atom
+    pre: tuple[Literal, ...]  # the whole precondition: its literals on changing facts are needs
+    order: tuple[Literal, ...]
+    subtasks: tuple[Atom, ...]
     joined: tuple[Literal, ...] | None
 
-    @staticmethod
-    def of(method: Method, relaxed: Sequence[Literal]) -> _Way:
-        bound = method.head.variables()
-        pre = _binding_order(relaxed, bound)
-        named = {v for t in method.subtasks for v in t.variables()}
-        if not enumerated(pre, bound) & named:
-            return _Way(method, pre, None)
-        return _Way(method, pre, _binding_order(relaxed, bound | named))
+
+def _ways(method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]]) -> list[_Way]:
+    """The ways the grounder binds the method: itself, or -- where the join binds its
+    parameters and they fall into groups that share none but the task's (Woodworking's
+    ``method16`` colours any part with any machine, whatever it grinds) -- one way per group,
+    each of a task of its own (``__method16_2(?colour)``: the group's subtasks, under its
+    share of the precondition), and the method's own way doing those tasks.
+
+    Grounded together, the groups' bindings multiply; apart, they add up.  The estimate is
+    the same: a method's cost is what its precondition and subtasks cost, summed, least over
+    its bindings -- and the least of a sum over independent groups is the sum of their
+    least.
+    """
+    bound = method.head.variables()
+    whole = _way(method.name, method.head, method.pre, method.subtasks, relaxed)
+    if whole.joined is None:
+        return [whole]
+    groups = _groups([*method.subtasks, *(lit.atom for lit in method.pre)], bound)
+    if len(groups) <= 1:
+        return [whole]
+    n = len(method.subtasks)
+    ways: list[_Way] = []
+    tasks: list[Atom] = []
+    for k, members in enumerate(groups, 1):
+        subtasks = tuple(t for i, t in enumerate(method.subtasks) if i in members)
+        pre = tuple(lit for i, lit in enumerate(method.pre, n) if i in members)
+        shared = bound & set().union(*(t.variables() for t in subtasks), *(x.variables for x in pre))
+        head = Atom(f"__{method.name}_{k}", tuple(sorted(shared)))
+        tasks.append(head)
+        ways.append(_way(method.name, head, pre, subtasks, relaxed))
+    grouped = set().union(*groups)
+    core = tuple(lit for i, lit in enumerate(method.pre, n) if i not in grouped)
+    ground = tuple(t for i, t in enumerate(method.subtasks) if i not in grouped)
+    return [_way(method.name, method.head, core, (*ground, *tasks), relaxed), *ways]
+
+
+def _way(
+    name: str,
+    head: Atom,
+    pre: tuple[Literal, ...],
+    subtasks: tuple[Atom, ...],
+    relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+) -> _Way:
+    bound = head.variables()
+    order = _binding_order(relaxed(pre), bound)
+    named = {v for t in subtasks for v in t.variables()}
+    joined = _binding_order(relaxed(pre), bound | named) if enumerated(order, bound) & named else None
+    return _Way(name, head, pre, order, subtasks, joined)
+
+
+def _groups(items: Sequence[Atom], bound: set[str]) -> list[set[int]]:
+    """The items (by index) in groups linked by the variables outside ``bound`` they share;
+    items with none of those are in no group."""
+    owner: dict[str, int] = {}
+    parent = list(range(len(items)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, item in enumerate(items):
+        for v in item.variables() - bound:
+            if v in owner:
+                parent[root(i)] = root(owner[v])
+            else:
+                owner[v] = i
+    out: dict[int, set[int]] = defaultdict(set)
+    for i, item in enumerate(items):
+        if item.variables() - bound:
+            out[root(i)].add(i)
+    return sorted(out.values(), key=min)
 
 
 def _binding_order(pre: Sequence[Literal], bound: Iterable[str]) -> tuple[Literal, ...]:

@@ -62,9 +62,9 @@ class Producible:
     """The ground tasks the problem can produce from its start state (the module's steps 1
     and 2), and the join of a method's subtasks against them (step 3).
 
-    ``count`` is called for every ground action and method binding made, so the caller's
-    cap and checkpoint bound this work too (:class:`~htnagent.planning.composition.TooLarge`
-    comes through).
+    ``count`` is called for every ground action, binding kept and task found, ``tick`` for
+    every other unit of work, so the caller's cap and checkpoint bound this work too
+    (:class:`~htnagent.planning.composition.TooLarge` comes through).
     """
 
     def __init__(
@@ -75,8 +75,10 @@ class Producible:
         relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
         order: Order,
         count: Callable[[], None],
+        tick: Callable[[], None],
     ) -> None:
         self._count = count
+        self._tick = tick
         self._tasks: dict[str, set[Atom]] = defaultdict(set)
         self._index: dict[tuple[str, int, Term], list[Atom]] = defaultdict(list)
         reached = self._reachable_actions(domain, start, roots, relaxed, order)
@@ -151,6 +153,7 @@ class Producible:
         order: Order,
     ) -> None:
         self._reached = reached
+        self._kinds: dict[str, frozenset[Term]] = {}
         methods = [_Bottom.of(me, relaxed(me.pre), order) for ms in domain.methods.values() for me in ms]
         # The first round joins every method in full; later ones only where a subtask has
         # a task new in the round before, that subtask going over the new tasks alone.
@@ -162,8 +165,9 @@ class Producible:
                 for b in self._new_bindings(way, delta, first):
                     for full in satisfiers(way.pre, reached, b):
                         head = substitute(way.method.head, full)
-                        self._count()
+                        self._tick()
                         if head.is_ground and self._add(head):
+                            self._count()
                             new[head.name].append(head)
             delta, first = dict(new), False
 
@@ -175,14 +179,24 @@ class Producible:
             yield from self._project_join([{}], subtasks, way)
             return
         for i, t in enumerate(subtasks):
-            starts = [b for b in (unify(t, task, {}) for task in delta.get(t.name, ())) if b is not None]
-            starts = [b for b in starts if self._typed(way, t, b)]
+            typed = [task for task in delta.get(t.name, ()) if self._typed(way, t, task)]
+            starts = [b for b in (unify(t, task, {}) for task in typed) if b is not None]
             if starts:
                 yield from self._project_join(starts, subtasks[:i] + subtasks[i + 1 :], way)
 
-    def _typed(self, way: _Bottom, t: Atom, b: Bindings) -> bool:
-        """Whether the variables the subtask bound are of the method's types."""
-        return all(self._reached.holds(substitute(lit.atom, b)) for lit in way.types.get(t, ()))
+    def _typed(self, way: _Bottom, t: Atom, task: Atom) -> bool:
+        """Whether the task, as the method's subtask ``t``, has arguments of the types the
+        method gives their variables."""
+        args = task.args
+        return all(args[i] in self._objects(kind) for i, kind in way.types[t])
+
+    def _objects(self, kind: str) -> frozenset[Term]:
+        """The objects of a type (its static type predicate's facts)."""
+        found = self._kinds.get(kind)
+        if found is None:
+            pattern = Atom(kind, ("?x",))
+            found = self._kinds[kind] = frozenset(b["?x"] for b in self._reached.match(pattern, {}))
+        return found
 
     def _project_join(self, rows: list[Bindings], subtasks: list[Atom], way: _Bottom) -> list[Bindings]:
         """The join, a subtask at a time over all the partial bindings at once, each step
@@ -199,12 +213,16 @@ class Producible:
             seen: dict[tuple[tuple[str, Term], ...], Bindings] = {}
             for row in rows:
                 for task in self.candidates(t, row):
-                    b = unify(t, task, row)
-                    if b is None or not self._typed(way, t, b):
+                    if not self._typed(way, t, task):
                         continue
-                    self._count()
+                    self._tick()
+                    b = unify(t, task, row)
+                    if b is None:
+                        continue
                     key = tuple(sorted((v, x) for v, x in b.items() if v in live))
-                    seen.setdefault(key, b)
+                    if key not in seen:
+                        self._count()  # a binding kept: the work that grows with the problem
+                        seen[key] = b
             rows = [dict(key) for key in seen]
         return rows
 
@@ -249,7 +267,7 @@ class _Bottom:
     precondition, in binding order from the subtasks' variables."""
 
     method: Method
-    types: dict[Atom, tuple[Literal, ...]]
+    types: dict[Atom, tuple[tuple[int, str], ...]]
     pre: tuple[Literal, ...]
     kept: frozenset[str]
     """The variables the head or the precondition left reads: the only ones kept."""
@@ -257,11 +275,18 @@ class _Bottom:
     @staticmethod
     def of(method: Method, relaxed: Sequence[Literal], order: Order) -> _Bottom:
         named = {v for t in method.subtasks for v in t.variables()}
+        placed = {a for t in method.subtasks for a in t.args}
         types = [
-            lit for lit in relaxed if lit.positive and lit.atom.name.startswith(TYPE) and lit.variables <= named
+            lit
+            for lit in relaxed
+            if lit.positive and lit.atom.name.startswith(TYPE) and len(lit.atom.args) == 1 and lit.atom.args[0] in placed
         ]
         rest = [lit for lit in relaxed if lit not in types]
-        by_subtask = {t: tuple(lit for lit in types if lit.variables <= t.variables()) for t in method.subtasks}
+        # Each subtask's type checks: the argument at a place, of the type of its variable.
+        by_subtask = {
+            t: tuple((t.args.index(lit.atom.args[0]), lit.atom.name) for lit in types if lit.atom.args[0] in t.args)
+            for t in method.subtasks
+        }
         kept = method.head.variables().union(*(lit.variables for lit in rest))
         return _Bottom(method, by_subtask, order(rest, named), frozenset(kept))
 
