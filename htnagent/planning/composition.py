@@ -34,8 +34,9 @@ Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: 
 from __future__ import annotations
 
 import heapq
-from collections import defaultdict
-from collections.abc import Callable, Iterable, Iterator, Sequence
+import math
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
 from htnagent.model.domain import Domain, Method
@@ -50,6 +51,13 @@ MAX_GROUND = 20_000
 through before it gives up: past this, the grounding takes seconds, and one estimate from
 a state costs more than the guidance is worth (it is worked out anew for every state the
 search reaches)."""
+
+JOIN_ABOVE = 256
+"""Past how many bindings of a task by its parameters' types some method would make, the
+grounder binds methods by joining their subtasks with the producible tasks
+(:mod:`htnagent.planning.producible`) instead: working out what can be produced is a pass
+over the whole problem, worth it where the types multiply (Woodworking's methods:
+thousands of bindings each), not where they add a few ways (Entertainment's: six)."""
 
 CACHED_COSTS = 2_000_000
 """About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
@@ -341,8 +349,21 @@ class _Grounder:
         domain = self.domain
         facts: set[Atom] = set(self.start.facts())
         reached = State(FactBase(facts), frozenset(), _NONE)
+        # How many objects each enumeration goes through: every object of a type, or every
+        # object (an equality).
+        sizes = Counter(f.name for f in facts if f.name.startswith(TYPE) or f.name == EQ)
+        every = [me for ms in domain.methods.values() for me in ms]
+        # Working out what can be produced is a pass over the whole problem: worth it where
+        # some method's types would multiply; once done, every method that would enumerate
+        # is joined (the join also drops the bindings nothing can finish, which keeps the
+        # rest of the grounding small).
+        joining = any(_way(me.name, me.head, me.pre, me.subtasks, self.relaxed, sizes).joined for me in every)
         orders: dict[str, list[_Way]] = defaultdict(list)
-        for me in (me for ms in domain.methods.values() for me in ms):
+        for me in every:
+            if not joining:
+                order = _binding_order(self.relaxed(me.pre), me.head.variables())
+                orders[me.head.name].append(_Way(me.name, me.head, me.pre, order, me.subtasks, None))
+                continue
             for way in _ways(me, self.relaxed):
                 orders[way.head.name].append(way)
         op_orders = {
@@ -509,12 +530,22 @@ def _way(
     pre: tuple[Literal, ...],
     subtasks: tuple[Atom, ...],
     relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+    sizes: Mapping[str, int] | None = None,
 ) -> _Way:
+    """The way to bind a method: joined where it has parameters its subtasks name that only
+    an enumeration binds -- with ``sizes`` (of the types enumerated), only where those
+    enumerations would make more than :data:`JOIN_ABOVE` bindings of each task."""
     bound = head.variables()
     order = _binding_order(relaxed(pre), bound)
     named = {v for t in subtasks for v in t.variables()}
-    joined = _binding_order(relaxed(pre), bound | named) if enumerated(order, bound) & named else None
-    return _Way(name, head, pre, order, subtasks, joined)
+    enumerating = [kind for v, kind in enumerated(order, bound).items() if v in named]
+    if not enumerating or (sizes is not None and _product(enumerating, sizes) <= JOIN_ABOVE):
+        return _Way(name, head, pre, order, subtasks, None)
+    return _Way(name, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
+
+
+def _product(kinds: Iterable[str], sizes: Mapping[str, int]) -> int:
+    return math.prod(sizes.get(kind, 0) for kind in kinds)
 
 
 def _groups(items: Sequence[Atom], bound: set[str]) -> list[set[int]]:

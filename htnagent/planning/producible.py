@@ -29,8 +29,8 @@ grounder's step 3).  The join only stops making those bindings.
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
 from collections.abc import Callable, Iterable, Iterator, Sequence
+from dataclasses import dataclass
 
 from htnagent.model.domain import Domain, Method, Operator
 from htnagent.model.preconditions import Literal, satisfiers
@@ -42,18 +42,18 @@ Order = Callable[[Sequence[Literal], Iterable[str]], tuple[Literal, ...]]
 """How the grounder orders a relaxed precondition's literals, given the variables bound."""
 
 
-def enumerated(order: tuple[Literal, ...], bound: Iterable[str]) -> set[str]:
-    """The variables of an ordered precondition that only an enumeration binds: first bound
-    by a type (every object of it) or by an equality between two unbound variables (every
-    object with itself), rather than by a fact.  The join binds them instead, where a
-    subtask names them."""
+def enumerated(order: tuple[Literal, ...], bound: Iterable[str]) -> dict[str, str]:
+    """The variables of an ordered precondition that only an enumeration binds, each with
+    the predicate that enumerates it: first bound by a type (every object of it) or by an
+    equality between two unbound variables (every object with itself), rather than by a
+    fact.  The join binds them instead, where a subtask names them."""
     known = set(bound)
-    out: set[str] = set()
+    out: dict[str, str] = {}
     for lit in order:
         new = lit.variables - known
         name = lit.atom.name
         if new and lit.positive and (name.startswith(TYPE) or (name == EQ and new == lit.variables)):
-            out |= new
+            out.update(dict.fromkeys(new, name))
         known |= lit.variables
     return out
 
@@ -116,7 +116,8 @@ class Producible:
         tasks; gives the facts reached."""
         facts: set[Atom] = set(start.facts())
         patterns = {t for t in roots if t.name in domain.operators}
-        patterns |= {t for ms in domain.methods.values() for me in ms for t in me.subtasks if t.name in domain.operators}
+        subtasks = (t for ms in domain.methods.values() for me in ms for t in me.subtasks)
+        patterns |= {t for t in subtasks if t.name in domain.operators}
         ways: list[tuple[Atom, Operator, Bindings, tuple[Literal, ...]]] = []
         for pattern in sorted(patterns, key=str):
             for op in domain.operators[pattern.name]:
@@ -279,12 +280,15 @@ class _Bottom:
         types = [
             lit
             for lit in relaxed
-            if lit.positive and lit.atom.name.startswith(TYPE) and len(lit.atom.args) == 1 and lit.atom.args[0] in placed
+            if lit.positive
+            and lit.atom.name.startswith(TYPE)
+            and len(lit.atom.args) == 1
+            and lit.atom.args[0] in placed
         ]
         rest = [lit for lit in relaxed if lit not in types]
         # Each subtask's type checks: the argument at a place, of the type of its variable.
         by_subtask = {
-            t: tuple((t.args.index(lit.atom.args[0]), lit.atom.name) for lit in types if lit.atom.args[0] in t.args)
+            t: tuple((t.args.index(x.atom.args[0]), x.atom.name) for x in types if x.atom.args[0] in t.args)
             for t in method.subtasks
         }
         kept = method.head.variables().union(*(lit.variables for lit in rest))
