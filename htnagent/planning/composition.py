@@ -13,7 +13,11 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    reached over-approximate every state a plan can pass through.
 2. **The task decomposition graph** (step 2): from the tasks to plan, top down, every
    ground method whose precondition holds among the reached facts, and the ground tasks
-   its subtasks name; a primitive task is one of the reached actions, or is dead.
+   its subtasks name; a primitive task is one of the reached actions, or is dead.  Where
+   types alone would bind a method's parameters by the thousand, they are bound by
+   joining its subtasks with the ground tasks that can occur at all
+   (:mod:`htnagent.planning.producible`, past :data:`JOIN_ABOVE`), and parameters in
+   groups independent of each other are grounded apart (design §7.2).
 3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
    over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
    subtasks' costs``, an action 1); a task that no decomposition finishes costs ``inf``,
