@@ -16,7 +16,7 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    its subtasks name; a primitive task is one of the reached actions, or is dead.  Where
    types alone would bind a method's parameters by the thousand, they are bound by
    joining its subtasks with the ground tasks that can occur at all
-   (:mod:`htnagent.planning.producible`, past :data:`JOIN_ABOVE`), and parameters in
+   (:mod:`htnagent.planning.producible`; see :data:`JOIN_ABOVE`), and parameters in
    groups independent of each other are grounded apart (design §7.2).
 3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
    over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
@@ -56,12 +56,14 @@ through before it gives up: past this, the grounding takes seconds, and one esti
 a state costs more than the guidance is worth (it is worked out anew for every state the
 search reaches)."""
 
-JOIN_ABOVE = 256
-"""Past how many bindings of a task by its parameters' types some method would make, the
-grounder binds methods by joining their subtasks with the producible tasks
-(:mod:`htnagent.planning.producible`) instead: working out what can be produced is a pass
-over the whole problem, worth it where the types multiply (Woodworking's methods:
-thousands of bindings each), not where they add a few ways (Entertainment's: six)."""
+JOIN_ABOVE = 0.1
+"""The share of the cap past which the bindings some method's types make for one task send
+the grounder to bind methods by joining their subtasks with the producible tasks
+(:mod:`htnagent.planning.producible`) instead: types that use a tenth of the cap on one
+task leave room for ten such tasks at most.  Working out what can be produced is a pass
+over the whole problem, which costs more than it saves where the types add only a few
+ways (Entertainment's methods: six bindings; AssemblyHierarchical's: up to 1,600 in its
+10th problem); Woodworking's make up to 48,600."""
 
 CACHED_COSTS = 2_000_000
 """About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
@@ -358,10 +360,10 @@ class _Grounder:
         sizes = Counter(f.name for f in facts if f.name.startswith(TYPE) or f.name == EQ)
         every = [me for ms in domain.methods.values() for me in ms]
         # Working out what can be produced is a pass over the whole problem: worth it where
-        # some method's types would multiply; once done, every method that would enumerate
-        # is joined (the join also drops the bindings nothing can finish, which keeps the
-        # rest of the grounding small).
-        joining = any(_way(me.name, me.head, me.pre, me.subtasks, self.relaxed, sizes).joined for me in every)
+        # some method's types alone would use a good share of the cap on one task; once
+        # done, every method that would enumerate is joined (the join also drops the
+        # bindings nothing can finish, which keeps the rest of the grounding small).
+        joining = max((_by_types(me, self.relaxed, sizes) for me in every), default=0) > self.cap * JOIN_ABOVE
         orders: dict[str, list[_Way]] = defaultdict(list)
         for me in every:
             if not joining:
@@ -534,22 +536,28 @@ def _way(
     pre: tuple[Literal, ...],
     subtasks: tuple[Atom, ...],
     relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
-    sizes: Mapping[str, int] | None = None,
 ) -> _Way:
     """The way to bind a method: joined where it has parameters its subtasks name that only
-    an enumeration binds -- with ``sizes`` (of the types enumerated), only where those
-    enumerations would make more than :data:`JOIN_ABOVE` bindings of each task."""
+    an enumeration would bind."""
     bound = head.variables()
     order = _binding_order(relaxed(pre), bound)
     named = {v for t in subtasks for v in t.variables()}
-    enumerating = [kind for v, kind in enumerated(order, bound).items() if v in named]
-    if not enumerating or (sizes is not None and _product(enumerating, sizes) <= JOIN_ABOVE):
+    if not set(enumerated(order, bound)) & named:
         return _Way(name, head, pre, order, subtasks, None)
     return _Way(name, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
 
 
-def _product(kinds: Iterable[str], sizes: Mapping[str, int]) -> int:
-    return math.prod(sizes.get(kind, 0) for kind in kinds)
+def _by_types(
+    method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]], sizes: Mapping[str, int]
+) -> int:
+    """How many bindings of one task the types of the method's parameters its subtasks name
+    (and nothing else binds) make: the product of their numbers of objects."""
+    bound = method.head.variables()
+    named = {v for t in method.subtasks for v in t.variables()}
+    kinds = [
+        k for v, k in enumerated(_binding_order(relaxed(method.pre), bound), bound).items() if v in named
+    ]
+    return math.prod(sizes.get(k, 0) for k in kinds) if kinds else 0
 
 
 def _groups(items: Sequence[Atom], bound: set[str]) -> list[set[int]]:

@@ -38,6 +38,13 @@ from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, Term, is_variable, substitute, unify
 from htnagent.planning.hddl_translation import EQ, TYPE
 
+ANY = "__any"
+"""An argument of a producible task that may be any object: a parameter of the method (or
+action) nothing binds -- its task's declared type implies the method's, so the translation
+gave it no literal (AssemblyHierarchical's ``finish`` of ``ValidatePortConnection(?p1 ?p2
+?t)``).  Kept as one task, not one a object: a join leaves a subtask's variable there
+unbound, for the method's own literals to bind."""
+
 Order = Callable[[Sequence[Literal], Iterable[str]], tuple[Literal, ...]]
 """How the grounder orders a relaxed precondition's literals, given the variables bound."""
 
@@ -78,6 +85,7 @@ class Producible:
         tick: Callable[[], None],
     ) -> None:
         self._count = count
+        self._masks: dict[str, set[tuple[int, ...]]] = defaultdict(set)
         self._tick = tick
         self._tasks: dict[str, set[Atom]] = defaultdict(set)
         self._index: dict[tuple[str, int, Term], list[Atom]] = defaultdict(list)
@@ -85,7 +93,16 @@ class Producible:
         self._producible_tasks(domain, reached, relaxed, order)
 
     def __contains__(self, task: Atom) -> bool:
-        return task in self._tasks.get(task.name, ())
+        known = self._tasks.get(task.name, ())
+        if task in known:
+            return True
+        for mask in self._masks.get(task.name, ()):
+            args = list(task.args)
+            for i in mask:
+                args[i] = ANY
+            if Atom(task.name, tuple(args)) in known:
+                return True
+        return False
 
     def __len__(self) -> int:
         return sum(len(s) for s in self._tasks.values())
@@ -98,6 +115,8 @@ class Producible:
         known.add(task)
         for i, a in enumerate(task.args):
             self._index[(task.name, i, a)].append(task)
+        if ANY in task.args:
+            self._masks[task.name].add(tuple(i for i, a in enumerate(task.args) if a == ANY))
         return True
 
     # -- step 1: reachable actions, whatever the hierarchy -----------------------------------
@@ -132,11 +151,12 @@ class Producible:
             for k in todo:
                 pattern, op, b0, pre = ways[k]
                 for b in satisfiers(pre, reached, b0):
-                    task = substitute(op.head, b)
-                    if not task.is_ground or unify(pattern, task, {}) is None:
-                        continue  # a parameter no literal names, or a pattern's repeated variable
+                    task = _instance(op.head, b)
+                    if _match(pattern, task, {}) is None:
+                        continue  # a pattern's repeated variable, bound twice apart
                     self._count()
                     self._add(task)
+                    # (A parameter an effect names has a literal: these are ground.)
                     fresh.update(f for f in (substitute(x, b) for x in op.add) if f not in facts)
             if not fresh:
                 return reached
@@ -165,9 +185,9 @@ class Producible:
             for way in methods:
                 for b in self._new_bindings(way, delta, first):
                     for full in satisfiers(way.pre, reached, b):
-                        head = substitute(way.method.head, full)
+                        head = _instance(way.method.head, full)
                         self._tick()
-                        if head.is_ground and self._add(head):
+                        if self._add(head):
                             self._count()
                             new[head.name].append(head)
             delta, first = dict(new), False
@@ -181,7 +201,7 @@ class Producible:
             return
         for i, t in enumerate(subtasks):
             typed = [task for task in delta.get(t.name, ()) if self._typed(way, t, task)]
-            starts = [b for b in (unify(t, task, {}) for task in typed) if b is not None]
+            starts = [b for b in (_match(t, task, {}) for task in typed) if b is not None]
             if starts:
                 yield from self._project_join(starts, subtasks[:i] + subtasks[i + 1 :], way)
 
@@ -189,7 +209,7 @@ class Producible:
         """Whether the task, as the method's subtask ``t``, has arguments of the types the
         method gives their variables."""
         args = task.args
-        return all(args[i] in self._objects(kind) for i, kind in way.types[t])
+        return all(args[i] in self._objects(kind) or args[i] == ANY for i, kind in way.types[t])
 
     def _objects(self, kind: str) -> frozenset[Term]:
         """The objects of a type (its static type predicate's facts)."""
@@ -217,7 +237,7 @@ class Producible:
                     if not self._typed(way, t, task):
                         continue
                     self._tick()
-                    b = unify(t, task, row)
+                    b = _match(t, task, row)
                     if b is None:
                         continue
                     key = tuple(sorted((v, x) for v, x in b.items() if v in live))
@@ -240,6 +260,8 @@ class Producible:
         for i, a in enumerate(task.args):
             if isinstance(a, str) and not is_variable(a):
                 found = self._index.get((task.name, i, a), ())
+                if task.name in self._masks:
+                    found = [*found, *self._index.get((task.name, i, ANY), ())]
                 if best is None or len(found) < len(best):
                     best = found
         if best is None:
@@ -256,7 +278,7 @@ class Producible:
         _, i = min(sizes)
         first, rest = subtasks[i], [*subtasks[:i], *subtasks[i + 1 :]]
         for task in self.candidates(first, b):
-            matched = unify(first, task, b)
+            matched = _match(first, task, b)
             if matched is not None:
                 yield from self.join(rest, matched)
 
@@ -293,6 +315,33 @@ class _Bottom:
         }
         kept = method.head.variables().union(*(lit.variables for lit in rest))
         return _Bottom(method, by_subtask, order(rest, named), frozenset(kept))
+
+
+def _instance(head: Atom, b: Bindings) -> Atom:
+    """The head under ``b``, with :data:`ANY` for a parameter nothing bound."""
+    task = substitute(head, b)
+    if task.is_ground:
+        return task
+    return Atom(task.name, tuple(ANY if isinstance(a, str) and is_variable(a) else a for a in task.args))
+
+
+def _match(pattern: Atom, task: Atom, b: Bindings) -> Bindings | None:
+    """``unify``, where an argument :data:`ANY` of the task matches whatever the pattern has
+    there, and binds nothing."""
+    if ANY not in task.args:
+        return unify(pattern, task, b)
+    if pattern.name != task.name or len(pattern.args) != len(task.args):
+        return None
+    out = dict(b)
+    for p, a in zip(pattern.args, task.args, strict=True):
+        if a == ANY:
+            continue
+        if isinstance(p, str) and is_variable(p):
+            if out.setdefault(p, a) != a:
+                return None
+        elif p != a:
+            return None
+    return out
 
 
 def _fixed(head: Atom, pattern: Atom) -> Bindings | None:
