@@ -365,12 +365,12 @@ class _Grounder:
         # bindings nothing can finish, which keeps the rest of the grounding small).
         joining = max((_by_types(me, self.relaxed, sizes) for me in every), default=0) > self.cap * JOIN_ABOVE
         orders: dict[str, list[_Way]] = defaultdict(list)
-        for me in every:
+        for index, me in enumerate(every):
             if not joining:
                 order = _binding_order(self.relaxed(me.pre), me.head.variables())
                 orders[me.head.name].append(_Way(me.name, me.head, me.pre, order, me.subtasks, None))
                 continue
-            for way in _ways(me, self.relaxed):
+            for way in _ways(me, self.relaxed, f"__{me.name}#{index}"):
                 orders[way.head.name].append(way)
         op_orders = {
             name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
@@ -495,12 +495,16 @@ class _Way:
     joined: tuple[Literal, ...] | None
 
 
-def _ways(method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]]) -> list[_Way]:
+def _ways(
+    method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]], prefix: str
+) -> list[_Way]:
     """The ways the grounder binds the method: itself, or -- where the join binds its
     parameters and they fall into groups that share none but the task's (Woodworking's
     ``method16`` colours any part with any machine, whatever it grinds) -- one way per group,
-    each of a task of its own (``__method16_2(?colour)``: the group's subtasks, under its
-    share of the precondition), and the method's own way doing those tasks.
+    each of a task of its own (``__method16#15_2(?colour)``: the group's subtasks, under its
+    share of the precondition), and the method's own way doing those tasks.  The tasks'
+    names begin with ``prefix``, one of this method's own (methods made of one ``or`` share
+    their name).
 
     Grounded together, the groups' bindings multiply; apart, they add up.  The estimate is
     the same: a method's cost is what its precondition and subtasks cost, summed, least over
@@ -521,7 +525,7 @@ def _ways(method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, 
         subtasks = tuple(t for i, t in enumerate(method.subtasks) if i in members)
         pre = tuple(lit for i, lit in enumerate(method.pre, n) if i in members)
         shared = bound & set().union(*(t.variables() for t in subtasks), *(x.variables for x in pre))
-        head = Atom(f"__{method.name}_{k}", tuple(sorted(shared)))
+        head = Atom(f"{prefix}_{k}", tuple(sorted(shared)))
         tasks.append(head)
         ways.append(_way(method.name, head, pre, subtasks, relaxed))
     grouped = set().union(*groups)
