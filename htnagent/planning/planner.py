@@ -723,6 +723,12 @@ def _search(
                 decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled)
         else:
             decompositions = _methods_ways(domain, st, task, compiled)
+        # An expansion that makes hundreds of ways (a guided search binding a dozen
+        # parameters by type: Woodworking's) is worth as much as hundreds of nodes: the
+        # next node reads the clock, so a search under a limit or a portfolio's pacing
+        # never waits for the next 256 of them.
+        if sum(len(listed) for _, listed in decompositions) > every:
+            ticks |= every
         for method_name, listed in decompositions:
             for subtasks in listed:
                 rec = _new(_Pending, (task, method_name, record))
