@@ -10,8 +10,11 @@ subtask nothing can do.  PANDA grounds such methods against the ground tasks tha
 actually occur; so does this module:
 
 1. **Reachable actions.** From the start state, every ground action whose relaxed
-   precondition (delete relaxation, as the grounder's) can come to hold, whatever the
-   hierarchy -- the facts reached over-approximate those the hierarchy reaches.
+   precondition (delete relaxation, as the grounder's) can come to hold, of a primitive
+   task as a task to plan or a method's subtask names it -- with its constants, which
+   matter: Woodworking's actions have parameters only their effects name, any colour or
+   surface, which the methods fix.  The facts reached over-approximate those the
+   hierarchy reaches.
 2. **Producible tasks,** a bottom-up fixed point: a primitive task is producible when one of
    its actions is reachable; a compound task when one of its methods has every subtask
    producible and its relaxed precondition holding among the reached facts.  Each round
@@ -42,7 +45,7 @@ ANY = "__any"
 """An argument of a producible task that may be any object: a parameter of the method (or
 action) nothing binds -- its task's declared type implies the method's, so the translation
 gave it no literal (AssemblyHierarchical's ``finish`` of ``ValidatePortConnection(?p1 ?p2
-?t)``).  Kept as one task, not one a object: a join leaves a subtask's variable there
+?t)``).  Kept as one task, not one an object: a join leaves a subtask's variable there
 unbound, for the method's own literals to bind."""
 
 Order = Callable[[Sequence[Literal], Iterable[str]], tuple[Literal, ...]]
@@ -119,7 +122,7 @@ class Producible:
             self._masks[task.name].add(tuple(i for i, a in enumerate(task.args) if a == ANY))
         return True
 
-    # -- step 1: reachable actions, whatever the hierarchy -----------------------------------
+    # -- step 1: reachable actions, of the primitive tasks the methods name -----------------
 
     def _reachable_actions(
         self,
@@ -130,9 +133,8 @@ class Producible:
         order: Order,
     ) -> State:
         """Every ground action reachable under the delete relaxation as a task to plan or a
-        method's subtask names it (its constants kept: Woodworking's actions have
-        parameters only their effects name, which the methods fix), recorded as producible
-        tasks; gives the facts reached."""
+        method's subtask names it (the module's step 1), recorded as producible tasks;
+        gives the facts reached."""
         facts: set[Atom] = set(start.facts())
         patterns = {t for t in roots if t.name in domain.operators}
         subtasks = (t for ms in domain.methods.values() for me in ms for t in me.subtasks)
