@@ -353,8 +353,8 @@ def _fixed(head: Atom, pattern: Atom) -> Bindings | None:
         return None
     out: Bindings = {}
     for h, p in zip(head.args, pattern.args, strict=True):
-        if is_variable(p):
-            continue
+        if is_variable(p) or (isinstance(p, Atom) and not p.is_ground):
+            continue  # nothing fixed here (a term with variables fixes too little to keep)
         if not isinstance(h, str) or not is_variable(h):
             if h != p:
                 return None
