@@ -341,6 +341,11 @@ def _match(pattern: Atom, task: Atom, b: Bindings) -> Bindings | None:
         if isinstance(p, str) and is_variable(p):
             if out.setdefault(p, a) != a:
                 return None
+        elif isinstance(p, Atom) and isinstance(a, Atom):
+            inner = unify(p, a, out)
+            if inner is None:
+                return None
+            out = dict(inner)
         elif p != a:
             return None
     return out
