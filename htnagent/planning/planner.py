@@ -737,10 +737,12 @@ def _search(
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
                     continue
-                if support is not None and dropped(task, dynamic, child_tasks):
-                    continue
+                # The estimate first: where it drops most ways (a grounded one, of ways bound
+                # by type to subtasks nothing can do), the goal's check is then spared.
                 h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
+                    continue
+                if support is not None and dropped(task, dynamic, child_tasks):
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
                 f = node.f - 1.0 if dfs else g * wg + h
