@@ -205,3 +205,116 @@ def test_every_binding_of_a_precondition_only_variable_is_a_way_of_its_own() -> 
     assert c.estimate([_a("enter", "d")], start) == 1
     without_k2 = start - {_a("have", "k2")}
     assert c.estimate([_a("unlock", "d")], without_k2) == 2
+
+
+# A workshop: finish(i) coats the item in some colour with some brush, then sands it with
+# some tool.  The method's colour, brush and tool appear only in its subtasks, so only their
+# types bound them: N**3 bindings an item.  coat and sand have several methods each, so their
+# actions' preconditions are not pulled up into finish-m (design §7) to bind them by facts.
+# sand-done's tool is bound by nothing at all (the task's declared type is its type).
+WORKSHOP = """
+(define (domain workshop)
+  (:requirements :typing :hierarchy)
+  (:types item colour brush tool)
+  (:predicates (fits ?b - brush ?c - colour) (wanted ?i - item ?c - colour) (sharp ?t - tool)
+               (painted ?i - item) (smooth ?i - item))
+  (:task finish :parameters (?i - item))
+  (:task coat :parameters (?i - item ?c - colour ?b - brush))
+  (:task sand :parameters (?i - item ?t - tool))
+  (:method finish-m :parameters (?i - item ?c - colour ?b - brush ?t - tool) :task (finish ?i)
+    :ordered-subtasks (and (coat ?i ?c ?b) (sand ?i ?t)))
+  (:method coat-once :parameters (?i - item ?c - colour ?b - brush) :task (coat ?i ?c ?b)
+    :ordered-subtasks (paint ?i ?c ?b))
+  (:method coat-twice :parameters (?i - item ?c - colour ?b - brush) :task (coat ?i ?c ?b)
+    :ordered-subtasks (and (paint ?i ?c ?b) (paint ?i ?c ?b)))
+  (:method sand-once :parameters (?i - item ?t - tool) :task (sand ?i ?t)
+    :ordered-subtasks (polish ?i ?t))
+  (:method sand-twice :parameters (?i - item ?t - tool) :task (sand ?i ?t)
+    :ordered-subtasks (and (polish ?i ?t) (polish ?i ?t)))
+  (:method sand-done :parameters (?i - item ?t - tool) :task (sand ?i ?t)
+    :precondition (smooth ?i) :ordered-subtasks ())
+  (:action paint :parameters (?i - item ?c - colour ?b - brush)
+    :precondition (and (wanted ?i ?c) (fits ?b ?c)) :effect (painted ?i))
+  (:action polish :parameters (?i - item ?t - tool)
+    :precondition (and (painted ?i) (sharp ?t)) :effect (smooth ?i))
+)
+"""
+
+
+def _workshop(n: int) -> HddlPlanning:
+    """Two items, each wanted in its own colour; brush k fits colour k; tool t1 alone is
+    sharp; n colours, brushes and tools."""
+    objects = " ".join([f"c{k} - colour b{k} - brush t{k} - tool" for k in range(1, n + 1)])
+    fits = " ".join(f"(fits b{k} c{k})" for k in range(1, n + 1))
+    domain = parse_domain(WORKSHOP, "workshop.hddl")
+    problem = parse_problem(
+        f"(define (problem p) (:domain workshop) (:objects i1 i2 - item {objects})"
+        " (:htn :ordered-subtasks (and (finish i1) (finish i2)))"
+        f" (:init {fits} (wanted i1 c1) (wanted i2 c2) (sharp t1)))",
+        domain,
+        "p.hddl",
+    )
+    return translate(domain, problem)
+
+
+def _by_types(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The grounder as it was: every parameter the precondition leaves is bound by its type."""
+    monkeypatch.setattr(composition, "JOIN_ABOVE", math.inf)
+
+
+def test_parameters_only_subtasks_name_are_bound_by_what_can_occur(monkeypatch: pytest.MonkeyPatch) -> None:
+    # 12 colours, brushes and tools: 1,728 bindings of finish-m an item by types -- past a
+    # cap of 1,000 -- but only one colour and brush an item can be coated with.
+    planning = _workshop(12)
+    c = ground(planning.domain, planning.state, planning.tasks, cap=1_000)
+    assert c is not None
+    # finish(i1): paint (1), then sanding, which may be nothing whatever the state (0).
+    # From the start, h_add: coat 1; sand needs smooth (2: a polish and the paint before
+    # it) for sand-done, or for sand-once painted (1) and polish (1 + painted's 1): 3; and
+    # both items add up.
+    assert c.least[_a("finish", "i1")] == 1
+    assert c.estimate([_a("finish", "i1")], planning.state.dynamic) == 3
+    assert c.estimate(planning.tasks, planning.state.dynamic) == 6
+    # A coat nothing can do (i1 is not wanted in c2) is a dead end, though no method met it.
+    assert _a("coat", "i1", "c2", "b2") not in c.least
+    assert c.estimate([_a("coat", "i1", "c2", "b2")], planning.state.dynamic) == math.inf
+    # Sanding with a blunt tool: only once the item is smooth (sand-done, with any tool):
+    # polish(i1,t1) and the paint before it.
+    assert c.estimate([_a("sand", "i1", "t2")], planning.state.dynamic) == 2
+    assert c.estimate([_a("sand", "i1", "t2")], planning.state.dynamic | {_a("smooth", "i1")}) == 0
+    _by_types(monkeypatch)
+    assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None
+
+
+def test_binding_by_what_can_occur_leaves_the_estimate_as_it_was(monkeypatch: pytest.MonkeyPatch) -> None:
+    # Small enough for both ways: every ground task's least cost and estimate, from the start
+    # and after painting, are the same joined as bound by types (7**3 bindings of finish-m
+    # an item: past a tenth of a cap of 2,000, so the join is what runs).
+    planning = _workshop(7)
+    joined = ground(planning.domain, planning.state, planning.tasks, cap=2_000)
+    assert joined is not None
+    _by_types(monkeypatch)
+    typed = _grounded(planning)
+    start = planning.state.dynamic
+    painted = start | {_a("painted", "i1")}
+    tasks = [t for t in typed.least if not t.name.startswith("__")]
+    assert len(tasks) > 100  # the types' bindings: every colour, brush and tool met
+    for t in tasks:
+        assert joined.least.get(t, math.inf) == typed.least[t], t
+        for state in (start, painted):
+            assert joined.estimate([t], state) == typed.estimate([t], state), t
+    for state in (start, painted):
+        assert joined.estimate(planning.tasks, state) == typed.estimate(planning.tasks, state)
+    assert len(joined.least) < len(typed.least) / 3  # what nothing can do is never met
+
+
+def test_the_joined_grounding_guides_a_search_to_a_plan_the_checker_accepts() -> None:
+    planning = _workshop(12)
+    c = ground(planning.domain, planning.state, planning.tasks, cap=1_000)
+    assert c is not None
+    settings = PlannerSettings(alternatives=1, search=Search.GBFS)
+    result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
+    assert result.status is PlanStatus.SOLVED and result.best is not None
+    actions = [str(s.action) for s in result.best.steps if not s.action.name.startswith("__")]
+    assert actions == ["paint(i1,c1,b1)", "polish(i1,t1)", "paint(i2,c2,b2)", "polish(i2,t1)"]
+    assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []

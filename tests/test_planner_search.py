@@ -278,3 +278,26 @@ def test_depth_first_search_drops_a_task_that_can_never_be_done_wherever_it_come
     assert found.best is not None
     assert [s.action.name for s in found.best.steps] == ["b", "a"]
     assert found.expansions <= 3
+
+
+def test_an_expansion_making_hundreds_of_ways_reads_the_clock_next() -> None:
+    # pick(x) has 300 ways, one an object; a guided search makes them all into nodes at
+    # once.  That is hundreds of nodes' work: the next node reads the clock (and asks the
+    # checkpoint), as a portfolio's pacing and the time limit need, not 256 nodes later --
+    # by when this search has its plan.
+    d = Domain("many")
+    d.operator("take(?x)", pre=["thing(?x)"])
+    d.method("pick", "any", when=["thing(?x)"], do=["take(?x)"])
+    state = State.from_facts([f"thing(o{i})" for i in range(300)], d.dynamic_predicates)
+    asked: list[int] = []
+
+    def checkpoint() -> bool:
+        asked.append(1)
+        return True
+
+    settings = PlannerSettings(alternatives=1, search=Search.GBFS)
+    result = plan(
+        d, state, [atom("pick")], settings, guide=lambda tasks, _: float(len(tasks)), checkpoint=checkpoint
+    )
+    assert asked and result.status is PlanStatus.INTERRUPTED
+    assert result.expansions == 1

@@ -13,7 +13,11 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    reached over-approximate every state a plan can pass through.
 2. **The task decomposition graph** (step 2): from the tasks to plan, top down, every
    ground method whose precondition holds among the reached facts, and the ground tasks
-   its subtasks name; a primitive task is one of the reached actions, or is dead.
+   its subtasks name; a primitive task is one of the reached actions, or is dead.  Where
+   types alone would bind a method's parameters by the thousand, they are bound by
+   joining its subtasks with the ground tasks that can occur at all
+   (:mod:`htnagent.planning.producible`; see :data:`JOIN_ABOVE`), and parameters in
+   groups independent of each other are grounded apart (design §7.2).
 3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
    over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
    subtasks' costs``, an action 1); a task that no decomposition finishes costs ``inf``,
@@ -34,21 +38,32 @@ Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: 
 from __future__ import annotations
 
 import heapq
-from collections import defaultdict
-from collections.abc import Callable, Iterable, Sequence
+import math
+from collections import Counter, defaultdict
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 
-from htnagent.model.domain import Domain
+from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import Literal, satisfiers
 from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.hddl_translation import EQ, TYPE
+from htnagent.planning.producible import Producible, enumerated
 
 MAX_GROUND = 20_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
 through before it gives up: past this, the grounding takes seconds, and one estimate from
 a state costs more than the guidance is worth (it is worked out anew for every state the
 search reaches)."""
+
+JOIN_ABOVE = 0.1
+"""The share of the cap past which the bindings some method's types make for one task send
+the grounder to bind methods by joining their subtasks with the producible tasks
+(:mod:`htnagent.planning.producible`) instead: types that use a tenth of the cap on one
+task leave room for ten such tasks at most.  Working out what can be produced is a pass
+over the whole problem, which costs more than it saves where the types add only a few
+ways (Entertainment's methods: six bindings; AssemblyHierarchical's: up to 1,600 in its
+10th problem); Woodworking's make up to 48,600."""
 
 CACHED_COSTS = 2_000_000
 """About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
@@ -100,11 +115,13 @@ class Composition:
         methods: Sequence[_GroundMethod],
         least: dict[Atom, float],
         fallback: dict[str, float],
+        producible: Producible | None = None,
     ) -> None:
         self.least = least
         self.actions = len(actions)
         self.methods = len(methods)
         self._fallback = fallback
+        self._producible = producible
         # One id space for what can be reached: facts first, then tasks.
         ids: dict[Atom, int] = {}
         task_ids: dict[Atom, int] = {}
@@ -214,7 +231,8 @@ class Composition:
     def estimate(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
         """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
         when one of them cannot be done any more.  A task the grounding never met (it
-        cannot come from the tasks grounded) counts its name's least cost."""
+        cannot come from the tasks grounded) counts its name's least cost -- or ``inf``
+        where the grounding worked out what can be produced at all and it is not."""
         # The children of one node mostly share its state: the same object, asked again.
         last_dynamic, dist = self._last
         if dynamic is not last_dynamic:
@@ -224,7 +242,14 @@ class Composition:
         total = 0.0
         for t in tasks:
             i = ids.get(t)
-            total += dist[i] if i is not None else self._fallback.get(t.name, 0.0)
+            if i is not None:
+                total += dist[i]
+            elif self._producible is not None and t not in self._producible:
+                # The grounder no longer meets what a join left out (the search still
+                # makes it, binding by types): it costs what the old grounding gave it.
+                return _INF
+            else:
+                total += self._fallback.get(t.name, 0.0)
         return total
 
 
@@ -257,6 +282,30 @@ class _Grounder:
         self.checkpoint = checkpoint
         self.made = 0
         self.work = 0
+        self._producible: Producible | None = None
+        self.roots: tuple[Atom, ...] = ()
+
+    def producible(self) -> Producible:
+        """The ground tasks that can be produced at all, worked out the first time a method
+        needs them (its cost counts against the cap like the rest)."""
+        if self._producible is None:
+            self._producible = Producible(
+                self.domain, self.start, self.roots, self.relaxed, _binding_order, self.count, self.tick
+            )
+        return self._producible
+
+    def bindings(self, way: _Way, task: Atom, reached: State) -> Iterator[Bindings]:
+        """The method's bindings for the task whose relaxed precondition holds among the
+        facts reached (design §7.2, step 1).  A method with parameters only an enumeration
+        would bind (by type) is first joined with the producible tasks, then checked."""
+        b0 = unify(way.head, task, {})
+        if b0 is None:
+            return
+        if way.joined is None:
+            yield from satisfiers(way.order, reached, b0)
+            return
+        for b in self.producible().join(way.subtasks, b0):
+            yield from satisfiers(way.joined, reached, b)
 
     def count(self) -> None:
         """One more ground action or method binding: past the cap, give up."""
@@ -285,6 +334,7 @@ class _Grounder:
         return tuple(out)
 
     def run(self, roots: Sequence[Atom]) -> Composition:
+        self.roots = tuple(roots)
         actions, methods, tasks = self.reachable(roots)
         return self.pruned(actions, methods, tasks)
 
@@ -305,10 +355,23 @@ class _Grounder:
         domain = self.domain
         facts: set[Atom] = set(self.start.facts())
         reached = State(FactBase(facts), frozenset(), _NONE)
-        orders = {
-            name: [(me, _binding_order(self.relaxed(me.pre), me.head.variables())) for me in ms]
-            for name, ms in domain.methods.items()
-        }
+        # How many objects each enumeration goes through: every object of a type, or every
+        # object (an equality).
+        sizes = Counter(f.name for f in facts if f.name.startswith(TYPE) or f.name == EQ)
+        every = [me for ms in domain.methods.values() for me in ms]
+        # Working out what can be produced is a pass over the whole problem: worth it where
+        # some method's types alone would use a good share of the cap on one task; once
+        # done, every method that would enumerate is joined (the join also drops the
+        # bindings nothing can finish, which keeps the rest of the grounding small).
+        joining = max((_by_types(me, self.relaxed, sizes) for me in every), default=0) > self.cap * JOIN_ABOVE
+        orders: dict[str, list[_Way]] = defaultdict(list)
+        for index, me in enumerate(every):
+            if not joining:
+                order = _binding_order(self.relaxed(me.pre), me.head.variables())
+                orders[me.head.name].append(_Way(me.name, me.head, me.pre, order, me.subtasks, None))
+                continue
+            for way in _ways(me, self.relaxed, f"__{me.name}#{index}"):
+                orders[way.head.name].append(way)
         op_orders = {
             name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
             for name, ops in domain.operators.items()
@@ -316,7 +379,7 @@ class _Grounder:
         # The predicates each method or operator reads: what makes it worth trying again.
         reads: dict[str, set[str]] = defaultdict(set)
         for name, pres in (
-            *((n, [pre for _, pre in pairs]) for n, pairs in orders.items()),
+            *((n, [way.order for way in ways]) for n, ways in orders.items()),
             *((n, [pre for _, pre in pairs]) for n, pairs in op_orders.items()),
         ):
             for pre in pres:
@@ -354,17 +417,14 @@ class _Grounder:
 
         def decompose(task: Atom, queue: list[Atom]) -> None:
             self.tick()
-            for me, pre in orders.get(task.name, ()):
-                b0 = unify(me.head, task, {})
-                if b0 is None:
-                    continue
-                for b in satisfiers(pre, reached, b0):
+            for way in orders.get(task.name, ()):
+                for b in self.bindings(way, task, reached):
                     self.count()  # every binding: a method with free variables may have millions
-                    subtasks = tuple(substitute(t, b) for t in me.subtasks)
+                    subtasks = tuple(substitute(t, b) for t in way.subtasks)
                     # Two bindings with the same subtasks may need other facts (a variable
                     # of the precondition alone): each is a way of its own.
-                    needs = self.changing(me.pre, b)
-                    key = (task, me.name, subtasks, needs)
+                    needs = self.changing(way.pre, b)
+                    key = (task, way.name, subtasks, needs)
                     if key in made or not all(t.is_ground for t in subtasks):
                         continue
                     made.add(key)
@@ -373,13 +433,13 @@ class _Grounder:
                         if t in met:
                             continue
                         met[t] = None
-                        if t.name in domain.methods:
+                        if t.name in orders:
                             queue.append(t)
                         elif t.name in domain.operators:
                             primitive.append(t)
                             act(t)
 
-        queue = [t for t in met if t.name in domain.methods]
+        queue = [t for t in met if t.name in orders]
         for t in met:
             if t.name in domain.operators:
                 primitive.append(t)
@@ -397,7 +457,7 @@ class _Grounder:
             for t in primitive:
                 if reads[t.name] & changed:
                     act(t)
-            queue = [t for t in met if t.name in domain.methods and reads[t.name] & changed]
+            queue = [t for t in met if t.name in orders and reads[t.name] & changed]
         return actions, methods, list(met)
 
     # -- step 3: least costs, and what is left ----------------------------------------------
@@ -416,7 +476,117 @@ class _Grounder:
         # Every task met keeps its id (a task no decomposition finishes is never reached):
         # only a task the grounding never met falls back on its name's least cost.
         fallback = self.domain.task_costs or {}
-        return Composition(kept_actions, kept, least, fallback)
+        return Composition(kept_actions, kept, least, fallback, self._producible)
+
+
+@dataclass(frozen=True, slots=True)
+class _Way:
+    """A method as the grounder binds it (design §7.2, step 1): its relaxed precondition in
+    binding order from its task's variables (``order``); and -- where that order would
+    enumerate a parameter's type and a subtask names the parameter -- in binding order from
+    the subtasks' variables too (``joined``), for after the join of its subtasks with the
+    producible tasks."""
+
+    name: str
+    head: Atom
+    pre: tuple[Literal, ...]  # the whole precondition: its literals on changing facts are needs
+    order: tuple[Literal, ...]
+    subtasks: tuple[Atom, ...]
+    joined: tuple[Literal, ...] | None
+
+
+def _ways(
+    method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]], prefix: str
+) -> list[_Way]:
+    """The ways the grounder binds the method: itself, or -- where the join binds its
+    parameters and they fall into groups that share none but the task's (Woodworking's
+    ``method16`` colours any part with any machine, whatever it grinds) -- one way per group,
+    each of a task of its own (``__method16#15_2(?colour)``: the group's subtasks, under its
+    share of the precondition), and the method's own way doing those tasks.  The tasks'
+    names begin with ``prefix``, one of this method's own (methods made of one ``or`` share
+    their name).
+
+    Grounded together, the groups' bindings multiply; apart, they add up.  The estimate is
+    the same: a method's cost is what its precondition and subtasks cost, summed, least over
+    its bindings -- and the least of a sum over independent groups is the sum of their
+    least.
+    """
+    bound = method.head.variables()
+    whole = _way(method.name, method.head, method.pre, method.subtasks, relaxed)
+    if whole.joined is None:
+        return [whole]
+    groups = _groups([*method.subtasks, *(lit.atom for lit in method.pre)], bound)
+    if len(groups) <= 1:
+        return [whole]
+    n = len(method.subtasks)
+    ways: list[_Way] = []
+    tasks: list[Atom] = []
+    for k, members in enumerate(groups, 1):
+        subtasks = tuple(t for i, t in enumerate(method.subtasks) if i in members)
+        pre = tuple(lit for i, lit in enumerate(method.pre, n) if i in members)
+        shared = bound & set().union(*(t.variables() for t in subtasks), *(x.variables for x in pre))
+        head = Atom(f"{prefix}_{k}", tuple(sorted(shared)))
+        tasks.append(head)
+        ways.append(_way(method.name, head, pre, subtasks, relaxed))
+    grouped = set().union(*groups)
+    core = tuple(lit for i, lit in enumerate(method.pre, n) if i not in grouped)
+    ground = tuple(t for i, t in enumerate(method.subtasks) if i not in grouped)
+    return [_way(method.name, method.head, core, (*ground, *tasks), relaxed), *ways]
+
+
+def _way(
+    name: str,
+    head: Atom,
+    pre: tuple[Literal, ...],
+    subtasks: tuple[Atom, ...],
+    relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+) -> _Way:
+    """The way to bind a method: joined where it has parameters its subtasks name that only
+    an enumeration would bind."""
+    bound = head.variables()
+    order = _binding_order(relaxed(pre), bound)
+    named = {v for t in subtasks for v in t.variables()}
+    if not set(enumerated(order, bound)) & named:
+        return _Way(name, head, pre, order, subtasks, None)
+    return _Way(name, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
+
+
+def _by_types(
+    method: Method, relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]], sizes: Mapping[str, int]
+) -> int:
+    """How many bindings of one task the types of the method's parameters its subtasks name
+    (and nothing else binds) make: the product of their numbers of objects."""
+    bound = method.head.variables()
+    named = {v for t in method.subtasks for v in t.variables()}
+    kinds = [
+        k for v, k in enumerated(_binding_order(relaxed(method.pre), bound), bound).items() if v in named
+    ]
+    return math.prod(sizes.get(k, 0) for k in kinds) if kinds else 0
+
+
+def _groups(items: Sequence[Atom], bound: set[str]) -> list[set[int]]:
+    """The items (by index) in groups linked by the variables outside ``bound`` they share;
+    items with none of those are in no group."""
+    owner: dict[str, int] = {}
+    parent = list(range(len(items)))
+
+    def root(i: int) -> int:
+        while parent[i] != i:
+            parent[i] = parent[parent[i]]
+            i = parent[i]
+        return i
+
+    for i, item in enumerate(items):
+        for v in item.variables() - bound:
+            if v in owner:
+                parent[root(i)] = root(owner[v])
+            else:
+                owner[v] = i
+    out: dict[int, set[int]] = defaultdict(set)
+    for i, item in enumerate(items):
+        if item.variables() - bound:
+            out[root(i)].add(i)
+    return sorted(out.values(), key=min)
 
 
 def _binding_order(pre: Sequence[Literal], bound: Iterable[str]) -> tuple[Literal, ...]:

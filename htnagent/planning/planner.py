@@ -723,6 +723,12 @@ def _search(
                 decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled)
         else:
             decompositions = _methods_ways(domain, st, task, compiled)
+        # An expansion that makes hundreds of ways (a guided search binding a dozen
+        # parameters by type: Woodworking's) is worth as much as hundreds of nodes: the
+        # next node reads the clock, so a search under a limit or a portfolio's pacing
+        # never waits for the next 256 of them.
+        if sum(len(listed) for _, listed in decompositions) > every:
+            ticks |= every
         for method_name, listed in decompositions:
             for subtasks in listed:
                 rec = _new(_Pending, (task, method_name, record))
@@ -731,10 +737,12 @@ def _search(
                     continue
                 if bounded and g + lb(child_tasks) >= bound:
                     continue
-                if support is not None and dropped(task, dynamic, child_tasks):
-                    continue
+                # The estimate first: where it drops most ways (a grounded one, of ways bound
+                # by type to subtasks nothing can do), the goal's check is then spared.
                 h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
+                    continue
+                if support is not None and dropped(task, dynamic, child_tasks):
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
                 f = node.f - 1.0 if dfs else g * wg + h
