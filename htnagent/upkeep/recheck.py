@@ -74,7 +74,7 @@ def recheck_all(
             seen.add(key)
             out.append(checked)
     out.sort(key=by_cost)
-    if came_back and out[0] is came_back[0] and best is not None and best in out:
+    if best is not None and any(out[0] is q for q in came_back) and best in out:
         # The best plan gave way to a plan that came back cheaper (§2.5: the first route,
         # once the door is open again): it goes, as a plan a cheaper one made afresh beats
         # does (§2.4) -- kept as an alternative it would be re-checked at every action for
