@@ -32,6 +32,7 @@ last action (go(s,e)) ran.  Naive replanning plans afresh after the clear and ta
 from __future__ import annotations
 
 import functools
+from pathlib import Path
 
 import anyio
 import pytest
@@ -40,9 +41,13 @@ from htnagent.agent import AgentConfig, GoalStatus
 from htnagent.executors.scripted import ScriptedExecutor
 from htnagent.model.domain import Domain, Effect, Suspension
 from htnagent.model.terms import Atom, atom
+from htnagent.planning.planner import plan
 from htnagent.runtime.messages import BeliefUpdate
+from htnagent.scenario import parse_scenario
 from htnagent.system.runtime import Runtime
+from htnagent.system.simulation import run_scenario
 from htnagent.upkeep import Replanning
+from htnagent.upkeep import repair as repair_module
 from tests.support import Event, record
 
 ROADS = {("s", "m"): 2.0, ("m", "t"): 2.0, ("s", "c"): 3.0, ("c", "t"): 3.0, ("s", "e"): 3.0}
@@ -182,3 +187,47 @@ async def test_resumption_after_a_clear_is_no_costlier_online_than_naive(report_
     assert resumed_plan(naive) == (["cab(e,t)"], CAB)
     assert resumed_plan(online)[1] <= resumed_plan(naive)[1]
     assert online_orders == naive_orders == ORDERS
+
+
+# -- one resumption, one belief: each search made once -------------------------------------
+
+
+def test_a_resumption_searches_each_task_list_once_from_its_belief(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Working out a resumption is one update from one belief (Algorithm 2 for a resumed
+    goal): the re-check of the plans left unchecked while the goal waited may plan the goal
+    afresh (§2.4), and shortening the detour then asks for that very plan -- it is not
+    searched for twice.  Museum, two emergencies nested: the navigator's suspended
+    move_area was planned afresh twice at its resumption before its steps shared their
+    searches."""
+    searches: list[tuple[str, tuple[object, ...], tuple[str, ...]]] = []
+
+    def recording(domain: Domain, state: object, tasks: list[object], *args: object, **kw: object) -> object:
+        named = tuple(str(t[0] if isinstance(t, tuple) else t) for t in tasks)
+        searches.append((domain.name, state.key(), named))  # type: ignore[attr-defined]
+        return plan(domain, state, tasks, *args, **kw)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(repair_module, "plan", recording)
+    root = Path(__file__).resolve().parents[1] / "scenarios"
+    scenario = parse_scenario(
+        {
+            "name": "nested",
+            "map": "museum_map.yaml",
+            "robot": {"start": "n40", "speed": 1.0},
+            "agents": [
+                {"name": "guide", "domain": "museum.areas", "executor": "navigator"},
+                {"name": "navigator", "domain": "museum.nodes", "executor": "robot"},
+            ],
+            "goals": [
+                {"agent": "guide", "task": "goto(n1)"},
+                {"agent": "guide", "task": "goto(n38)", "emergency": True, "when": {"time": 1.0}},
+                {"agent": "guide", "task": "goto(n28)", "emergency": True, "when": {"time": 3.0}},
+            ],
+        },
+        "nested.yaml",
+        root,
+    )
+    report = anyio.run(functools.partial(run_scenario, scenario, replanning="online"))
+    assert report.succeeded
+    assert any(agent == "museum.nodes" for agent, _, _ in searches)  # the navigator did repair
+    repeated = [s for s in set(searches) if searches.count(s) > 1]
+    assert not repeated, repeated

@@ -16,7 +16,7 @@ from htnagent.model.actions import action_recovered_by
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
 from htnagent.runtime.messages import Clear
-from htnagent.upkeep import PlanSet
+from htnagent.upkeep import PlanSet, SearchMemo
 
 
 @dataclass
@@ -44,10 +44,14 @@ def work_out_resumption(domain: Domain, plans: PlanSet, belief: State, suspended
             clear A (the belief forgets its half-done facts; the plans follow, §3)
         if anything was cleared: make sure of a plan, shorten detours, from the new belief
     """
-    plans.confirm_achieved(belief)
-    plans.ensure(belief)
-    plans.reconsider(belief)  # a way opened while it waited: as good as a plan made afresh
-    plans.shorten_detours(belief)  # and its lowest task done again, which can be cheaper still
+    # One update from one belief: its steps share their searches (the re-check of plans
+    # left unchecked while the goal waited may plan the goal afresh; shortening a detour
+    # would search for that very plan again).
+    memo = SearchMemo()
+    plans.confirm_achieved(belief, memo)
+    plans.ensure(belief, memo)
+    plans.reconsider(belief, memo)  # a way opened while it waited: as good as a plan made afresh
+    plans.shorten_detours(belief, memo)  # and its lowest task done again, which can be cheaper still
     best = plans.best
     # A plan that rolls an action back, or finishes it later (after walking back to where
     # it was stopped), still needs what was kept for it.
@@ -62,8 +66,9 @@ def work_out_resumption(domain: Domain, plans: PlanSet, belief: State, suspended
         state = after
     if unused:
         # A clear can open a cheaper way (a precondition asking the half-done action gone).
-        plans.ensure(state)
-        plans.shorten_detours(state)
+        memo = SearchMemo()
+        plans.ensure(state, memo)
+        plans.shorten_detours(state, memo)
     return Resumption(plans, clears)
 
 

@@ -144,15 +144,15 @@ class PlanSet(ABC):
         with self._timed():
             return self._from_scratch(state)
 
-    def ensure(self, state: State) -> bool:
+    def ensure(self, state: State, memo: SearchMemo | None = None) -> bool:
         """Make sure there is a plan; plan from scratch if none is kept (§2.7: "If a goal
         is left with no plan at all, the agent plans it from scratch").
 
         Plans left unchecked while the goal waited (``lazy``) are re-checked and
-        repaired from ``state`` first.  Returns False when the goal cannot be planned
-        from the belief.
+        repaired from ``state`` first (sharing ``memo``'s searches).  Returns False when
+        the goal cannot be planned from the belief.
         """
-        self._refresh(state)
+        self._refresh(state, memo)
         if self.plans:
             return True
         if self._unsolvable == state.key():
@@ -164,7 +164,7 @@ class PlanSet(ABC):
             self._from_scratch(state, one_plan(self.settings))
         return bool(self.plans)
 
-    def _refresh(self, state: State) -> None:
+    def _refresh(self, state: State, memo: SearchMemo | None = None) -> None:
         """Re-check (and repair) the plans rewritten unchecked while the goal waited on the
         stack (see ``lazy``), from the belief ``state``."""
         return  # naive keeps no plan unchecked; the on-line plan set re-checks them
@@ -195,13 +195,13 @@ class PlanSet(ABC):
         self.plans = []
         self._fresh_due = False
 
-    def reconsider(self, state: State) -> None:
+    def reconsider(self, state: State, memo: SearchMemo | None = None) -> None:
         """Before the goal acts again, after a change from outside that may have opened a
         cheaper way, make the best plan as good as one made afresh (on-line only: see
         :meth:`~htnagent.upkeep.online.OnlinePlanSet.reconsider`)."""
         return  # naive plans afresh whenever it needs a plan: nothing to weigh
 
-    def confirm_achieved(self, state: State) -> None:
+    def confirm_achieved(self, state: State, memo: SearchMemo | None = None) -> None:
         """At resumption, keep an empty plan only if the goal is achieved now (§2.8).
 
         A stacked goal's plan can become empty through other goals' actions (an
@@ -210,7 +210,7 @@ class PlanSet(ABC):
         the goal's own left is kept only if the goal decomposes to nothing where the
         plan ends; otherwise it goes, and the goal is planned again when needed.
         """
-        self._refresh(state)
+        self._refresh(state, memo)
         kept: list[Plan] = []
         for p in self.plans:
             if any(s.record is not None for s in p.steps):
@@ -224,13 +224,13 @@ class PlanSet(ABC):
         best_broke = bool(self.plans) and (not kept or kept[0] is not self.plans[0])
         self.plans = kept
         if best_broke and kept:
-            self._best_replaced(state)
+            self._best_replaced(state, memo)
 
     @abstractmethod
-    def _best_replaced(self, state: State) -> None:
+    def _best_replaced(self, state: State, memo: SearchMemo | None = None) -> None:
         """The best plan went and another took its place, in the belief ``state``."""
 
-    def shorten_detours(self, state: State) -> bool:
+    def shorten_detours(self, state: State, memo: SearchMemo | None = None) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
 
         Returns whether the best plan was shortened (never, unless on-line: see

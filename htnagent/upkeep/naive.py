@@ -28,7 +28,7 @@ class NaivePlanSet(PlanSet):
     def _search_settings(self) -> PlannerSettings:
         return one_plan(self.settings)
 
-    def _best_replaced(self, state: State) -> None:
+    def _best_replaced(self, state: State, memo: SearchMemo | None = None) -> None:
         """Nothing to compare: a naive plan was made from scratch."""
 
     def action_succeeded(

@@ -86,18 +86,18 @@ class OnlinePlanSet(PlanSet):
 
     # -- a goal waiting on the stack ------------------------------------------
 
-    def _refresh(self, state: State) -> None:
+    def _refresh(self, state: State, memo: SearchMemo | None = None) -> None:
         if self._stale:
             with self._timed():
-                self._recheck_stale(state)
+                self._recheck_stale(state, memo)
 
-    def _recheck_stale(self, state: State) -> None:
+    def _recheck_stale(self, state: State, memo: SearchMemo | None = None) -> None:
         # §2 step 4, deferred while the goal waited (see ``lazy``): re-check every plan
         # from the belief now, repair the broken ones (§2.4), revive what the changes since
         # the last check bring back (§2.5).
         since = self._stale_since if self._stale_since is not None else state
         self._stale, self._stale_since = False, None
-        self._revise(since, state)
+        self._revise(since, state, memo=memo)
 
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
         """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
@@ -340,9 +340,9 @@ class OnlinePlanSet(PlanSet):
         self._checked = after
         self.revival.expire()
 
-    def _best_replaced(self, state: State) -> None:
+    def _best_replaced(self, state: State, memo: SearchMemo | None = None) -> None:
         with self._timed():
-            self._as_good_as_fresh(state, self._repairer)
+            self._as_good_as_fresh(state, lambda: self._repairer(memo))
 
     def _as_good_as_fresh(self, state: State, repairer: Callable[[], Repairer]) -> bool:
         """§2.4: the best plan took the place of a broken one: it must be no worse than a
@@ -356,7 +356,7 @@ class OnlinePlanSet(PlanSet):
             self._fresh_due = False
         return known
 
-    def reconsider(self, state: State) -> None:
+    def reconsider(self, state: State, memo: SearchMemo | None = None) -> None:
         """§2.4's rule after a change from outside that may have opened a cheaper way (a
         door opened) while the goal waited on the stack, or while its action ran: its best
         plan, still valid, is compared with a plan made afresh (unless the estimate proves
@@ -365,12 +365,12 @@ class OnlinePlanSet(PlanSet):
         if not self._fresh_due:
             return
         self._fresh_due = False
-        self._refresh(state)
+        self._refresh(state, memo)
         best = self.best
         if best is None:
             return
         with self._timed():
-            repairer = OnDemand(self._repairer)
+            repairer = OnDemand(lambda: self._repairer(memo))
             if self._as_good_as_fresh(state, repairer):
                 return
             # No plan afresh (the goal's methods may not start again from part of it
@@ -380,7 +380,7 @@ class OnlinePlanSet(PlanSet):
             if first < len(best.steps):
                 rival_from(self, state, best, first, repairer)
 
-    def shorten_detours(self, state: State) -> bool:
+    def shorten_detours(self, state: State, memo: SearchMemo | None = None) -> bool:
         """Give a resumed goal the chance of a shorter way than its undo detour.
 
         docs/design.md §2.1 keeps a plan valid by putting the undo of every action
@@ -390,8 +390,11 @@ class OnlinePlanSet(PlanSet):
         step, re-decomposed from the current belief (a repair as in §2.4), plus
         what follows that task.  The cheaper of the two is selected.  Returns
         whether the plan was shortened.
+
+        ``memo``: the searches made from ``state`` in the same update (a resumption's
+        re-check may have planned the goal afresh from it already: the rival is that plan).
         """
-        self._refresh(state)
+        self._refresh(state, memo)
         best = self.best
         if best is None:
             return False
@@ -400,7 +403,7 @@ class OnlinePlanSet(PlanSet):
         if not first:
             return False
         with self._timed():
-            return rival_from(self, state, best, first, self._repairer)
+            return rival_from(self, state, best, first, lambda: self._repairer(memo))
 
 
 __all__ = ["OnlinePlanSet"]
