@@ -619,13 +619,19 @@ def test_stacked_plans_are_updated_while_the_emergency_runs(nav: Domain) -> None
 
 @pytest.mark.parametrize(
     ("goal", "emergency"),
-    [("move_area(area8,area7)", "goto_node(n38)"), ("goto_node(n1)", "goto_node(n28)")],
+    [
+        ("move_area(area8,area7)", "goto_node(n38)"),
+        ("goto_node(n1)", "goto_node(n28)"),
+        # The emergency finishes the suspended move first: a step of the stacked goal's own.
+        ("goto_node(n1)", "goto_node(n30)"),
+    ],
 )
 def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_if_kept_up(
     nav: Domain, goal: str, emergency: str
 ) -> None:
     """§4: while the goal waits (lazy) its plans follow every rewrite unchecked; checked when it
-    is about to run again, its best plan is the one keeping them up after every event gives."""
+    is about to run again, its best plan is the one keeping them up after every event gives,
+    and its done steps (what repair reads, §2.4) are the same."""
     start = nav.initial_state("n40")
     sets = {lazy: new_plan_set(nav, a(goal)) for lazy in (False, True)}
     running = a("move(n40,n35,arc59)")
@@ -652,6 +658,17 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
     assert texts(mine) == texts(kept_up)
     assert mine is not None and kept_up is not None
     assert mine.cost == pytest.approx(kept_up.cost)
+    assert done_steps(waited) == done_steps(sets[False])
+
+
+def done_steps(ps: PlanSet) -> list[str]:
+    """The goal's done steps, oldest first."""
+    out: list[str] = []
+    link = ps.done
+    while link is not None:
+        out.append(str(link.step))
+        link = link.before
+    return out[::-1]
 
 
 def test_resumption_takes_a_shortcut_instead_of_walking_the_undo_detour(nav: Domain) -> None:
