@@ -76,6 +76,42 @@ def test_a_stacked_goal_whose_finished_subtask_the_emergency_undid_does_it_again
     assert ps.stats.repairs == 1
 
 
+def test_a_goal_not_planned_afresh_within_what_it_cost_is_repaired_before_the_whole_search() -> None:
+    """The plan afresh (§2.4) gets a few times what the goal's first plan took; where it
+    finds none within that, doing a subtask again below the goal comes before a search of
+    the goal through the planner's whole budget -- which here never ends: from "p loaded"
+    deliver only roams, on and on (an IPC network whose done tasks cannot start again, searched to
+    the end of a million expansions, held an agent for minutes)."""
+    d = carrier()
+    d.method(
+        "deliver(?p,?to)",
+        "roam",
+        when=["holding(?p)", "at(?y)", "road(?y,?x)"],
+        do=["drive(?y,?x)", "deliver(?p,?to)", "deliver(?p,?to)"],
+    )
+    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d.dynamic_predicates)
+    budget = 5_000
+    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1, budget=budget))
+    ps.make(start)
+    assert ps.best is not None and ps.best.text() == ["load(p)", "drive(a,b)", "unload(p,b)"]
+    belief = start
+    for action in ("load(p)", "drive(a,b)"):
+        after = d.apply(belief, parse(action))
+        assert after is not None
+        ps.action_succeeded(parse(action), belief, after)
+        belief = after
+    ps.lazy = True
+    away = d.apply(belief, parse("drive(b,c)"))
+    assert away is not None
+    ps.action_succeeded(parse("drive(b,c)"), belief, away)
+    ps.lazy = False
+    spent = ps.stats.expansions
+    assert ps.ensure(away)
+    assert ps.best is not None and ps.best.text() == ["drive(c,b)", "unload(p,b)"]
+    assert ps.stats.repairs == 1
+    assert ps.stats.expansions - spent < LOCAL_BUDGET < budget
+
+
 def stacked_and_driven_away() -> tuple[OnlinePlanSet, State, State]:
     """``carried_to_b``'s plan set stacked (lazy) while an emergency drives from b to c:
     the plan set, the belief there, and the belief after driving back to b."""

@@ -198,6 +198,13 @@ class Repairer:
         if fresh is not None and self._stats.expansions > spent:
             share = math.ceil(LOCAL_SHARE * (self._stats.expansions - spent))
             self.local_left = share if share >= LOCAL_MIN else 0
+        elif fresh is None and alone and self.reserve > 0 and first is not whole:
+            # No plan afresh within what planning the goal is known to cost: the repairs
+            # below it get their whole budget before the goal gets the planner's.  A network
+            # whose done tasks cannot start again is searched through to the end of that
+            # budget (Entertainment: a million expansions of depth-first search, minutes),
+            # where doing a task again below the goal mends it in a few hundred.
+            self.local_left, self.reserve = max(self.local_left, 0) + self.reserve, 0
         found = self._below_goal(p, index, states, chain, done, alone, within=fresh)
         if found is not None:
             return found
