@@ -149,7 +149,7 @@ WALKER = _walker()
 PLACES = ["a", "b", "c"]
 
 
-@settings(max_examples=200, deadline=None)
+@settings(max_examples=100, deadline=None)
 @given(
     plans=st.lists(
         st.lists(
