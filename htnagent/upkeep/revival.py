@@ -155,7 +155,18 @@ def _broken_by(domain: Domain, action: Atom, state: State) -> tuple[Atom, bool] 
     """
     op, bindings = domain.actions.ground(action)
     prefix_binding = bindings
-    for i, lit in enumerate(op.pre):
+    # The literals the action's own arguments make ground, up to the first that is not, are
+    # plain look-ups (the prefix before each holds): only from there is a prefix searched
+    # for a satisfier, again for each longer prefix.
+    first = 0
+    for lit in op.pre:
+        if not lit.variables <= bindings.keys():
+            break
+        fact = substitute(lit.atom, bindings)
+        if state.holds(fact) != lit.positive:
+            return fact, lit.positive
+        first += 1
+    for i, lit in enumerate(op.pre[first:], start=first):
         extended = next(satisfiers(op.pre[: i + 1], state, bindings), None)
         if extended is None:
             fact = substitute(lit.atom, prefix_binding)
