@@ -78,8 +78,14 @@ def decompositions(ways: Iterable[GroundWay], met: Container[Atom]) -> dict[Meth
 
 
 def _decomposer(
-    method: Method, cores: Mapping[Atom, list[GroundWay]], parts: Mapping[Atom, list[GroundWay]], met: Container[Atom]
+    method: Method,
+    cores: Mapping[Atom, list[GroundWay]],
+    parts: Mapping[Atom, list[GroundWay]],
+    met: Container[Atom],
 ) -> Decomposer:
+    """The method's decomposer by its ground ways (``cores``: its own task's, by task;
+    ``parts``: its groups', by a group's task); by the lifted method where nothing was met."""
+
     def run(task: Atom, state: State) -> list[tuple[Atom, ...]]:
         listed = cores.get(task)
         if listed is None:

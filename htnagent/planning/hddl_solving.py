@@ -332,7 +332,10 @@ def _portfolio(
         if collecting:
             gc.enable()
     grounded_settings = guided_settings[0] if guided_settings else greedy
-    others = [(Search.DFS, dfs_settings, dfs.out), (grounded_settings.search, grounded_settings, grounded.out)]
+    others = [
+        (Search.DFS, dfs_settings, dfs.out),
+        (grounded_settings.search, grounded_settings, grounded.out),
+    ]
     both = found.expansions + sum(out[0].expansions for _, _, out in others if out)
     seconds = time.perf_counter() - started
     if found.status not in _FINAL:
