@@ -48,11 +48,12 @@ to the others."""
 
 GROUNDED_DFS_SECONDS = 0.5
 """The seconds of its own work the grounded search spends first depth-first in method order
-(guided only to drop the dead ends the grounding sees, decomposing by its ground methods),
-before its greedy best-first search.  Greedy search can lose itself in a region where the
-estimate falls but the goal is out of reach (Woodworking's 10th problem: an estimate of 15,
-two tasks from the end, and no plan below); depth-first search, pruned by the grounding,
-answered that one in 2,000 expansions."""
+(guided only to drop the dead ends the grounding sees, decomposing by the ground methods),
+before its greedy best-first search -- where the grounder bound some method by the join:
+the lifted depth-first search, binding such a method by types, is lost there.  Greedy
+search can lose itself in a region where the estimate falls but the goal is out of reach
+(Woodworking's 10th problem: an estimate of 15 two tasks from the end, and no plan below);
+depth-first search, pruned by the grounding, answered that one in 2,000 expansions."""
 
 
 SolveProgress = Callable[[Search, int, float], None]
@@ -278,18 +279,22 @@ def _portfolio(
                 decompositions=composition.decompositions,
             )
 
-        # First depth-first in method order, dropping the dead ends the grounding sees, for
-        # a moment of work (design §7.2): where it wins, it wins at once.
-        settings = grounded(Search.DFS, 0)
-        begun_dfs = time.thread_time()
+        # Where the grounder bound methods by the join, first depth-first in method order by
+        # their ground methods, dropping the dead ends the grounding sees, for a moment of
+        # work (design §7.2): where it wins, it wins at once.  Elsewhere the lifted
+        # depth-first search already goes the same way.
+        first = PlanResult(PlanStatus.INTERRUPTED)
+        if composition.decompositions:
+            settings = grounded(Search.DFS, 0)
+            begun_dfs = time.thread_time()
 
-        def brief() -> bool:
-            return paced.pace() or time.thread_time() - begun_dfs > GROUNDED_DFS_SECONDS
+            def brief() -> bool:
+                return paced.pace() or time.thread_time() - begun_dfs > GROUNDED_DFS_SECONDS
 
-        first = run(settings, checkpoint=brief, progress=grounded_told)
-        if first.status in _FINAL or paced.stop.is_set() or first.expansions >= budget:
-            guided_settings.append(settings)
-            return first
+            first = run(settings, checkpoint=brief, progress=grounded_told)
+            if first.status in _FINAL or paced.stop.is_set() or first.expansions >= budget:
+                guided_settings.append(settings)
+                return first
         settings = grounded(Search.GBFS, first.expansions)
         guided_settings.append(settings)
 
