@@ -373,7 +373,9 @@ def solve_anytime(
     (:func:`~htnagent.planning.planner.plan`'s ``improving``): a search that follows only
     nodes whose actions so far plus the least cost of their tasks stay under the cheapest
     plan's cost, which falls with every plan it finds -- greedy best-first (or the
-    ``search`` given, depth-first for ``dfs``), so that a cheaper plan comes soon.  The
+    ``search`` given, depth-first for ``dfs``; where the grounded search found the first
+    plan decomposing by ground methods, its own order, estimate and ground methods), so
+    that a cheaper plan comes soon.  The
     search ends when the time or the budget runs out, or when no node under the bound is
     left: the last plan is then the cheapest there is (``result.exhausted``).  With
     ``search`` A*, the first plan is already the cheapest: nothing follows it.
@@ -391,8 +393,22 @@ def solve_anytime(
     if best.cost <= 0 or spent >= budget or (left is not None and left <= 0):
         return first
     order = Search.DFS if search is Search.DFS else Search.GBFS
+    # A first plan from the grounded search where it decomposes by ground methods: the
+    # lifted search, binding those methods by type, is lost there, so the search for
+    # cheaper plans goes on as the one that found it -- its order, estimate and ground
+    # methods (Woodworking's 10th problem: 27 actions, then 15 by depth-first; none
+    # cheaper by greedy search).
+    grounded = first.settings if first.settings.decompositions else None
+    if grounded is not None and search is None:
+        order = grounded.search
     settings = PlannerSettings(
-        alternatives=1, budget=budget - spent, search=order, time_limit=left, cost_bound=best.cost
+        alternatives=1,
+        budget=budget - spent,
+        search=order,
+        time_limit=left,
+        cost_bound=best.cost,
+        guide=None if grounded is None else grounded.guide,
+        decompositions=None if grounded is None else grounded.decompositions,
     )
     told = None if progress is None else _after(progress, order, spent, started)
     planning = first.planning
