@@ -6,14 +6,19 @@ from __future__ import annotations
 
 import math
 from collections.abc import Sequence
+from typing import Any
+
+import pytest
 
 from htnagent.hddl.check import check_plan
 from htnagent.model.domain import Method
 from htnagent.model.terms import Atom
+from htnagent.planning import hddl_solving
 from htnagent.planning.composition import Composition, ground
+from htnagent.planning.hddl_solving import Solved, solve_anytime
 from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.ipc_output import ipc_plan
-from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
 from tests.test_composition import _workshop
 
 N = 12
@@ -92,3 +97,31 @@ def test_depth_first_search_decomposes_by_them_too() -> None:
     result = plan(planning.domain, planning.state, planning.tasks, settings)
     assert result.status is PlanStatus.SOLVED and result.best is not None
     assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []
+
+
+def test_cheaper_plans_after_a_grounded_first_plan_go_on_as_the_search_that_found_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The portfolio's answer as its grounded depth-first search gives it (a lifted search
+    # answers this small problem first, so that answer is made here).
+    planning = _workshop(N)
+    c = _grounded(planning)
+    settings = PlannerSettings(
+        alternatives=1, search=Search.DFS, guide=c.estimate, decompositions=c.decompositions
+    )
+    first = plan(planning.domain, planning.state, planning.tasks, settings)
+    assert first.best is not None
+    monkeypatch.setattr(hddl_solving, "solve", lambda *_, **__: Solved(planning, Search.DFS, settings, first))
+    used: list[PlannerSettings] = []
+    real = plan
+
+    def spy(*args: Any, **kwargs: Any) -> PlanResult:
+        used.append(args[3])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(hddl_solving, "plan", spy)
+    solve_anytime(planning.hddl, planning.problem, lambda _: None, timeout=5)
+    (improving,) = used
+    assert improving.search is Search.DFS
+    assert improving.decompositions is c.decompositions and improving.guide is not None
+    assert improving.cost_bound == first.best.cost
