@@ -47,6 +47,7 @@ from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import Literal, satisfiers
 from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
+from htnagent.planning.ground_methods import Decompositions, GroundWay, decompositions
 from htnagent.planning.hddl_translation import EQ, TYPE
 from htnagent.planning.producible import Producible, enumerated
 
@@ -100,6 +101,7 @@ class _GroundMethod:
     task: Atom
     pre: tuple[Atom, ...]  # as an action's
     subtasks: tuple[Atom, ...]
+    way: GroundWay | None = None  # for the searches, where they decompose by ground methods
 
 
 class Composition:
@@ -116,8 +118,12 @@ class Composition:
         least: dict[Atom, float],
         fallback: dict[str, float],
         producible: Producible | None = None,
+        by_ground: Decompositions | None = None,
     ) -> None:
         self.least = least
+        self.decompositions: Decompositions = by_ground or {}
+        """The decomposers of the methods the grounder bound by the join, for the searches
+        (:mod:`htnagent.planning.ground_methods`): empty where it bound none."""
         self.actions = len(actions)
         self.methods = len(methods)
         self._fallback = fallback
@@ -284,6 +290,8 @@ class _Grounder:
         self.work = 0
         self._producible: Producible | None = None
         self.roots: tuple[Atom, ...] = ()
+        self.by_ground: set[Method] = set()
+        """The methods bound by the join, which the searches decompose by their ground methods."""
 
     def producible(self) -> Producible:
         """The ground tasks that can be produced at all, worked out the first time a method
@@ -368,9 +376,13 @@ class _Grounder:
         for index, me in enumerate(every):
             if not joining:
                 order = _binding_order(self.relaxed(me.pre), me.head.variables())
-                orders[me.head.name].append(_Way(me.name, me.head, me.pre, order, me.subtasks, None))
+                orders[me.head.name].append(_Way(me, me.head, me.pre, order, me.subtasks, None))
                 continue
-            for way in _ways(me, self.relaxed, f"__{me.name}#{index}"):
+            ways_of = _ways(me, self.relaxed, f"__{me.name}#{index}")
+            if any(way.joined is not None for way in ways_of):
+                # Bound by the join: the searches decompose its tasks by its ground methods.
+                self.by_ground.add(me)
+            for way in ways_of:
                 orders[way.head.name].append(way)
         op_orders = {
             name: [(op, _binding_order(self.relaxed(op.pre), op.head.variables())) for op in ops]
@@ -418,6 +430,7 @@ class _Grounder:
         def decompose(task: Atom, queue: list[Atom]) -> None:
             self.tick()
             for way in orders.get(task.name, ()):
+                kept = way.method in self.by_ground
                 for b in self.bindings(way, task, reached):
                     self.count()  # every binding: a method with free variables may have millions
                     subtasks = tuple(substitute(t, b) for t in way.subtasks)
@@ -428,7 +441,8 @@ class _Grounder:
                     if key in made or not all(t.is_ground for t in subtasks):
                         continue
                     made.add(key)
-                    methods.append(_GroundMethod(task, needs, subtasks))
+                    ground_way = way.ground(task, b, subtasks) if kept else None
+                    methods.append(_GroundMethod(task, needs, subtasks, ground_way))
                     for t in subtasks:
                         if t in met:
                             continue
@@ -476,7 +490,9 @@ class _Grounder:
         # Every task met keeps its id (a task no decomposition finishes is never reached):
         # only a task the grounding never met falls back on its name's least cost.
         fallback = self.domain.task_costs or {}
-        return Composition(kept_actions, kept, least, fallback, self._producible)
+        ground_ways = [me.way for me in kept if me.way is not None]
+        by_ground = decompositions(ground_ways, least) if self.by_ground else {}
+        return Composition(kept_actions, kept, least, fallback, self._producible, by_ground)
 
 
 @dataclass(frozen=True, slots=True)
@@ -487,12 +503,23 @@ class _Way:
     the subtasks' variables too (``joined``), for after the join of its subtasks with the
     producible tasks."""
 
-    name: str
+    method: Method  # the method it binds (all of it, or a share: its core or one group)
     head: Atom
     pre: tuple[Literal, ...]  # the whole precondition: its literals on changing facts are needs
     order: tuple[Literal, ...]
     subtasks: tuple[Atom, ...]
     joined: tuple[Literal, ...] | None
+
+    @property
+    def name(self) -> str:
+        return self.method.name
+
+    def ground(self, task: Atom, b: Bindings, subtasks: tuple[Atom, ...]) -> GroundWay:
+        """The ground method of ``task`` under ``b`` for the searches: its task's and
+        subtasks' variables bound, and its precondition in the real state checked from there."""
+        bound = self.head.variables().union(*(t.variables() for t in self.subtasks))
+        check = _binding_order(self.pre, bound)
+        return GroundWay(self.method, task, check, {v: b[v] for v in bound}, subtasks)
 
 
 def _ways(
@@ -512,7 +539,7 @@ def _ways(
     least.
     """
     bound = method.head.variables()
-    whole = _way(method.name, method.head, method.pre, method.subtasks, relaxed)
+    whole = _way(method, method.head, method.pre, method.subtasks, relaxed)
     if whole.joined is None:
         return [whole]
     groups = _groups([*method.subtasks, *(lit.atom for lit in method.pre)], bound)
@@ -527,15 +554,15 @@ def _ways(
         shared = bound & set().union(*(t.variables() for t in subtasks), *(x.variables for x in pre))
         head = Atom(f"{prefix}_{k}", tuple(sorted(shared)))
         tasks.append(head)
-        ways.append(_way(method.name, head, pre, subtasks, relaxed))
+        ways.append(_way(method, head, pre, subtasks, relaxed))
     grouped = set().union(*groups)
     core = tuple(lit for i, lit in enumerate(method.pre, n) if i not in grouped)
     ground = tuple(t for i, t in enumerate(method.subtasks) if i not in grouped)
-    return [_way(method.name, method.head, core, (*ground, *tasks), relaxed), *ways]
+    return [_way(method, method.head, core, (*ground, *tasks), relaxed), *ways]
 
 
 def _way(
-    name: str,
+    method: Method,
     head: Atom,
     pre: tuple[Literal, ...],
     subtasks: tuple[Atom, ...],
@@ -547,8 +574,8 @@ def _way(
     order = _binding_order(relaxed(pre), bound)
     named = {v for t in subtasks for v in t.variables()}
     if not set(enumerated(order, bound)) & named:
-        return _Way(name, head, pre, order, subtasks, None)
-    return _Way(name, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
+        return _Way(method, head, pre, order, subtasks, None)
+    return _Way(method, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
 
 
 def _by_types(

@@ -37,6 +37,7 @@ from htnagent.model.preconditions import Decomposer, LazyDecomposer, satisfiers
 from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.goal_support import GoalSupport, checks_goal
+from htnagent.planning.ground_methods import Decompositions
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -140,6 +141,10 @@ class PlannerSettings:
     """The estimate every search with these settings uses in place of the domain's, unless
     :func:`plan` is given one: a grounded one (:mod:`htnagent.planning.composition`), for
     an agent whose scenario plans with ``search: grounded``."""
+    decompositions: Decompositions | None = field(default=None, compare=False)
+    """Decomposers the searches use for some methods in place of their lifted ones: the
+    ground methods a grounding kept (:mod:`htnagent.planning.ground_methods`), beside its
+    estimate as the :attr:`guide`."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -551,6 +556,7 @@ def _search(
     ground_actions = domain.actions
     known = ground_actions.known
     compiled: _Compiled = {}
+    ground = settings.decompositions or {}
     popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, list[tuple[Atom, ...]]]]] = {}
@@ -694,7 +700,8 @@ def _search(
             runs = lazy_methods.get(task.name)
             if runs is None:
                 runs = lazy_methods[task.name] = [
-                    (m.name, m.compiled_lazy(dyn_preds)) for m in methods.get(task.name, ())
+                    (m.name, _lazy(ground[m]) if m in ground else m.compiled_lazy(dyn_preds))
+                    for m in methods.get(task.name, ())
                 ]
             for method_name, run in runs:
                 ways = run(task, st)
@@ -728,9 +735,9 @@ def _search(
             cache_key = (dynamic, task)
             decompositions = compound_cache.get(cache_key)
             if decompositions is None:
-                decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled)
+                decompositions = compound_cache[cache_key] = _methods_ways(domain, st, task, compiled, ground)
         else:
-            decompositions = _methods_ways(domain, st, task, compiled)
+            decompositions = _methods_ways(domain, st, task, compiled, ground)
         # An expansion that makes hundreds of ways (a guided search binding a dozen
         # parameters by type: Woodworking's) is worth as much as hundreds of nodes: the
         # next node reads the clock, so a search under a limit or a portfolio's pacing
@@ -807,17 +814,26 @@ def _decompose(domain: Domain, st: State, task: Atom) -> list[tuple[str, tuple[A
 
 
 def _methods_ways(
-    domain: Domain, st: State, task: Atom, compiled: _Compiled | None = None
+    domain: Domain,
+    st: State,
+    task: Atom,
+    compiled: _Compiled | None = None,
+    ground: Decompositions | None = None,
 ) -> list[tuple[str, list[tuple[Atom, ...]]]]:
     """:func:`_decompose`, by method: each method's name and its subtask lists, in order.
 
     ``compiled`` keeps the task's compiled methods for the next call (one search: the
-    same dynamic predicates throughout).
+    same dynamic predicates throughout); ``ground`` decomposes some methods in place of
+    their lifted form (:attr:`PlannerSettings.decompositions`).
     """
     methods = compiled.get(task.name) if compiled is not None else None
     if methods is None:
         dyn = st.dynamic_predicates
-        methods = [(m.name, m.distinct, m.compiled(dyn)) for m in domain.methods.get(task.name, ())]
+        ground = ground or {}
+        methods = [
+            (m.name, m.distinct, ground[m] if m in ground else m.compiled(dyn))
+            for m in domain.methods.get(task.name, ())
+        ]
         if compiled is not None:
             compiled[task.name] = methods
     found = [(name, distinct, ways) for name, distinct, run in methods if (ways := run(task, st))]
@@ -835,6 +851,11 @@ def _methods_ways(
         if kept:
             out.append((name, kept))
     return out
+
+
+def _lazy(run: Decomposer) -> LazyDecomposer:
+    """A decomposer as a lazy one: its list, one way at a time."""
+    return lambda task, st: iter(run(task, st))
 
 
 def heuristic(domain: Domain, tasks: Sequence[Atom], state: State) -> float:

@@ -1,0 +1,127 @@
+"""The searches' decompositions by the ground methods the grounder kept (docs/design.md
+§7.2): as many ways as the grounding kept, not the product of the parameters' types, and
+none lost that a plan could take."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+from typing import Any
+
+import pytest
+
+from htnagent.hddl.check import check_plan
+from htnagent.model.domain import Method
+from htnagent.model.terms import Atom
+from htnagent.planning import hddl_solving
+from htnagent.planning.composition import Composition, ground
+from htnagent.planning.hddl_solving import Solved, solve_anytime
+from htnagent.planning.hddl_translation import HddlPlanning
+from htnagent.planning.ipc_output import ipc_plan
+from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
+from tests.test_composition import _workshop
+
+N = 12
+"""Colours, brushes and tools of the workshop: finish-m has N**3 bindings an item by types."""
+
+
+def _grounded(planning: HddlPlanning, tasks: tuple[Atom, ...] | None = None) -> Composition:
+    # A cap of 1,000 (under N**3): the grounder binds finish-m by the join.
+    found = ground(planning.domain, planning.state, planning.tasks if tasks is None else tasks, cap=1_000)
+    assert found is not None
+    return found
+
+
+def _finish_m(planning: HddlPlanning) -> Method:
+    (method,) = planning.domain.methods["finish"]
+    return method
+
+
+def test_a_task_decomposes_in_the_ways_the_grounding_kept_not_by_types() -> None:
+    planning = _workshop(N)
+    c = _grounded(planning)
+    method = _finish_m(planning)
+    assert method in c.decompositions  # its parameters are bound by the join
+    finish = Atom("finish", ("i1",))
+    start = planning.state
+    lifted = method.compiled(start.dynamic_predicates)(finish, start)
+    assert len(lifted) == N**3
+    ground_ways = c.decompositions[method](finish, start)
+    # i1 is coated in c1 with b1 alone; any tool sands it (a blunt one once it is smooth).
+    assert len(ground_ways) == N
+    # Nothing a plan could take is lost: exactly the lifted ways the estimate does not drop.
+    for state in (start.dynamic, start.dynamic | {Atom("painted", ("i1",))}):
+        kept = {w for w in lifted if c.estimate(w, state) < math.inf}
+        assert set(ground_ways) == kept
+
+
+def test_a_task_the_grounding_never_met_decomposes_by_the_lifted_method() -> None:
+    planning = _workshop(N)
+    c = _grounded(planning, (Atom("finish", ("i1",)),))  # i2 never met
+    method = _finish_m(planning)
+    ways = c.decompositions[method](Atom("finish", ("i2",)), planning.state)
+    assert len(ways) == N**3
+
+
+def test_the_search_tries_only_the_ground_ways_and_finds_the_same_plan() -> None:
+    planning = _workshop(N)
+    c = _grounded(planning)
+    estimated = [0]
+
+    def guide(tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
+        estimated[0] += 1
+        return c.estimate(tasks, dynamic)
+
+    plans = []
+    for decompositions in (c.decompositions, None):
+        estimated[0] = 0
+        settings = PlannerSettings(
+            alternatives=1, search=Search.GBFS, guide=guide, decompositions=decompositions
+        )
+        result = plan(planning.domain, planning.state, planning.tasks, settings)
+        assert result.status is PlanStatus.SOLVED and result.best is not None
+        assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []
+        plans.append(([str(s.action) for s in result.best.steps], estimated[0]))
+    (by_ground, tried_ground), (by_types, tried_types) = plans
+    assert by_ground == by_types
+    # Each finish task: N ways estimated, not N**3.
+    assert tried_ground < 10 * N < 2 * N**3 <= tried_types
+
+
+def test_depth_first_search_decomposes_by_them_too() -> None:
+    planning = _workshop(N)
+    c = _grounded(planning)
+    settings = PlannerSettings(
+        alternatives=1, search=Search.DFS, guide=c.estimate, decompositions=c.decompositions
+    )
+    result = plan(planning.domain, planning.state, planning.tasks, settings)
+    assert result.status is PlanStatus.SOLVED and result.best is not None
+    assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []
+
+
+def test_cheaper_plans_after_a_grounded_first_plan_go_on_as_the_search_that_found_it(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The portfolio's answer as its grounded depth-first search gives it (a lifted search
+    # answers this small problem first, so that answer is made here).
+    planning = _workshop(N)
+    c = _grounded(planning)
+    settings = PlannerSettings(
+        alternatives=1, search=Search.DFS, guide=c.estimate, decompositions=c.decompositions
+    )
+    first = plan(planning.domain, planning.state, planning.tasks, settings)
+    assert first.best is not None
+    monkeypatch.setattr(hddl_solving, "solve", lambda *_, **__: Solved(planning, Search.DFS, settings, first))
+    used: list[PlannerSettings] = []
+    real = plan
+
+    def spy(*args: Any, **kwargs: Any) -> PlanResult:
+        used.append(args[3])
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(hddl_solving, "plan", spy)
+    solve_anytime(planning.hddl, planning.problem, lambda _: None, timeout=5)
+    (improving,) = used
+    assert improving.search is Search.DFS
+    assert improving.decompositions is c.decompositions and improving.guide is not None
+    assert improving.cost_bound == first.best.cost
