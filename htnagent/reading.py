@@ -1,7 +1,8 @@
 """Reading scenario and map files without trusting them: bytes to text to plain data.
 
-:func:`read_yaml` is the only way htnagent reads a file a user names.  It
-answers with plain data (dicts, lists, strings, numbers, ...) or raises one
+:func:`read_yaml` (or its two steps, :func:`read_text` then :func:`yaml_document`,
+where the text itself is wanted too) is the only way htnagent reads a file a user
+names.  It answers with plain data (dicts, lists, strings, numbers, ...) or raises one
 :class:`~htnagent.errors.ScenarioError` naming the file, the line and what is
 wrong -- for anything: a FIFO or a device instead of a file, a file too big, a
 name too long, bytes that are not text, YAML that is invalid, nested too deep
@@ -51,7 +52,7 @@ from htnagent.limits import (
     MAX_YAML_VALUES,
 )
 
-__all__ = ["gc_paused", "load_yaml_text", "read_text", "read_yaml"]
+__all__ = ["gc_paused", "load_yaml_text", "read_text", "read_yaml", "yaml_document"]
 
 # libyaml's parser when PyYAML was built with it (the usual wheels are), else the pure-Python one.
 _Parser: Callable[[str], Any] = getattr(yaml, "CSafeLoader", yaml.SafeLoader)
@@ -63,8 +64,13 @@ def read_yaml(path: str | Path, what: str, max_bytes: int | None = None) -> Any:
     ``max_bytes`` bounds the file's size (default: :func:`~htnagent.limits.max_file_bytes`).
     An empty file is an error too: a scenario or map is never empty.
     """
-    file = str(path)
-    data = load_yaml_text(read_text(path, what, max_bytes), file)
+    return yaml_document(read_text(path, what, max_bytes), str(path), what)
+
+
+def yaml_document(text: str, file: str, what: str) -> Any:
+    """The plain data of ``text``, read from ``file`` (a ``what``); an empty document is an
+    error, as in :func:`read_yaml`."""
+    data = load_yaml_text(text, file)
     if data is None:
         raise ScenarioError(file, "", f"the file is empty; expected a {what}")
     return data

@@ -9,9 +9,11 @@ an arc's ends) is checked while the map is built.
 from __future__ import annotations
 
 import copy
+from pathlib import Path
 from typing import Any
 
 import pytest
+import yaml
 from pydantic import ValidationError
 
 from htnagent.errors import HtnAgentError, ScenarioError
@@ -128,3 +130,31 @@ def test_validation_stops_at_the_first_bad_entry() -> None:
     with pytest.raises(ValidationError) as info:
         MapFile.model_validate(small(nodes=bad))
     assert info.value.error_count() <= 2  # the first node's errors, no other node's
+
+
+def test_robots_on_one_map_file_share_the_map_it_read_and_a_changed_file_is_read_again(
+    tmp_path: Path,
+) -> None:
+    from htnagent.scenario import load_scenario
+    from htnagent.system.fleet import share_domains
+
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(small()))
+
+    def robot(i: int) -> Path:
+        path = tmp_path / f"robot{i}.yaml"
+        path.write_text(
+            "name: r\nmap: map.yaml\nrobot: {start: n1, speed: 1.0}\n"
+            "agents: [{name: nav, domain: museum.nodes, executor: robot}]\n"
+            "goals: [{agent: nav, task: goto_node(n2)}]\n"
+        )
+        return path
+
+    one, two = load_scenario(robot(1)), load_scenario(robot(2))
+    assert one.world is two.world  # a value, read once: equal maps are one object
+    share_domains([one, two])
+    assert one.domain_for("nav") is two.domain_for("nav")
+    changed = small()
+    changed["nodes"]["n2"]["x"] = 9.0
+    (tmp_path / "map.yaml").write_text(yaml.safe_dump(changed))
+    three = load_scenario(robot(3))
+    assert three.world is not one.world and three.world.nodes["n2"].x == 9.0

@@ -187,6 +187,27 @@ def test_a_password_comes_from_its_environment_variable_or_file_and_is_never_sho
     assert security is not None and security.password == "t0p" and security.user == "u"
 
 
+def test_a_links_certificate_files_are_found_beside_the_scenario_or_where_named(
+    tmp_path: Path, certs: tuple[Path, Path]
+) -> None:
+    from htnagent.system.simulation import link_security
+
+    ours, _ = certs
+    folder = tmp_path / "robots"
+    folder.mkdir()
+    for name in ("root.pem", "parent.pem", "parent.key"):
+        (folder / name).write_bytes((ours / name).read_bytes())
+    path = _write(
+        folder, "r.yaml", "tls/h:1", root_ca="root.pem", certificate="parent.pem", key=f"{ours}/parent.key"
+    )
+    security = link_security(load_scenario(path), "navigator")
+    assert security is not None and security.mutual
+    # Relative names: beside the scenario file, whatever the working directory; absolute: as named.
+    assert Path(str(security.root_ca)) == folder / "root.pem"
+    assert Path(str(security.certificate)) == folder / "parent.pem"
+    assert security.key == f"{ours}/parent.key"
+
+
 @pytest.mark.parametrize(
     ("listen", "extra", "why"),
     [

@@ -114,3 +114,31 @@ async def test_the_action_timeout_applies_where_actions_meet_the_executor_not_be
     # Expect: the parent's order to the child is a whole goal (5 s of walking), not timed out.
     assert outcome.status is GoalStatus.SUCCESS
     assert rt.clock.now() == 5.0
+
+
+@pytest.mark.parametrize("backend", ["asyncio", "trio"])
+def test_a_clock_makes_the_running_backends_own_events_and_its_mailboxes_wake_with_them(backend: str) -> None:
+    # The runtime makes an event for nearly every message a mailbox waits for: made from
+    # the backend's own class, found once, not through anyio.Event()'s look-up each time.
+    from htnagent.runtime.clock import Clock, Mailbox
+
+    got: list[int] = []
+
+    async def main() -> None:
+        clock = Clock()
+        assert clock.new_event is type(anyio.Event())
+        mailbox: Mailbox[int] = Mailbox(clock, "m")
+
+        async def receive() -> None:
+            got.append(await mailbox.receive())
+            got.append(await mailbox.receive())
+
+        async with anyio.create_task_group() as tg:
+            tg.start_soon(receive)
+            await anyio.wait_all_tasks_blocked()
+            mailbox.send(1)  # wakes the receiver waiting on one of the clock's events
+            await anyio.wait_all_tasks_blocked()
+            mailbox.send(2)
+
+    anyio.run(main, backend=backend)
+    assert got == [1, 2]

@@ -83,7 +83,7 @@ class Alarm:
 
     def __init__(self, clock: Clock, seconds: float) -> None:
         self._clock = clock
-        self._event = anyio.Event()
+        self._event = clock.new_event()
         self._waiters = 0
         self.rang = False
         """Whether the time ran out (False: not yet, or stopped early)."""
@@ -306,7 +306,7 @@ class AdapterActor(ExecutorActor):
             # Two readers wait from the start: an order met while one action runs (a suspend,
             # then the emergency's first action) is read at once, never after spawning a task.
             for _ in range(2):
-                turn = anyio.Event()
+                turn = self.clock.new_event()
                 self._idle.append(turn)
                 tg.start_soon(self._serve, tg, turn)
             task_status.started()
@@ -331,7 +331,7 @@ class AdapterActor(ExecutorActor):
             if isinstance(order, Execute | Resume | Suspend):
                 follower = self._idle.pop() if self._idle else None
                 if follower is None:
-                    follower = anyio.Event()
+                    follower = self.clock.new_event()
                     tg.start_soon(self._serve, tg, follower)
                 # The order counts as handled from now: the executor's code up to its first
                 # await runs before anything else can, so time stands still meanwhile.
@@ -341,7 +341,7 @@ class AdapterActor(ExecutorActor):
                 else:
                     self._running[order.seq] = order.action
                     await self._carry_out(order)
-                turn = anyio.Event()
+                turn = self.clock.new_event()
                 self._idle.append(turn)
             else:
                 turn = None

@@ -207,8 +207,13 @@ def link_security(scenario: Scenario, agent: str) -> Security | None:
         if not password:
             raise RemoteError(f"{where}.password_file: {link.password_file} holds no password")
 
+    folder = scenario.link_file("")  # the scenario's folder, looked up once
+
     def file(name: str | None) -> str | None:
-        return None if name is None else str(scenario.link_file(name))
+        # Joined as text (Zenoh's settings are text): a pathlib join and a read of the
+        # scenario's private folder for each file were most of this function's time, and a
+        # fleet works it out twice a robot as it starts (its session, then its link).
+        return None if name is None else os.path.join(folder, name)
 
     return Security(
         root_ca=file(link.root_ca),
