@@ -27,7 +27,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
-from typing import Self, cast
+from typing import Self
 
 from htnagent.model.actions import resume_action
 from htnagent.model.domain import Domain
@@ -42,7 +42,7 @@ from htnagent.upkeep.recheck import recheck_all
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
 from htnagent.upkeep.stats import PlanningStats
-from htnagent.upkeep.success import MovedOn, followed, kept_after_success, moved_on, ran
+from htnagent.upkeep.success import kept_after_success, moved_on, ran
 from htnagent.upkeep.suspension import Suspension, whole
 from htnagent.upkeep.validity import Kept, by_cost, unique
 
@@ -64,62 +64,12 @@ class OnlinePlanSet(PlanSet):
         revival_window: int = 64,
         revival_capacity: int = 32,
     ) -> None:
-        self._pending: list[Callable[[Plan], Plan | None]] = []
         super().__init__(domain, goal, settings, stats)
         self.revival = Revival(domain, revival_window, revival_capacity)
         """Plans removed because a fact was false, waiting for it to be true again (§2.5)."""
 
-    @property
-    def plans(self) -> list[Plan]:
-        """The kept plans, cheapest first (with the rewrites logged while the goal waited
-        on the stack applied: see :meth:`_follow_lazily`)."""
-        if self._pending:
-            self._catch_up()
-        return self._plans
-
-    @plans.setter
-    def plans(self, plans: list[Plan]) -> None:
-        self._plans = plans
-        self._pending = []  # these are the plans as they are now
-
-    @property
-    def done(self) -> Done | None:
-        """The goal's own steps carried out so far, newest first (with those of the
-        actions logged while it waited: see :meth:`_catch_up`)."""
-        if self._pending:
-            self._catch_up()
-        return self._done
-
-    @done.setter
-    def done(self, done: Done | None) -> None:
-        self._done = done
-
-    def _catch_up(self) -> None:
-        """Apply the rewrites logged while the goal waited, in order; the actions that
-        succeeded one after another in one pass each (:func:`~htnagent.upkeep.success.followed`)."""
-        pending, self._pending = self._pending, []
-        plans = self._plans
-        i = 0
-        while i < len(pending):
-            j = i
-            while j < len(pending) and isinstance(pending[j], MovedOn):
-                j += 1
-            if j > i:
-                plans, ran_steps = followed(self.domain, plans, cast(list[MovedOn], pending[i:j]))
-                for step in ran_steps:  # the goal's own steps that the actions were
-                    self._done = Done(step, self._done)
-                i = j
-            else:
-                change = pending[i]
-                plans = [q for p in plans if (q := change(p)) is not None]
-                i += 1
-        self._plans = plans
-
     def fork(self) -> Self:
-        if self._pending:
-            self._catch_up()  # the copy starts from the plans and done steps as they are
         forked = super().fork()
-        forked._pending = []
         forked.revival = self.revival.copy()
         return forked
 
@@ -152,11 +102,8 @@ class OnlinePlanSet(PlanSet):
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
         """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
         plan kept for revival) as the event does — ``change`` gives None for a kept plan
-        the event ends (a plan kept for revival is then left as it is; a
-        :class:`~htnagent.upkeep.success.MovedOn` leaves both as they are) — and leave the
-        re-check until the goal is about to run again.  The rewrites are logged, and made
-        when the plans are next read (:meth:`_catch_up`): an emergency's actions all at
-        once, not one copy of every plan per action.
+        the event ends (a plan kept for revival is then left as it is) — and leave the
+        re-check until the goal is about to run again.
 
         A goal no longer waiting whose plans were left so is re-checked now, from
         ``after`` (an earlier belief may not be one its plans can be mended from: the
@@ -164,7 +111,7 @@ class OnlinePlanSet(PlanSet):
         if not self._stale:
             self._stale, self._stale_since = True, self._checked
         self._checked = None
-        self._pending.append(change)
+        self.plans = [q for p in self.plans if (q := change(p)) is not None]
         if self.revival:
             self.revival.rewrite(change)
         if not self.lazy:
@@ -192,7 +139,9 @@ class OnlinePlanSet(PlanSet):
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         if self.lazy or self._stale:
             with self._timed():
-                self._follow_lazily(moved_on(self.domain, action, self.domain.actions.undo_of(action)), after)
+                self._note_done(action)
+                rewrite = moved_on(self.domain, action, self.domain.actions.undo_of(action))
+                self._follow_lazily(lambda p: rewrite(p) or p, after)
             return
         if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
