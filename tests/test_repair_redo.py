@@ -40,11 +40,15 @@ def carrier() -> Domain:
     return d
 
 
-def carried_to_b() -> tuple[Domain, OnlinePlanSet, State]:
-    """deliver(p,b) from a, carried out up to the unload: the domain, the plan set, the belief."""
-    d = carrier()
+def carried_to_b(
+    d: Domain | None = None, settings: PlannerSettings | None = None
+) -> tuple[Domain, OnlinePlanSet, State]:
+    """deliver(p,b) from a, carried out up to the unload (in ``d``, the carrier by default):
+    the domain, the plan set, the belief."""
+    d = d if d is not None else carrier()
     start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d.dynamic_predicates)
-    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1))
+    settings = settings if settings is not None else PlannerSettings(alternatives=1)
+    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=settings)
     ps.make(start)
     assert ps.best is not None and ps.best.text() == ["load(p)", "drive(a,b)", "unload(p,b)"]
     belief = start
@@ -89,17 +93,8 @@ def test_a_goal_not_planned_afresh_within_what_it_cost_is_repaired_before_the_wh
         when=["holding(?p)", "at(?y)", "road(?y,?x)"],
         do=["drive(?y,?x)", "deliver(?p,?to)", "deliver(?p,?to)"],
     )
-    start = State.from_facts([*d.facts, parse("at(a)"), parse("in(p,a)")], d.dynamic_predicates)
     budget = 5_000
-    ps = OnlinePlanSet(d, parse("deliver(p,b)"), settings=PlannerSettings(alternatives=1, budget=budget))
-    ps.make(start)
-    assert ps.best is not None and ps.best.text() == ["load(p)", "drive(a,b)", "unload(p,b)"]
-    belief = start
-    for action in ("load(p)", "drive(a,b)"):
-        after = d.apply(belief, parse(action))
-        assert after is not None
-        ps.action_succeeded(parse(action), belief, after)
-        belief = after
+    d, ps, belief = carried_to_b(d, PlannerSettings(alternatives=1, budget=budget))
     ps.lazy = True
     away = d.apply(belief, parse("drive(b,c)"))
     assert away is not None
