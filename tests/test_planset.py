@@ -633,15 +633,12 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
     is about to run again, its best plan is the one keeping them up after every event gives,
     and its done steps (what repair reads, §2.4) are the same."""
     start = nav.initial_state("n40")
-    # Kept up at every event; waiting (lazy); waiting deep on the stack, its actions'
-    # rewrites made all at once when it is next to resume (``deep``).
-    sets = {way: new_plan_set(nav, a(goal)) for way in ("kept up", "lazy", "deep")}
+    sets = {lazy: new_plan_set(nav, a(goal)) for lazy in (False, True)}
     running = a("move(n40,n35,arc59)")
     after = nav.suspend(start, running)
-    for way, stacked in sets.items():
+    for lazy, stacked in sets.items():
         stacked.make(start)
-        stacked.lazy = way != "kept up"
-        stacked.deep = way == "deep"
+        stacked.lazy = lazy
         stacked.action_suspended(running, start, after)
     emergency_plan = plan(nav, after, [a(emergency)]).best
     assert emergency_plan is not None and len(emergency_plan.steps) >= 2
@@ -652,18 +649,16 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
         for stacked in sets.values():
             stacked.action_succeeded(action, belief, nxt)
         belief = nxt
-    kept_up = sets["kept up"]
-    assert kept_up.ensure(belief) and kept_up.best is not None
-    for way in ("lazy", "deep"):
-        waited = sets[way]
-        # Expect: nothing walked or repaired while the goal waited.
-        assert waited.stats.rechecks == 0 and waited.stats.repairs == 0
-        waited.lazy = waited.deep = False
-        assert waited.ensure(belief)
-        mine = waited.best
-        assert texts(mine) == texts(kept_up.best), way
-        assert mine is not None and mine.cost == pytest.approx(kept_up.best.cost)
-        assert done_steps(waited) == done_steps(kept_up), way
+    waited = sets[True]
+    # Expect: nothing walked or repaired while the goal waited.
+    assert waited.stats.rechecks == 0 and waited.stats.repairs == 0
+    waited.lazy = False
+    assert waited.ensure(belief) and sets[False].ensure(belief)
+    mine, kept_up = waited.best, sets[False].best
+    assert texts(mine) == texts(kept_up)
+    assert mine is not None and kept_up is not None
+    assert mine.cost == pytest.approx(kept_up.cost)
+    assert done_steps(waited) == done_steps(sets[False])
 
 
 def done_steps(ps: PlanSet) -> list[str]:

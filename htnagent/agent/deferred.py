@@ -30,7 +30,7 @@ class DeferredUpkeep:
     """Work kept off the critical path: queued plan updates and spent objects."""
 
     def __init__(self) -> None:
-        self._queue: deque[Callable[[], object]] = deque()
+        self._queue: deque[Callable[[], None]] = deque()
         self._spent: list[object] = []
 
     @property
@@ -48,8 +48,8 @@ class DeferredUpkeep:
         """Whether anything waits: updates to run or objects to let go of."""
         return bool(self._queue or self._spent)
 
-    def defer(self, update: Callable[[], object]) -> None:
-        """Run ``update`` later, after the updates deferred before it (what it returns is not used)."""
+    def defer(self, update: Callable[[], None]) -> None:
+        """Run ``update`` later, after the updates deferred before it."""
         self._queue.append(update)
 
     def run(self) -> None:

@@ -170,9 +170,7 @@ class Agent(ExecutorActor):
             return True
         if top is not None:
             # Algorithm 3: nothing is left above the suspended goal: pop and resume it.
-            entry = self.stack.pop()
-            self._next_to_resume()
-            self._resume(entry)
+            self._resume(self.stack.pop())
             return True
         while self.orders:
             if self._take_order(self.orders.popleft()):
@@ -203,7 +201,6 @@ class Agent(ExecutorActor):
                 return False
             # Algorithm 5: on resume, pop the goal and go on with it.
             self.stack.remove(held)
-            self._next_to_resume()
             held.held = False
             held.order_seq = order.seq
             self._resume(held)
@@ -211,7 +208,6 @@ class Agent(ExecutorActor):
         # Algorithm 5: on clear, drop the goal, its plans and its suspended action.
         if held is not None:
             self.stack.remove(held)
-            self._next_to_resume()
             self._clear_suspended(held)
             self.upkeep.keep_until_sent(held)
             self.trace.emit(GoalCleared(agent=self.name, goal=str(held.goal)))
@@ -364,8 +360,6 @@ class Agent(ExecutorActor):
 
     def _push(self, entry: GoalEntry) -> None:
         """Algorithm 3: push ``entry`` on the stack; its plans are kept valid while it waits."""
-        if self.stack:
-            self.stack[-1].plans.deep = True  # see PlanSet.deep: no longer the next to resume
         self.stack.append(entry)
         entry.plans.lazy = True  # see PlanSet.lazy: made good when it is about to run again
         sunk = len(self.stack) - 1 - self.config.maintained_depth
@@ -373,15 +367,6 @@ class Agent(ExecutorActor):
             # Too deep to keep up (see AgentConfig.maintained_depth): planned afresh if it
             # comes back to the top.
             self.stack[sunk].plans.drop()
-
-    def _next_to_resume(self) -> None:
-        """The goal on top of the stack is the next to resume: its plans follow every
-        action at once from now (see PlanSet.deep), and the rewrites that waited are made
-        once the next order is on its way, off the critical path (§4)."""
-        if self.stack and self.stack[-1].plans.deep:
-            plans = self.stack[-1].plans
-            plans.deep = False
-            self.upkeep.defer(plans.caught_up)
 
     def _resume(self, entry: GoalEntry) -> None:
         """Algorithm 2 for a resumed goal: take its plans up as the mode does (on-line
@@ -720,7 +705,6 @@ class Agent(ExecutorActor):
     def _drop_held(self, entry: GoalEntry) -> None:
         if entry in self.stack:
             self.stack.remove(entry)
-            self._next_to_resume()
         self._clear_suspended(entry)
         self.trace.emit(GoalCleared(agent=self.name, goal=str(entry.goal)))
 

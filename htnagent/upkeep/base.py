@@ -71,12 +71,6 @@ class PlanSet(ABC):
         them (§2.1, §3) but are not re-checked or repaired then; they are re-checked (and
         repaired, §2.4) once, when the goal is about to run again (prepared or resumed) —
         one walk then (and a repair if it needs one), instead of one per event."""
-        self.deep = False
-        """Set while the goal waits under another waiting goal (not the next to resume):
-        the actions' rewrites of its plans may wait until it is next to resume (on-line:
-        they are logged and made in one pass, :meth:`~htnagent.upkeep.online.OnlinePlanSet.caught_up`;
-        the next to resume follows each action at once, so that its resumption is only a
-        re-check)."""
         self.scratch_expansions: int | None = None
         """Expansions the goal's last search from scratch took to find its plan: what planning
         it afresh is known to cost (§2.4's comparison is given no more than a few times it)."""
@@ -105,11 +99,6 @@ class PlanSet(ABC):
 
     def __len__(self) -> int:
         return len(self.plans)
-
-    def caught_up(self) -> Self:
-        """This plan set with every rewrite still waiting made (on-line, those of a goal
-        waiting deep on the stack: see ``deep``); naive keeps none waiting."""
-        return self
 
     def fork(self) -> Self:
         """A copy to update speculatively (the plans themselves are immutable values).

@@ -42,7 +42,7 @@ from htnagent.upkeep.recheck import recheck_all
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
 from htnagent.upkeep.stats import PlanningStats
-from htnagent.upkeep.success import MovedOn, followed, kept_after_success, moved_on, ran
+from htnagent.upkeep.success import kept_after_success, moved_on, ran
 from htnagent.upkeep.suspension import Suspension, whole
 from htnagent.upkeep.validity import Kept, by_cost, unique
 
@@ -67,41 +67,21 @@ class OnlinePlanSet(PlanSet):
         super().__init__(domain, goal, settings, stats)
         self.revival = Revival(domain, revival_window, revival_capacity)
         """Plans removed because a fact was false, waiting for it to be true again (§2.5)."""
-        self._moves: list[MovedOn] = []
-        """The actions that succeeded while the goal waited deep on the stack (``deep``),
-        whose rewrites of the plans (§2.1) are still to be made: see :meth:`caught_up`."""
-
-    def caught_up(self) -> Self:
-        """This plan set with the rewrites of the actions logged while it waited deep on the
-        stack made -- all at once, in one pass (:func:`~htnagent.upkeep.success.followed`),
-        not one copy of every plan an action -- and their done steps added.  Anything that
-        reads a deep goal's plans reads them through this (a re-check, a fork, an adopt,
-        the agent once the goal is next to resume)."""
-        if self._moves:
-            moves, self._moves = self._moves, []
-            self.plans, ran_steps = followed(self.domain, self.plans, moves)
-            for step in ran_steps:  # the goal's own steps that the actions were
-                self.done = Done(step, self.done)
-        return self
 
     def fork(self) -> Self:
-        self.caught_up()  # the copy starts from the plans and done steps as they are now
         forked = super().fork()
-        forked._moves = []
         forked.revival = self.revival.copy()
         return forked
 
     def adopt(self, other: PlanSet) -> Self:
+        replaced = super().adopt(other)
         assert isinstance(other, OnlinePlanSet)
-        replaced = super().adopt(other.caught_up())
-        self._moves = []  # the plans are the other's now
         self.revival = other.revival
         return replaced
 
     def drop(self) -> None:
         super().drop()
         self._stale = False
-        self._moves = []
         self.revival.clear()
 
     # -- a goal waiting on the stack ------------------------------------------
@@ -117,7 +97,7 @@ class OnlinePlanSet(PlanSet):
         # the last check bring back (§2.5).
         since = self._stale_since if self._stale_since is not None else state
         self._stale, self._stale_since = False, None
-        self.caught_up()._revise(since, state, memo=memo)
+        self._revise(since, state, memo=memo)
 
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
         """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
@@ -131,15 +111,7 @@ class OnlinePlanSet(PlanSet):
         if not self._stale:
             self._stale, self._stale_since = True, self._checked
         self._checked = None
-        if self.deep and isinstance(change, MovedOn):
-            # Deeper on the stack than the next goal to resume: the action's rewrite waits
-            # (see ``caught_up``); the next to resume follows every action at once, so that
-            # its resumption is only a re-check (the time the paper measures).
-            self._moves.append(change)
-        elif isinstance(change, MovedOn):
-            self.plans = [change(p) or p for p in self.caught_up().plans]
-        else:
-            self.plans = [q for p in self.caught_up().plans if (q := change(p)) is not None]
+        self.plans = [q for p in self.plans if (q := change(p)) is not None]
         if self.revival:
             self.revival.rewrite(change)
         if not self.lazy:
@@ -167,9 +139,9 @@ class OnlinePlanSet(PlanSet):
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         if self.lazy or self._stale:
             with self._timed():
-                if not self.deep:
-                    self._note_done(action)  # else when the waiting rewrites are made
-                self._follow_lazily(moved_on(self.domain, action, self.domain.actions.undo_of(action)), after)
+                self._note_done(action)
+                rewrite = moved_on(self.domain, action, self.domain.actions.undo_of(action))
+                self._follow_lazily(lambda p: rewrite(p) or p, after)
             return
         if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
