@@ -274,9 +274,16 @@ def _chart(rows: list[dict[str, Any]]) -> None:
         "window at resumption (parent + child), emergency in the next area",
         "planning over the whole run",
     )
+    from matplotlib.ticker import FuncFormatter, LogLocator
+
     for ax, title in zip(axes, titles, strict=True):
         ax.set_xscale("log")
         ax.set_yscale("log")
+        # Every decade labelled, as plain numbers: the on-line window sits below the first
+        # power of ten the default labels (0.15 ms, with only "10^0" on the axis).
+        ax.yaxis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+        ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _pos: f"{v:g}"))
+        ax.yaxis.set_minor_formatter(FuncFormatter(lambda _v, _pos: ""))
         ax.set_xlabel("nodes")
         ax.set_ylabel("ms (median)")
         ax.set_title(title, fontsize=9)
