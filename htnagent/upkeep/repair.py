@@ -99,7 +99,8 @@ class Repairer:
     plan sets updated from the same belief — so a goal re-planned for one broken
     plan answers for all.  Repairs below the goal share ``local_budget``
     expansions; the goal itself gets the planner's full budget; where it has no
-    plan, repairs below it get ``reserve`` expansions more.  Make one per
+    plan, or its plan afresh found none within ``fresh_budget``, repairs below it
+    get ``reserve`` expansions more.  Make one per
     update; ``unsolvable`` is then the belief the goal was found impossible
     from, if it was.
     """
@@ -198,7 +199,7 @@ class Repairer:
         if fresh is not None and self._stats.expansions > spent:
             share = math.ceil(LOCAL_SHARE * (self._stats.expansions - spent))
             self.local_left = share if share >= LOCAL_MIN else 0
-        elif fresh is None and alone and self.reserve > 0 and first is not whole:
+        elif fresh is None and alone and self.reserve > 0 and self.fresh_budget is not None:
             # No plan afresh within what planning the goal is known to cost: the repairs
             # below it get their whole budget before the goal gets the planner's.  A network
             # whose done tasks cannot start again is searched through to the end of that
