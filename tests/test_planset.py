@@ -643,6 +643,7 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
     emergency_plan = plan(nav, after, [a(emergency)]).best
     assert emergency_plan is not None and len(emergency_plan.steps) >= 2
     belief = after
+    kept_when_stacked = list(sets[True].plans)
     for action in emergency_plan.actions:
         nxt = nav.apply(belief, action)
         assert nxt is not None
@@ -650,8 +651,10 @@ def test_a_stacked_goal_s_plans_are_checked_once_when_it_runs_again_and_end_as_i
             stacked.action_succeeded(action, belief, nxt)
         belief = nxt
     waited = sets[True]
-    # Expect: nothing walked or repaired while the goal waited.
+    # Expect: nothing walked or repaired while the goal waited, and no plan copied: the
+    # rewrites are logged, and made in one pass when it is about to run again.
     assert waited.stats.rechecks == 0 and waited.stats.repairs == 0
+    assert all(p is q for p, q in zip(waited.plans, kept_when_stacked, strict=True))
     waited.lazy = False
     assert waited.ensure(belief) and sets[False].ensure(belief)
     mine, kept_up = waited.best, sets[False].best

@@ -9,11 +9,12 @@ from hypothesis import strategies as st
 
 from htnagent.domains import nodes_domain
 from htnagent.domains.maps import generate_map
-from htnagent.model.domain import Domain, State
-from htnagent.model.plans import replay
-from htnagent.model.terms import Atom
+from htnagent.model.domain import Domain, Effect, State, Suspension
+from htnagent.model.plans import Plan, Step, replay
+from htnagent.model.terms import Atom, parse
 from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.upkeep import Replanning, new_plan_set
+from htnagent.upkeep.success import followed, moved_on, ran
 
 OPS = st.sampled_from(["follow", "wander", "suspend", "close", "open", "fail"])
 
@@ -117,3 +118,72 @@ def test_kept_plans_stay_valid_and_agree_with_naive(
             assert best.cost >= optimum.cost - 1e-9
             costs = [p.cost for p in online.plans]
             assert costs == sorted(costs)
+
+
+# -- a waiting goal's plans take an emergency's actions all at once --------------------------
+
+
+def _walker() -> Domain:
+    """go(X,Y) has an undo, go(Y,X), and a resume; hop(X,Y) has neither."""
+    d = Domain("walker")
+    d.operator(
+        "go(?x,?y)",
+        pre=["at(?x)"],
+        add=["at(?y)"],
+        delete=["at(?x)"],
+        cost=2.0,
+        suspend=Suspension(
+            add=("heading(?x,?y)",),
+            cleared=("heading(?x,?y)",),
+            resume=Effect(
+                pre=("heading(?x,?y)",), add=("at(?y)",), delete=("at(?x)", "heading(?x,?y)"), cost=1.0
+            ),
+        ),
+        undo="go(?y,?x)",
+    )
+    d.operator("hop(?x,?y)", pre=["at(?x)"], add=["at(?y)"], delete=["at(?x)"], cost=5.0)
+    return d
+
+
+WALKER = _walker()
+PLACES = ["a", "b", "c"]
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    plans=st.lists(
+        st.lists(
+            st.tuples(
+                st.sampled_from(["go", "hop", "resume"]), st.sampled_from(PLACES), st.sampled_from(PLACES)
+            ),
+            max_size=6,
+        ),
+        max_size=3,
+    ),
+    moves=st.lists(
+        st.tuples(st.sampled_from(["go", "hop"]), st.sampled_from(PLACES), st.sampled_from(PLACES)),
+        max_size=8,
+    ),
+)
+def test_a_waiting_goal_takes_the_actions_at_once_as_one_by_one(
+    plans: list[list[tuple[str, str, str]]], moves: list[tuple[str, str, str]]
+) -> None:
+    """``followed`` (one pass) gives the plans and done steps that §2.1's rewrite, action by
+    action, gives: undo steps in front, cancelled where they meet their action (§2.6), a
+    resume behind an undo costed as the whole action, the plan that ran an action moving on."""
+    actions = WALKER.actions
+
+    def step(kind: str, x: str, y: str) -> Step:
+        action = parse(f"resume(go({x},{y}))" if kind == "resume" else f"{kind}({x},{y})")
+        return Step(action, actions.cost(action), None)
+
+    kept = [Plan(tuple(step(*s) for s in p)) for p in plans]
+    logged = [moved_on(WALKER, a, actions.undo_of(a)) for a in (parse(f"{k}({x},{y})") for k, x, y in moves)]
+    one_by_one, done = list(kept), []
+    for move in logged:
+        if (s := ran(one_by_one, move.action)) is not None:
+            done.append(s)
+        one_by_one = [move(p) or p for p in one_by_one]
+    at_once, ran_steps = followed(WALKER, kept, logged)
+    assert [p.steps for p in at_once] == [p.steps for p in one_by_one]
+    assert ran_steps == done

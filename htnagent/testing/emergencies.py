@@ -386,6 +386,7 @@ def _taken(keeper: OnlinePlanSet, struck: State, emergency: Sequence[Atom]) -> t
         after = domain.progress(state, action)
         waiting.action_succeeded(action, state, after)
         state = after
+    waiting.catch_up()  # the rewrites a waiting goal logs, made
     return waiting, not any(_valid(domain, state, p) for p in waiting.plans)
 
 

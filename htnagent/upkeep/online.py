@@ -16,8 +16,9 @@ after every event instead of planning again; each rule is a module of its own:
   :mod:`~htnagent.upkeep.quality`);
 - plans removed because a fact was false come back when it is true again (§2.5,
   :mod:`~htnagent.upkeep.revival`);
-- while the goal waits on the stack (``lazy``) its plans follow every event's
-  rewrite but are re-checked only once, when the goal is about to run again;
+- while the goal waits on the stack (``lazy``) the rewrite each event makes of its
+  plans is logged, and made -- with the actions that succeeded one after another taken
+  in one pass -- when the goal is about to run again, and re-checked then;
 - :meth:`~OnlinePlanSet.shorten_detours`, at resumption, offers a shorter way
   than a plan's leading undo steps.
 """
@@ -27,6 +28,7 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import replace
+from itertools import groupby
 from typing import Self
 
 from htnagent.model.actions import resume_action
@@ -42,7 +44,7 @@ from htnagent.upkeep.recheck import recheck_all
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
 from htnagent.upkeep.stats import PlanningStats
-from htnagent.upkeep.success import kept_after_success, moved_on, ran
+from htnagent.upkeep.success import MovedOn, followed, kept_after_success, moved_on, ran
 from htnagent.upkeep.suspension import Suspension, whole
 from htnagent.upkeep.validity import Kept, by_cost, unique
 
@@ -67,21 +69,28 @@ class OnlinePlanSet(PlanSet):
         super().__init__(domain, goal, settings, stats)
         self.revival = Revival(domain, revival_window, revival_capacity)
         """Plans removed because a fact was false, waiting for it to be true again (§2.5)."""
+        self._logged: list[Callable[[Plan], Plan | None]] = []
+        """The rewrites of the plans the events made while the goal waited, not made yet
+        (see :meth:`_follow_lazily`); only while the plans are stale."""
 
     def fork(self) -> Self:
+        self.catch_up()  # the copy starts from the plans and done steps as they are
         forked = super().fork()
         forked.revival = self.revival.copy()
+        forked._logged = []
         return forked
 
     def adopt(self, other: PlanSet) -> Self:
         replaced = super().adopt(other)
         assert isinstance(other, OnlinePlanSet)
         self.revival = other.revival
+        self._logged = list(other._logged)
         return replaced
 
     def drop(self) -> None:
         super().drop()
         self._stale = False
+        self._logged = []
         self.revival.clear()
 
     # -- a goal waiting on the stack ------------------------------------------
@@ -96,14 +105,21 @@ class OnlinePlanSet(PlanSet):
         # from the belief now, repair the broken ones (§2.4), revive what the changes since
         # the last check bring back (§2.5).
         since = self._stale_since if self._stale_since is not None else state
+        self.catch_up()
         self._stale, self._stale_since = False, None
         self._revise(since, state, memo=memo)
 
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
         """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
         plan kept for revival) as the event does — ``change`` gives None for a kept plan
-        the event ends (a plan kept for revival is then left as it is) — and leave the
+        the event ends (a plan kept for revival is then left as it is; a
+        :class:`~htnagent.upkeep.success.MovedOn` leaves both as they are) — and leave the
         re-check until the goal is about to run again.
+
+        The kept plans' rewrites are logged, and made when the goal is about to run again
+        (:meth:`catch_up`): an emergency's actions all at once, not one copy of every plan
+        per action.  (The look-ahead makes them while the last action before the goal
+        resumes runs, §4: not at the resumption.)
 
         A goal no longer waiting whose plans were left so is re-checked now, from
         ``after`` (an earlier belief may not be one its plans can be mended from: the
@@ -111,11 +127,32 @@ class OnlinePlanSet(PlanSet):
         if not self._stale:
             self._stale, self._stale_since = True, self._checked
         self._checked = None
-        self.plans = [q for p in self.plans if (q := change(p)) is not None]
+        self._logged.append(change)
         if self.revival:
             self.revival.rewrite(change)
         if not self.lazy:
             self._recheck_stale(after)
+
+    def catch_up(self) -> None:
+        """Make the rewrites logged while the goal waited (:meth:`_follow_lazily`), in
+        order; the actions that succeeded one after another in one pass
+        (:func:`~htnagent.upkeep.success.followed`), with the steps of the goal's own
+        they were added to its done steps.  The plans are then as rewritten event by
+        event, not yet re-checked (that waits for the belief the goal runs from)."""
+        if not self._logged:
+            return
+        logged, self._logged = self._logged, []
+        plans, done = self.plans, self.done
+        for successes, changes in groupby(logged, key=lambda change: isinstance(change, MovedOn)):
+            if successes:
+                moves = [change for change in changes if isinstance(change, MovedOn)]
+                plans, ran_steps = followed(self.domain, plans, moves)
+                for step in ran_steps:
+                    done = Done(step, done)
+            else:
+                for change in changes:
+                    plans = [q for p in plans if (q := change(p)) is not None]
+        self.plans, self.done = plans, done
 
     def widen(self, state: State, *, failed: Atom | None = None) -> None:
         self._refresh(state)
@@ -139,9 +176,7 @@ class OnlinePlanSet(PlanSet):
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         if self.lazy or self._stale:
             with self._timed():
-                self._note_done(action)
-                rewrite = moved_on(self.domain, action, self.domain.actions.undo_of(action))
-                self._follow_lazily(lambda p: rewrite(p) or p, after)
+                self._follow_lazily(moved_on(self.domain, action, self.domain.actions.undo_of(action)), after)
             return
         if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,

@@ -36,29 +36,98 @@ def behind(domain: Domain, undo: Atom, steps: tuple[Step, ...]) -> tuple[Step, .
     the executor has since done other things — so it is costed as the whole A:
     how much of A is left is not known.
     """
-    cost = domain.actions.cost
-    # The name test first: this runs on every step of every kept plan.
-    rest = tuple(
-        Step(s.action, cost(inner), s.record)
-        if s.action.name == RESUME and (inner := action_recovered_by(s.action)) is not None
-        else s
-        for s in steps
-    )
-    return tidy(domain, (Step(undo, cost(undo), None), *rest), front=True)
+    rest = tuple(_whole(domain, s) for s in steps)
+    return tidy(domain, (Step(undo, domain.actions.cost(undo), None), *rest), front=True)
 
 
-def moved_on(domain: Domain, action: Atom, undo: Atom | None) -> Callable[[Plan], Plan | None]:
+class MovedOn:
     """§2.1's rewrite of a plan once ``action`` succeeded: the plan that ran it moves
-    on; another goes behind the action's ``undo``; None: the plan stays as it is."""
+    on; another goes behind the action's ``undo``; None: the plan stays as it is.
 
-    def rewrite(p: Plan) -> Plan | None:
-        if p.steps and p.steps[0].action == action:
+    A class, not a closure: a goal waiting on the stack logs these and takes them all
+    at once when it is about to run again (:func:`followed`)."""
+
+    __slots__ = ("action", "domain", "undo")
+
+    def __init__(self, domain: Domain, action: Atom, undo: Atom | None) -> None:
+        self.domain = domain
+        self.action = action
+        self.undo = undo
+
+    def __call__(self, p: Plan) -> Plan | None:
+        if p.steps and p.steps[0].action == self.action:
             return p.rest()
-        if undo is not None:
-            return Plan(behind(domain, undo, p.steps))
+        if self.undo is not None:
+            return Plan(behind(self.domain, self.undo, p.steps))
         return None
 
-    return rewrite
+
+def moved_on(domain: Domain, action: Atom, undo: Atom | None) -> MovedOn:
+    """§2.1's rewrite of a plan once ``action`` succeeded (see :class:`MovedOn`)."""
+    return MovedOn(domain, action, undo)
+
+
+def followed(
+    domain: Domain, plans: Sequence[Plan], moves: Sequence[MovedOn]
+) -> tuple[list[Plan], list[Step]]:
+    """The plans once the actions of ``moves`` succeeded one after the other -- each
+    move's rewrite in turn, a plan kept as it is where one gives None -- and the step
+    each action was of the goal's own, if a plan ran it (:func:`ran`), in order.
+
+    Made in one pass: a goal waiting through an emergency of n actions would otherwise
+    copy each plan n times, a step longer each time (§2.1 puts an undo in front at
+    every action).  Here the steps put in front of a plan are a stack, its own steps
+    are sliced once at the end, and each new undo meets the step after it as in
+    :func:`behind` (§2.6's rules, where they meet; a ``resume(A)`` behind an undo is
+    costed as the whole A).
+    """
+    cost = domain.actions.cost
+    fronts: list[list[Step]] = [[] for _ in plans]  # the steps put in front, the first last
+    starts = [0] * len(plans)  # where each plan's own steps still left start
+    behind_undo = [False] * len(plans)  # whether the plan went behind an undo
+    ran_steps: list[Step] = []
+    for move in moves:
+        ran_step: Step | None = None
+        for i, p in enumerate(plans):
+            front, at = fronts[i], starts[i]
+            first = front[-1] if front else p.steps[at] if at < len(p.steps) else None
+            if first is not None and first.action == move.action:
+                # §2.1: the plan ran the action: it moves on.
+                if ran_step is None:
+                    ran_step = _whole(domain, first) if behind_undo[i] else first
+                if front:
+                    front.pop()
+                else:
+                    starts[i] = at + 1
+            elif move.undo is not None:
+                # §2.1: the undo goes in front and meets the step after it (§2.6).
+                behind_undo[i] = True
+                new = Step(move.undo, cost(move.undo), None)
+                if first is None:
+                    front.append(new)
+                    continue
+                if front:
+                    front.pop()
+                else:
+                    starts[i] = at + 1
+                front.extend(reversed(tidy(domain, (new, _whole(domain, first)))))
+        if ran_step is not None:
+            ran_steps.append(ran_step)
+    out: list[Plan] = []
+    for p, front, at, undone in zip(plans, fronts, starts, behind_undo, strict=True):
+        if not undone:
+            out.append(p if at == 0 else Plan(p.steps[at:]))
+        else:
+            out.append(Plan((*reversed(front), *(_whole(domain, s) for s in p.steps[at:]))))
+    return out, ran_steps
+
+
+def _whole(domain: Domain, step: Step) -> Step:
+    """The step, or, if it is a ``resume(A)``, the step costed as the whole A (see :func:`behind`)."""
+    # The name test first: this runs on every step of every kept plan.
+    if step.action.name == RESUME and (inner := action_recovered_by(step.action)) is not None:
+        return Step(step.action, domain.actions.cost(inner), step.record)
+    return step
 
 
 def kept_after_success(
@@ -94,4 +163,4 @@ def kept_after_success(
     return kept
 
 
-__all__ = ["behind", "kept_after_success", "moved_on", "ran"]
+__all__ = ["MovedOn", "behind", "followed", "kept_after_success", "moved_on", "ran"]
