@@ -607,3 +607,46 @@ def test_mangled_traces_give_a_page_or_one_line(tmp_path: Path, capsys: pytest.C
         code = main(["report", str(trace), "--html", str(tmp_path / "m.html"), "--scenario", scenario])
         err = capsys.readouterr().err
         assert code == 0 or (code == 2 and err.count("\n") == 1), err
+
+
+def _boxes(
+    page: str, cls: str, width: float, height: float, *, middle: bool
+) -> list[tuple[str, float, float, float, float]]:
+    """The texts of class ``cls`` as boxes (name, x0, x1, y0, y1): glyphs ``width`` of the font
+    size wide and ``height`` of it tall; centred on (x, y) if ``middle``, else from x rightward
+    with y the baseline."""
+    found = re.findall(
+        rf'<text class="{cls}" x="([-0-9.e]+)" y="([-0-9.e]+)" font-size="([0-9.e]+)">([^<]*)</text>', page
+    )
+    boxes = []
+    for x, y, size, text in found:
+        x0, y0, f = float(x), float(y), float(size)
+        w = width * f * len(text)
+        if middle:
+            boxes.append((text, x0 - w / 2, x0 + w / 2, y0 - height * f / 2, y0 + height * f / 2))
+        else:
+            boxes.append((text, x0, x0 + w, y0 - height * f, y0))
+    return boxes
+
+
+def _meet(a: tuple[str, float, float, float, float], b: tuple[str, float, float, float, float]) -> bool:
+    return a[1] < b[2] and b[1] < a[2] and a[3] < b[4] and b[3] < a[4]
+
+
+def test_the_areas_names_sit_on_no_node_no_node_name_and_no_other_area_name(tmp_path: Path) -> None:
+    """Written at the centroid of its nodes, "area1" sat on node n4 of the museum map (the
+    map of every shipped scenario) and "area4" on n25."""
+    page, _ = report_of("museum.yaml", tmp_path)
+    areas = _boxes(page, "area", 0.6, 0.7, middle=True)
+    assert len(areas) == 8
+    nodes = [
+        ("node", float(x) - float(r), float(x) + float(r), float(y) - float(r), float(y) + float(r))
+        for x, y, r in re.findall(
+            r'<circle class="node" cx="([-0-9.e]+)" cy="([-0-9.e]+)" r="([0-9.e]+)"/>', page
+        )
+    ]
+    names = _boxes(page, "node-name", 0.55, 0.7, middle=False)
+    assert nodes and names
+    for i, area in enumerate(areas):
+        hits = [other[0] for other in [*nodes, *names, *areas[i + 1 :]] if _meet(area, other)]
+        assert not hits, f"{area[0]} meets {hits}"

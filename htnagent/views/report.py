@@ -24,6 +24,7 @@ import os
 import stat
 from pathlib import Path
 
+from htnagent.domains.maps import WorldMap
 from htnagent.errors import PlotError
 from htnagent.runtime.events import JSONValue
 from htnagent.scenario import Scenario
@@ -410,6 +411,118 @@ _NO_MAP = (
 )
 
 
+_AREA_FONT = 3.2
+"""An area's name's font size, in hundredths of the map's span (a node's name: 1.7)."""
+
+
+def _area_name_spots(world: WorldMap, unit: float) -> dict[str, tuple[float, float]]:
+    """Where each area's name is written: in the area's box, on as little of the nodes
+    and their names as can be (a name at the centroid of its nodes sat on a node or on
+    its name), clear of the names written before, then of the arcs and of a margin
+    round it, then as near that centroid as can be.
+
+    A name is a box its glyphs fill (about 0.6 of the font size wide each); what the map
+    draws is counted in cells of one unit (:class:`_Crowding`), so that any box is
+    counted at once."""
+    font = unit * _AREA_FONT
+    node_font = unit * 1.7
+    crowd = _Crowding(world, unit)
+    for node in world.nodes.values():
+        crowd.cover(node.x - unit, node.x + unit, node.y - unit, node.y + unit, weight=3)
+        # A node's name: to its upper right (docs/contracts.md's map; see _map_svg).
+        width = 0.6 * node_font * len(node.name)
+        crowd.cover(node.x + unit, node.x + unit + width, node.y - unit - node_font, node.y - unit, weight=3)
+    for arc in world.arcs.values():
+        a, b = world.nodes[arc.a], world.nodes[arc.b]
+        crowd.line(a.x, a.y, b.x, b.y, weight=1)
+    crowd.count_up()
+    margin = font * 0.6
+    written: list[tuple[float, float, float, float]] = []
+    spots: dict[str, tuple[float, float]] = {}
+    for area, names in world.area_nodes.items():
+        xs = [world.nodes[n].x for n in names]
+        ys = [world.nodes[n].y for n in names]
+        if not xs:
+            continue
+        cx, cy = sum(xs) / len(xs), sum(ys) / len(ys)
+        half = 0.3 * font * len(area)
+        best: tuple[float, int, float] | None = None
+        spot = (cx, cy)
+        for i in range(9):
+            for j in range(9):
+                x = min(xs) + (max(xs) - min(xs)) * i / 8
+                y = min(ys) + (max(ys) - min(ys)) * j / 8
+                box = (x - half, x + half, y - font / 2, y + font / 2)
+                under = crowd.weight(*box) + 3 * sum(_meet(box, other) for other in written)
+                round_it = (box[0] - margin, box[1] + margin, box[2] - margin, box[3] + margin)
+                crowded = crowd.weight(*round_it) + 3 * sum(_meet(round_it, other) for other in written)
+                key = (under, int(crowded > under), math.dist((x, y), (cx, cy)))
+                if best is None or key < best:
+                    best, spot = key, (x, y)
+        spots[area] = spot
+        written.append((spot[0] - half, spot[0] + half, spot[1] - font / 2, spot[1] + font / 2))
+    return spots
+
+
+def _meet(a: tuple[float, float, float, float], b: tuple[float, float, float, float]) -> bool:
+    """Whether two boxes (x0, x1, y0, y1) overlap."""
+    return a[0] < b[1] and b[0] < a[1] and a[2] < b[3] and b[2] < a[3]
+
+
+class _Crowding:
+    """What the map draws, counted in square cells of ``unit``: each thing adds its weight
+    to the cells it covers; :meth:`weight` sums a box's cells at once (a summed-area table,
+    made by :meth:`count_up` once everything is covered)."""
+
+    def __init__(self, world: WorldMap, unit: float) -> None:
+        xs = [n.x for n in world.nodes.values()] or [0.0]
+        ys = [n.y for n in world.nodes.values()] or [0.0]
+        self.unit = max(unit, 1e-9)
+        # Room round the nodes for the names written beside them and across the edges.
+        self.x0, self.y0 = min(xs) - 20 * self.unit, min(ys) - 20 * self.unit
+        self.cols = math.ceil((max(xs) - min(xs)) / self.unit) + 41
+        self.rows = math.ceil((max(ys) - min(ys)) / self.unit) + 41
+        self.cells = [[0] * self.cols for _ in range(self.rows)]
+        self.sums: list[list[int]] = []
+
+    def _col(self, x: float) -> int:
+        return min(max(math.floor((x - self.x0) / self.unit), 0), self.cols - 1)
+
+    def _row(self, y: float) -> int:
+        return min(max(math.floor((y - self.y0) / self.unit), 0), self.rows - 1)
+
+    def cover(self, x0: float, x1: float, y0: float, y1: float, *, weight: int) -> None:
+        for r in range(self._row(y0), self._row(y1) + 1):
+            row = self.cells[r]
+            for c in range(self._col(x0), self._col(x1) + 1):
+                row[c] += weight
+
+    def line(self, ax: float, ay: float, bx: float, by: float, *, weight: int) -> None:
+        steps = max(1, math.ceil(2 * math.dist((ax, ay), (bx, by)) / self.unit))
+        cells = {
+            (self._row(ay + (by - ay) * k / steps), self._col(ax + (bx - ax) * k / steps))
+            for k in range(steps + 1)
+        }
+        for r, c in cells:
+            self.cells[r][c] += weight
+
+    def count_up(self) -> None:
+        sums = [[0] * (self.cols + 1) for _ in range(self.rows + 1)]
+        for r in range(self.rows):
+            above, here, row = sums[r], sums[r + 1], self.cells[r]
+            running = 0
+            for c in range(self.cols):
+                running += row[c]
+                here[c + 1] = above[c + 1] + running
+        self.sums = sums
+
+    def weight(self, x0: float, x1: float, y0: float, y1: float) -> int:
+        """The weight of what covers the box's cells."""
+        r0, r1, c0, c1 = self._row(y0), self._row(y1) + 1, self._col(x0), self._col(x1) + 1
+        s = self.sums
+        return s[r1][c1] - s[r0][c1] - s[r1][c0] + s[r0][c0]
+
+
 def _map_svg(scenario: Scenario, history: History) -> str:
     world = scenario.world
     xs = [n.x for n in world.nodes.values()] or [0.0]
@@ -427,14 +540,10 @@ def _map_svg(scenario: Scenario, history: History) -> str:
             f'stroke-width="{unit * 0.4:.4g}"><title>{_e(arc_id)}</title></line>'
         )
     small = len(world.nodes) <= 400
-    for area, names in world.area_nodes.items():
-        ax = [world.nodes[n].x for n in names]
-        ay = [world.nodes[n].y for n in names]
-        if ax and small:
-            parts.append(
-                f'<text class="area" x="{sum(ax) / len(ax):g}" y="{sum(ay) / len(ay):g}" '
-                f'font-size="{unit * 3.2:.4g}">{_e(area)}</text>'
-            )
+    if small:
+        for area, (x, y) in _area_name_spots(world, unit).items():
+            size = unit * _AREA_FONT
+            parts.append(f'<text class="area" x="{x:g}" y="{y:g}" font-size="{size:.4g}">{_e(area)}</text>')
     # The way under the nodes and their names, so that it hides neither.
     parts.append(f'<g id="trail" stroke-width="{unit * 1.0:.4g}"></g>')
     for node in world.nodes.values():
