@@ -67,8 +67,10 @@ class PlanSet(ABC):
         """Actions the executor has said it cannot do from one belief (a child agent found
         no plan for them): no plan starts with them from that belief."""
         self.lazy = False
-        """Set while the goal waits on the stack: its plans follow each event's rewrite of
-        them (§2.1, §3) but are not re-checked or repaired then; they are re-checked (and
+        """Set while the goal waits on the stack: each event's rewrite of its plans (§2.1, §3)
+        is kept, not re-checked or repaired then (on-line mode logs it and makes it when the
+        plans are next needed: read ``plans`` of a waiting goal only after
+        :meth:`~htnagent.upkeep.online.OnlinePlanSet.catch_up`); they are re-checked (and
         repaired, §2.4) once, when the goal is about to run again (prepared or resumed) —
         one walk then (and a repair if it needs one), instead of one per event."""
         self.scratch_expansions: int | None = None
