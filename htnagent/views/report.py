@@ -196,7 +196,7 @@ def _timeline_svg(history: History) -> str:
     end = max(history.end, 1e-6)
     scale = (_TL_WIDTH - _TL_LEFT - _TL_RIGHT) / end
     out: list[str] = []
-    on_top: list[str] = []  # failures' crosses and reasons, over the bars that follow them
+    on_top: list[str] = []  # labels across hatching, failures' crosses and reasons: over the rest
     labels, tiers = _mark_labels(history, scale)
     first = _TOP + 12 * tiers
     y = float(first)
@@ -212,9 +212,9 @@ def _timeline_svg(history: History) -> str:
             f"<title>{_e(agent)}</title>{_e(_lane_name(agent))}</text>"
         )
         for goal, row in rows:
-            bar, failure = _goal_bar(goal, y + row * _ROW, scale, history.end)
+            bar, over = _goal_bar(goal, y + row * _ROW, scale, history.end)
             out.append(bar)
-            on_top.append(failure)
+            on_top.append(over)
         y += height + _LANE_GAP
     lanes_bottom = y - _LANE_GAP + 3
     depth_top = lanes_bottom + 14
@@ -326,7 +326,8 @@ def _tick_step(end: float) -> float:
 
 
 def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> tuple[str, str]:
-    """The goal's bar, and what is drawn over everything: its failure, if it failed."""
+    """The goal's bar, and what is drawn over everything (over the marks' lines too): its
+    label where it crosses the hatching, and its failure, if it failed."""
     end = end_of_run if goal.end is None else goal.end
     x0 = _TL_LEFT + goal.received * scale
     width = max((end - goal.received) * scale, 1.5)
@@ -356,24 +357,27 @@ def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> tuple
         )
         parts.append(f'<path class="hatch" stroke="{colour}" d="{_hatch(sx0, sx1, top, top + _BAR)}"/>')
     label_width = len(goal.goal) * 6.2
+    over = ""
     if label_width < width - 6:
-        # White on the bar's colour; across hatching, dark with a white halo.
+        # White on the bar's colour; across hatching, dark with a white halo, over the
+        # line of the emergency that suspended it.
         first_stop = goal.suspended[0].start if goal.suspended else end
-        inside = label_width < (first_stop - goal.received) * scale - 6
-        cls = "bar-label" if inside else "bar-label dark"
-        parts.append(f'<text class="{cls}" x="{x0 + 3:.1f}" y="{top + 12:.1f}">{_e(goal.goal)}</text>')
+        label = f'<text class="bar-label{{}}" x="{x0 + 3:.1f}" y="{top + 12:.1f}">{_e(goal.goal)}</text>'
+        if label_width < (first_stop - goal.received) * scale - 6:
+            parts.append(label.format(""))
+        else:
+            over = label.format(" dark")
     parts.append("</g>")
-    failure = ""
     if goal.status == "failure":
         x1 = x0 + width
         cy = top + _BAR / 2
-        failure = (
+        over += (
             f'<path class="fail" d="M{x1 - 5:.1f},{cy - 5:.1f}L{x1 + 5:.1f},{cy + 5:.1f}'
             f'M{x1 - 5:.1f},{cy + 5:.1f}L{x1 + 5:.1f},{cy - 5:.1f}"/>'
             f'<text class="fail-label" x="{x1 + 8:.1f}" y="{cy + 4:.1f}">'
             f"failed: {_e(goal.reason[:60])}</text>"
         )
-    return "".join(parts), failure
+    return "".join(parts), over
 
 
 def _hatch(x0: float, x1: float, y0: float, y1: float, step: float = 6.0) -> str:

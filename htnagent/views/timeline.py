@@ -212,7 +212,8 @@ def _label(ax: Any, goal: GoalBar, y: float, end: float) -> None:
     first_stop = goal.suspended[0].start if goal.suspended else end
     if width >= px(first_stop) - px(goal.received) - 8:
         text.set_color("#111111")
-        text.set_bbox({"facecolor": "white", "edgecolor": "none", "pad": 0.5, "alpha": 0.85})
+        text.set_bbox({"facecolor": "white", "edgecolor": "none", "pad": 0.5})
+        text.set_zorder(4)  # over the line of the emergency that suspended it
 
 
 def _marks(history: History, ax: Any, depth_ax: Any, seconds_per_inch: float) -> int:
