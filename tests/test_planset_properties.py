@@ -55,12 +55,17 @@ def test_kept_plans_stay_valid_and_agree_with_naive(
     belief = domain.initial_state(start)
     online = new_plan_set(domain, goal, Replanning.ONLINE, PlannerSettings(alternatives=k))
     naive = new_plan_set(domain, goal, Replanning.NAIVE)
+    # The same goal waiting on a stack (lazy): its rewrites are logged, and made when it is
+    # about to run again -- here at random moments -- then re-checked from the belief.
+    waiting = new_plan_set(domain, goal, Replanning.ONLINE, PlannerSettings(alternatives=k))
     online.make(belief)
     naive.make(belief)
+    waiting.make(belief)
+    waiting.lazy = True
     arcs = sorted(world.arcs)
 
     def everyone(event: str, *args: object) -> None:
-        for ps in (online, naive):
+        for ps in (online, naive, waiting):
             getattr(ps, event)(*args)
 
     for op in ops:
@@ -106,6 +111,13 @@ def test_kept_plans_stay_valid_and_agree_with_naive(
 
         reachable = online.ensure(belief)
         assert naive.ensure(belief) == reachable
+        if rng.random() < 0.3:  # the waiting goal runs again, for a moment
+            waiting.lazy = False
+            assert waiting.ensure(belief) == reachable
+            for p in waiting.plans:
+                end = replay(domain, belief, p.actions)
+                assert end is not None and Atom("at", (target,)) in end.dynamic
+            waiting.lazy = True
         optimum = plan(domain, belief, [goal], PlannerSettings(alternatives=1)).best
         assert (optimum is not None) == reachable
         for p in online.plans:
