@@ -148,11 +148,8 @@ def test_a_serving_process_back_after_being_lost_serves_the_next_goal(tmp_path: 
     summary = events[-1]
     assert [g["status"] for g in summary["goals"]] == ["failure", "success"]
     assert "peer lost" in summary["goals"][0]["reason"]
-    assert [e["event"] for e in events if e["event"].startswith("peer_")] == [
-        "peer_joined",
-        "peer_lost",
-        "peer_joined",
-    ]
+    peers = [e for e in events if e["event"].startswith("peer_")]
+    assert [e["event"] for e in peers] == ["peer_joined", "peer_lost", "peer_joined"], peers
     assert summary["robot"] == {"at": "n28"}
 
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import functools
 import struct
+import threading
 from collections.abc import Callable, Iterator
 from pathlib import Path
 
@@ -120,6 +121,50 @@ def test_each_part_goes_through_the_gate_of_its_key_and_no_other(mux: Mux) -> No
     assert [got.n for got in heard["a"]] == [1] and heard["b"] == []
     assert gates["a"].refused == 2 and gates["b"].refused == 0
     assert mux.refused == 1  # the part for robot c, whom nobody here serves
+
+
+def test_a_put_of_parts_handed_to_a_keys_subscriber_goes_to_the_gates_as_parts() -> None:
+    # Zenoh 1.10 now and then hands the first put of a serving process thawed after a freeze
+    # -- a Mux put, made on LINKS/<parent's session> -- to the subscriber of a robot's key.
+    # Expect: its parts reach their links' gates, admitted as if the put had come the right
+    # way; nothing refused (it was traced as a malformed payload, peer_refused).
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    keys = ["htnagent/t/a/navigator/up", "htnagent/t/b/navigator/up"]
+    gates = {key: Gate(lambda item: isinstance(item, Success), "results go up") for key in keys}
+    heard: dict[str, list[int]] = {key: [] for key in keys}
+    blob = Mux.pack([(key.encode(), encode(0.0, Success(action=ACTION, seq=1), "host", 1)) for key in keys])
+
+    async def main() -> None:
+        async with Link(listen=[endpoint]) as link:
+            both = anyio.Event()
+            for key, gate in gates.items():
+                gate.bind("host")
+
+                def handler(got: Received, key: str = key) -> None:
+                    heard[key].append(got.n)
+                    if all(heard.values()):
+                        both.set()
+
+                link.on_sample(key, handler, gate.admit)
+            link.token("htnagent/t/alive/host")  # last, as a serving process does
+            peer = await anyio.to_thread.run_sync(zenoh.open, zenoh_config(connect=[endpoint]))
+            try:
+                # The token seen: the subscribers declared before it are known to the peer.
+                seen = threading.Event()
+                watch = peer.liveliness().declare_subscriber(
+                    "htnagent/t/alive/host/*", lambda sample: seen.set(), history=True
+                )
+                assert await anyio.to_thread.run_sync(seen.wait, 10)
+                watch.undeclare()  # type: ignore[no-untyped-call]
+                peer.put(keys[0], blob)  # the put of parts, on robot a's key
+                with anyio.fail_after(10):
+                    await both.wait()
+            finally:
+                await anyio.to_thread.run_sync(peer.close)
+
+    anyio.run(main)
+    assert heard == {keys[0]: [1], keys[1]: [1]}
+    assert [gate.refused for gate in gates.values()] == [0, 0]
 
 
 def test_a_round_of_one_robot_after_another_goes_as_one_put_per_peer(mux: Mux) -> None:
