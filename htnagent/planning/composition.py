@@ -49,6 +49,7 @@ from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.ground_methods import Decompositions, GroundWay, decompositions
 from htnagent.planning.hddl_translation import EQ, TYPE
+from htnagent.planning.one_way import OneWay
 from htnagent.planning.producible import Producible, enumerated
 
 MAX_GROUND = 20_000
@@ -94,6 +95,7 @@ class _GroundAction:
     cost: float
     pre: tuple[Atom, ...]  # the preconditions on facts that change (negated ones as NOT facts)
     add: tuple[Atom, ...]  # the added facts, and NOT facts for the deleted ones that matter
+    delete: tuple[Atom, ...]  # the facts it makes false, and NOT facts for the added ones that matter
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +184,9 @@ class Composition:
         # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
         self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
         self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
+        # What the delete relaxation cannot see run out (step 5): a fact's id is its index in
+        # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.
+        self._one_way = OneWay.of(actions, methods, ids, task_ids)
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -246,16 +251,34 @@ class Composition:
             self._last = (dynamic, dist)
         ids = self._tasks
         total = 0.0
+        one_way = self._one_way
+        needs = one_way.needs if one_way else None
+        ends = one_way.ends
+        ended: set[int] = set()  # the one-way facts the primitive tasks so far make false
         for t in tasks:
             i = ids.get(t)
             if i is not None:
                 total += dist[i]
+                if needs is None:
+                    continue
+                # Step 5: a one-way fact the task needs must hold now and not be ended
+                # before it by a task of the list (a fact nothing adds costs 0 only when
+                # the state holds it).
+                need = needs.get(i)
+                if need is not None:
+                    for f in need:
+                        if dist[f] != 0.0 or f in ended:
+                            return _INF
+                gone = ends.get(i)
+                if gone is not None:
+                    ended |= gone
             elif self._producible is not None and t not in self._producible:
                 # The grounder no longer meets what a join left out (the search still
                 # makes it, binding by types): it costs what the old grounding gave it.
                 return _INF
             else:
                 total += self._fallback.get(t.name, 0.0)
+                needs = None  # what it does is unknown (it might renew any fact): no more checks
         return total
 
 
@@ -420,10 +443,12 @@ class _Grounder:
                         continue
                     ways.add((task, index, needs))
                     add = tuple(substitute(x, b) for x in op.add)
-                    gone = [substitute(x, b) for x in op.delete if x.name in self.negated]
+                    deleted = [f for x in op.delete if (f := substitute(x, b)) not in add]
+                    gone = [f for f in deleted if f.name in self.negated]
                     reaches = add + tuple(Atom(NOT + f.name, f.args) for f in gone)
+                    ended = (*deleted, *(Atom(NOT + f.name, f.args) for f in add if f.name in self.negated))
                     actions.setdefault(task, []).append(
-                        _GroundAction(task, op.action_cost(task), needs, reaches)
+                        _GroundAction(task, op.action_cost(task), needs, reaches, ended)
                     )
                     new_facts.extend(f for f in add if f not in facts)
 
