@@ -96,8 +96,9 @@ def solve(
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
     in method order alone for :data:`DFS_ALONE` seconds, then greedy best-first beside it,
-    and a grounded greedy search (:data:`GROUNDED_SHARE`), taking turns (threads, one at
-    a time: the process uses one core) until one of them has the answer.  Depth-first
+    and a grounded greedy search (:data:`GROUNDED_SHARE`, later :data:`GROUNDED_LATE_SHARE`),
+    taking turns (threads, one at a time: the process uses one core) until one of them has
+    the answer.  Depth-first
     search is never abandoned -- a search that is getting there gets there (one that needs
     8 s alone answers within 30 s) -- but once it has had :data:`DFS_SECONDS` of work it
     keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
