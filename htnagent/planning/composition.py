@@ -185,8 +185,15 @@ class Composition:
         self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
         self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
         # What the delete relaxation cannot see run out (step 5): a fact's id is its index in
-        # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.
-        self._one_way = OneWay.of(actions, methods, ids, task_ids)
+        # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.  By
+        # task id, what it needs and what it ends (a list: looked up for every task of every
+        # list estimated); None for every task where no task needs any.
+        one_way = OneWay.of(actions, methods, ids, task_ids)
+        self._one_way: list[tuple[tuple[int, ...], frozenset[int]] | None] | None = None
+        if one_way:
+            self._one_way = [None] * self._size
+            for i in {*one_way.needs, *one_way.ends}:
+                self._one_way[i] = (one_way.needs.get(i, ()), one_way.ends.get(i, frozenset()))
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -252,33 +259,28 @@ class Composition:
         ids = self._tasks
         total = 0.0
         one_way = self._one_way
-        needs = one_way.needs if one_way else None
-        ends = one_way.ends
         ended: set[int] = set()  # the one-way facts the primitive tasks so far make false
         for t in tasks:
             i = ids.get(t)
             if i is not None:
                 total += dist[i]
-                if needs is None:
+                if one_way is None or (found := one_way[i]) is None:
                     continue
                 # Step 5: a one-way fact the task needs must hold now and not be ended
                 # before it by a task of the list (a fact nothing adds costs 0 only when
                 # the state holds it).
-                need = needs.get(i)
-                if need is not None:
-                    for f in need:
-                        if dist[f] != 0.0 or f in ended:
-                            return _INF
-                gone = ends.get(i)
-                if gone is not None:
-                    ended |= gone
+                need, gone = found
+                for f in need:
+                    if dist[f] != 0.0 or f in ended:
+                        return _INF
+                ended |= gone
             elif self._producible is not None and t not in self._producible:
                 # The grounder no longer meets what a join left out (the search still
                 # makes it, binding by types): it costs what the old grounding gave it.
                 return _INF
             else:
                 total += self._fallback.get(t.name, 0.0)
-                needs = None  # what it does is unknown (it might renew any fact): no more checks
+                one_way = None  # what it does is unknown (it might renew any fact): no more checks
         return total
 
 
