@@ -29,6 +29,9 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    by a Dijkstra-like pass from the state's facts.  A task list's estimate
    (:meth:`Composition.estimate`) is the sum over its tasks; ``inf`` when one of them can
    no longer be done from the state, so the search drops that node (sound: a relaxation).
+5. **One-way facts** (:mod:`htnagent.planning.one_way`): ``inf`` too where a task of the
+   list needs a fact nothing makes true again that the state lacks, or that a task before
+   it uses up -- which the delete relaxation of step 4 cannot see.
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
 :func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads

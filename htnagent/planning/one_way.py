@@ -4,7 +4,7 @@
 Relaxed composition (:mod:`htnagent.planning.composition`) costs every task of a list from
 the same state, and under delete relaxation: a fact, once reached, stays.  Where a fact
 that nothing can make true again is used up by one task and needed by a later one, the
-list has no plan, and the estimate cannot tell.  Factories builds each factory on a free
+list has no plan, and the estimate cannot tell until the first task has used it up.  Factories builds each factory on a free
 location, and nothing frees a location again: a list that builds two factories on the same
 location is estimated as well as one that builds them apart -- and below it lies a whole
 region of decompositions, hundreds of actions deep, none of which finishes (its 6th
