@@ -4,11 +4,12 @@
 Relaxed composition (:mod:`htnagent.planning.composition`) costs every task of a list from
 the same state, and under delete relaxation: a fact, once reached, stays.  Where a fact
 that nothing can make true again is used up by one task and needed by a later one, the
-list has no plan, and the estimate cannot tell until the first task has used it up.  Factories builds each factory on a free
-location, and nothing frees a location again: a list that builds two factories on the same
-location is estimated as well as one that builds them apart -- and below it lies a whole
-region of decompositions, hundreds of actions deep, none of which finishes (its 6th
-problem: greedy search stuck there, at an estimate of 177, for 100,000 expansions).
+list has no plan, and the estimate cannot tell until the first task has used it up.
+Factories builds each factory on a free location, and nothing frees a location again: a
+list that builds two factories on the same location is estimated as well as one that
+builds them apart -- and below it, before the first is built, lies a whole region of
+decompositions, hundreds of actions deep, none of which finishes (its 6th problem: greedy
+search stuck there, at an estimate of 177, for 100,000 expansions).
 
 A **one-way fact** is one that no ground action adds, or the negation of one that no ground
 action deletes (``__not_factory-constructed(f)``: nothing takes a factory down).  Once
