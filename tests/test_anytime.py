@@ -179,10 +179,23 @@ def test_depth_first_search_keeps_a_share_of_the_time_however_long_it_takes() ->
     assert hs.dfs_allowance(end_of_early) == pytest.approx(hs.DFS_SECONDS)
     # Never abandoned: a search that needs 8 s of work alone has them within 30 s.
     assert hs.dfs_allowance(30.0) >= 8.0
-    # The grounded search's share beside it leaves the lifted greedy search a third or more.
+    # The grounded search's share beside it leaves the lifted greedy search a quarter or more.
     for t in (0.5, 1.0, 3.0, 10.0, 30.0):
         rest = t - hs.dfs_allowance(t) - hs.grounded_allowance(t)
-        assert rest >= (t - hs.DFS_ALONE) / 3
+        assert rest >= (t - hs.DFS_ALONE) / 4
+
+
+def test_the_grounded_search_has_half_the_time_once_depth_first_search_is_down_to_its_quarter() -> None:
+    from htnagent.planning import hddl_solving as hs
+
+    assert hs.grounded_allowance(hs.DFS_ALONE) == 0.0
+    assert hs.grounded_allowance(2.0) == pytest.approx((2.0 - hs.DFS_ALONE) * hs.GROUNDED_SHARE)
+    # Past about 5 s, half of every second: within 30 s, over 13 s of its own work (Factories'
+    # 6th problem takes about 9).
+    assert hs.grounded_allowance(30.0) - hs.grounded_allowance(10.0) == pytest.approx(10.0)
+    assert hs.grounded_allowance(30.0) > 13.0
+    for t in (6.0, 10.0, 30.0):
+        assert hs.grounded_allowance(t) + hs.dfs_allowance(t) <= t
 
 
 def test_the_portfolio_answers_from_either_search_when_both_run(

@@ -29,6 +29,9 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    by a Dijkstra-like pass from the state's facts.  A task list's estimate
    (:meth:`Composition.estimate`) is the sum over its tasks; ``inf`` when one of them can
    no longer be done from the state, so the search drops that node (sound: a relaxation).
+5. **One-way facts** (:mod:`htnagent.planning.one_way`): ``inf`` too where a task of the
+   list needs a fact nothing makes true again that the state lacks, or that a task before
+   it uses up -- which the delete relaxation of step 4 cannot see.
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
 :func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads
@@ -49,6 +52,7 @@ from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.ground_methods import Decompositions, GroundWay, decompositions
 from htnagent.planning.hddl_translation import EQ, TYPE
+from htnagent.planning.one_way import OneWay
 from htnagent.planning.producible import Producible, enumerated
 
 MAX_GROUND = 20_000
@@ -94,6 +98,7 @@ class _GroundAction:
     cost: float
     pre: tuple[Atom, ...]  # the preconditions on facts that change (negated ones as NOT facts)
     add: tuple[Atom, ...]  # the added facts, and NOT facts for the deleted ones that matter
+    delete: tuple[Atom, ...]  # the facts it makes false, and NOT facts for the added ones that matter
 
 
 @dataclass(frozen=True, slots=True)
@@ -182,6 +187,16 @@ class Composition:
         # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
         self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
         self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
+        # What the delete relaxation cannot see run out (step 5): a fact's id is its index in
+        # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.  By
+        # task id, what it needs and what it ends (a list: looked up for every task of every
+        # list estimated); None for every task where no task needs any.
+        one_way = OneWay.of(actions, methods, ids, task_ids)
+        self._one_way: list[tuple[tuple[int, ...], frozenset[int]] | None] | None = None
+        if one_way:
+            self._one_way = [None] * self._size
+            for i in {*one_way.needs, *one_way.ends}:
+                self._one_way[i] = (one_way.needs.get(i, ()), one_way.ends.get(i, frozenset()))
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -246,16 +261,29 @@ class Composition:
             self._last = (dynamic, dist)
         ids = self._tasks
         total = 0.0
+        one_way = self._one_way
+        ended: set[int] = set()  # the one-way facts the primitive tasks so far make false
         for t in tasks:
             i = ids.get(t)
             if i is not None:
                 total += dist[i]
+                if one_way is None or (found := one_way[i]) is None:
+                    continue
+                # Step 5: a one-way fact the task needs must hold now and not be ended
+                # before it by a task of the list (a fact nothing adds costs 0 only when
+                # the state holds it).
+                need, gone = found
+                for f in need:
+                    if dist[f] != 0.0 or f in ended:
+                        return _INF
+                ended |= gone
             elif self._producible is not None and t not in self._producible:
                 # The grounder no longer meets what a join left out (the search still
                 # makes it, binding by types): it costs what the old grounding gave it.
                 return _INF
             else:
                 total += self._fallback.get(t.name, 0.0)
+                one_way = None  # what it does is unknown (it might renew any fact): no more checks
         return total
 
 
@@ -420,10 +448,12 @@ class _Grounder:
                         continue
                     ways.add((task, index, needs))
                     add = tuple(substitute(x, b) for x in op.add)
-                    gone = [substitute(x, b) for x in op.delete if x.name in self.negated]
+                    deleted = [f for x in op.delete if (f := substitute(x, b)) not in add]
+                    gone = [f for f in deleted if f.name in self.negated]
                     reaches = add + tuple(Atom(NOT + f.name, f.args) for f in gone)
+                    ended = (*deleted, *(Atom(NOT + f.name, f.args) for f in add if f.name in self.negated))
                     actions.setdefault(task, []).append(
-                        _GroundAction(task, op.action_cost(task), needs, reaches)
+                        _GroundAction(task, op.action_cost(task), needs, reaches, ended)
                     )
                     new_facts.extend(f for f in add if f not in facts)
 

@@ -103,6 +103,9 @@ def _decomposer(
                     if t not in holding:
                         holding[t] = [g for g in parts[t] if g.holds(state)]
                     choices.append(holding[t])
+            if not choices:
+                out[core.subtasks] = None  # no groups: its subtasks are the method's, made ground
+                continue
             for chosen in itertools.product(*choices):
                 b = dict(core.bindings)
                 for g in chosen:

@@ -40,10 +40,18 @@ DFS_SHARE = 0.25
 """Depth-first search's share of the time once it has had :data:`DFS_SECONDS`."""
 GROUNDED_SHARE = 1 / 4
 """The share of the time after :data:`DFS_ALONE` that the grounded search gets (its
-grounding included): greedy best-first search guided by relaxed composition
-(:mod:`htnagent.planning.composition`), for the domains where the lifted estimate sees
-nothing.  Where grounding is past its cap the search never starts, and its share goes back
-to the others."""
+grounding included) while depth-first search has :data:`DFS_EARLY_SHARE`: greedy best-first
+search guided by relaxed composition (:mod:`htnagent.planning.composition`), for the
+domains where the lifted estimate sees nothing.  Where grounding is past its cap the search
+never starts, and its share goes back to the others."""
+GROUNDED_LATE_SHARE = 1 / 2
+"""The grounded search's share once depth-first search is down to :data:`DFS_SHARE` (past
+about 5 s): half, the lifted greedy search keeping a quarter as depth-first search does.
+Past those first seconds, on the problems measured (docs/design.md §7.2), every answer where
+the grounding was affordable came from the grounded search (AssemblyHierarchical,
+Entertainment, Factories-simple, Woodworking): the best-informed search gets the most time.
+Where the grounding was not affordable, the grounded search has stopped, and the lifted
+greedy search has its time."""
 
 
 GROUNDED_DFS_SECONDS = 0.5
@@ -88,8 +96,9 @@ def solve(
     """Translate the problem and plan it: one plan (K = 1) within ``timeout`` seconds and
     ``budget`` expansions, by ``search`` -- or, by default (None), a portfolio: depth-first
     in method order alone for :data:`DFS_ALONE` seconds, then greedy best-first beside it,
-    and a grounded greedy search (:data:`GROUNDED_SHARE`), taking turns (threads, one at
-    a time: the process uses one core) until one of them has the answer.  Depth-first
+    and a grounded greedy search (:data:`GROUNDED_SHARE`, later :data:`GROUNDED_LATE_SHARE`),
+    taking turns (threads, one at a time: the process uses one core) until one of them has
+    the answer.  Depth-first
     search is never abandoned -- a search that is getting there gets there (one that needs
     8 s alone answers within 30 s) -- but once it has had :data:`DFS_SECONDS` of work it
     keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
@@ -144,22 +153,33 @@ GROUNDING_SECONDS = 2.0
 (and its share of the time goes back to the others), whatever is left under the cap."""
 
 
+def _early_end() -> float:
+    """The second of the portfolio at which depth-first search has had :data:`DFS_SECONDS`
+    of work (about 4.9): its share falls from :data:`DFS_EARLY_SHARE` to :data:`DFS_SHARE`."""
+    return DFS_ALONE + (DFS_SECONDS - DFS_ALONE) / DFS_EARLY_SHARE
+
+
 def grounded_allowance(elapsed: float) -> float:
     """The seconds of work the grounded search (its grounding included) may have had
     ``elapsed`` seconds into the portfolio: :data:`GROUNDED_SHARE` of the time after
-    :data:`DFS_ALONE`."""
-    return max(elapsed - DFS_ALONE, 0.0) * GROUNDED_SHARE
+    :data:`DFS_ALONE`, then :data:`GROUNDED_LATE_SHARE` once depth-first search's share
+    has fallen."""
+    early_end = _early_end()
+    if elapsed <= early_end:
+        return max(elapsed - DFS_ALONE, 0.0) * GROUNDED_SHARE
+    return (early_end - DFS_ALONE) * GROUNDED_SHARE + (elapsed - early_end) * GROUNDED_LATE_SHARE
 
 
 def dfs_allowance(elapsed: float) -> float:
     """The seconds of work depth-first search may have had ``elapsed`` seconds into the
     portfolio: all of them while it runs alone (:data:`DFS_ALONE`), then
     :data:`DFS_EARLY_SHARE` until it has had :data:`DFS_SECONDS`, then :data:`DFS_SHARE`
-    of the time after.  With the grounded search's :data:`GROUNDED_SHARE`, the lifted
-    greedy search keeps the rest: 3/8 of the time at first, half later."""
+    of the time after.  With the grounded search's share beside it, the lifted greedy
+    search keeps the rest: 3/8 of the time at first, a quarter later -- all of it but
+    depth-first search's where the grounded search does not run."""
     if elapsed <= DFS_ALONE:
         return elapsed
-    early_end = DFS_ALONE + (DFS_SECONDS - DFS_ALONE) / DFS_EARLY_SHARE
+    early_end = _early_end()
     if elapsed <= early_end:
         return DFS_ALONE + (elapsed - DFS_ALONE) * DFS_EARLY_SHARE
     return DFS_SECONDS + (elapsed - early_end) * DFS_SHARE
@@ -433,6 +453,7 @@ __all__ = [
     "DFS_SECONDS",
     "DFS_SHARE",
     "GROUNDED_DFS_SECONDS",
+    "GROUNDED_LATE_SHARE",
     "GROUNDED_SHARE",
     "GROUNDING_SECONDS",
     "HDDL_BUDGET",
