@@ -18,6 +18,9 @@ import anyio
 import pytest
 
 from htnagent.model.domain import Domain, State
+from htnagent.model.terms import Atom
+from htnagent.planning.composition import Composition, ground
+from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import WALL_CLOCK_FIELDS
@@ -143,3 +146,15 @@ def record_repair_searches(monkeypatch: pytest.MonkeyPatch) -> list[Search]:
 
     monkeypatch.setattr(repair_module, "plan", recording)
     return searches
+
+
+def grounded(planning: HddlPlanning) -> Composition:
+    """The grounded estimate of a translated HDDL problem (its grounding must be affordable)."""
+    found = ground(planning.domain, planning.state, planning.tasks)
+    assert found is not None
+    return found
+
+
+def fact(name: str, *args: str) -> Atom:
+    """The ground atom ``name(args...)``."""
+    return Atom(name, args)

@@ -9,13 +9,13 @@ import pytest
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
-from htnagent.model.terms import Atom
 from htnagent.planning import composition
-from htnagent.planning.composition import Composition, ground
+from htnagent.planning.composition import ground
 from htnagent.planning.hddl_solving import solve
 from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from tests.support import fact, grounded
 
 # Ports joined by wires: join(a, c) links a to c directly or through another port, each
 # link then checked.  A link needs its first port free and the bench unlocked; lock() is
@@ -58,25 +58,15 @@ def _planning(task: str = "join p1 p3") -> HddlPlanning:
     return translate(domain, parse_problem(_problem(task), domain, "p.hddl"))
 
 
-def _grounded(planning: HddlPlanning) -> Composition:
-    found = ground(planning.domain, planning.state, planning.tasks)
-    assert found is not None
-    return found
-
-
-def _a(name: str, *args: str) -> Atom:
-    return Atom(name, args)
-
-
 def test_least_cost_is_the_cheapest_decomposition_whatever_the_state() -> None:
     # join(p1,p3): no wire p1-p3, so through p2: connect(p1,p2) + connect(p2,p3), two
     # actions each (link, check).
-    c = _grounded(_planning())
-    assert c.least[_a("join", "p1", "p3")] == 4
-    assert c.least[_a("connect", "p1", "p2")] == 2
+    c = grounded(_planning())
+    assert c.least[fact("join", "p1", "p3")] == 4
+    assert c.least[fact("connect", "p1", "p2")] == 2
     # No wire p1-p3: link(p1,p3) never applies (the translation even checks it in the method).
-    assert c.least.get(_a("connect", "p1", "p3"), math.inf) == math.inf
-    assert c.least[_a("join", "p3", "p3")] == math.inf  # met (through p2), but nothing leaves p3
+    assert c.least.get(fact("connect", "p1", "p3"), math.inf) == math.inf
+    assert c.least[fact("join", "p3", "p3")] == math.inf  # met (through p2), but nothing leaves p3
 
 
 def test_estimate_from_the_start_adds_what_each_task_needs() -> None:
@@ -84,38 +74,38 @@ def test_estimate_from_the_start_adds_what_each_task_needs() -> None:
     # that makes linked(p1,p2) = 2; connect(p1,p2) = 1 + 2 = 3; likewise connect(p2,p3) = 3;
     # join(p1,p3) = 6, and the network's root task the same.
     planning = _planning()
-    c = _grounded(planning)
+    c = grounded(planning)
     start = planning.state.dynamic
-    assert c.estimate([_a("join", "p1", "p3")], start) == 6
+    assert c.estimate([fact("join", "p1", "p3")], start) == 6
     assert c.estimate(planning.tasks, start) == 6
-    assert c.estimate([_a("connect", "p1", "p2"), _a("join", "p2", "p3")], start) == 6
+    assert c.estimate([fact("connect", "p1", "p2"), fact("join", "p2", "p3")], start) == 6
 
 
 def test_estimate_follows_the_state() -> None:
     # After link(p1,p2): check(p1,p2) costs 1 (linked holds), join(p2,p3) still 3.
     planning = _planning()
-    c = _grounded(planning)
-    after = (planning.state.dynamic - {_a("free", "p1")}) | {_a("linked", "p1", "p2")}
-    assert c.estimate([_a("check", "p1", "p2"), _a("join", "p2", "p3")], after) == 4
+    c = grounded(planning)
+    after = (planning.state.dynamic - {fact("free", "p1")}) | {fact("linked", "p1", "p2")}
+    assert c.estimate([fact("check", "p1", "p2"), fact("join", "p2", "p3")], after) == 4
     # p1 is no longer free and nothing frees it: linking it again cannot be done.
-    assert c.estimate([_a("connect", "p1", "p2")], after) == math.inf
+    assert c.estimate([fact("connect", "p1", "p2")], after) == math.inf
 
 
 def test_a_negative_precondition_nothing_restores_is_a_dead_end() -> None:
     # Once locked, no link can be made (nothing deletes locked): the delete relaxation
     # alone would miss it; the negated fact does not.
     planning = _planning()
-    c = _grounded(planning)
-    locked = planning.state.dynamic | {_a("locked")}
-    assert c.estimate([_a("join", "p1", "p3")], locked) == math.inf
-    assert c.estimate([_a("check", "p1", "p2")], locked) == math.inf
+    c = grounded(planning)
+    locked = planning.state.dynamic | {fact("locked")}
+    assert c.estimate([fact("join", "p1", "p3")], locked) == math.inf
+    assert c.estimate([fact("check", "p1", "p2")], locked) == math.inf
 
 
 def test_a_task_no_decomposition_reaches_is_infinite() -> None:
     # No wire reaches p4.
     planning = _planning("join p1 p4")
-    c = _grounded(planning)
-    assert c.least[_a("join", "p1", "p4")] == math.inf
+    c = grounded(planning)
+    assert c.least[fact("join", "p1", "p4")] == math.inf
     assert c.estimate(planning.tasks, planning.state.dynamic) == math.inf
 
 
@@ -135,7 +125,7 @@ def test_past_the_cap_there_is_no_grounding_and_solving_falls_back(monkeypatch: 
 @pytest.mark.parametrize("search", [Search.GBFS, Search.ASTAR])
 def test_the_guided_search_finds_a_plan_the_checker_accepts(search: Search) -> None:
     planning = _planning()
-    c = _grounded(planning)
+    c = grounded(planning)
     settings = PlannerSettings(alternatives=1, search=search)
     result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
     assert result.status is PlanStatus.SOLVED and result.best is not None
@@ -146,7 +136,7 @@ def test_the_guided_search_finds_a_plan_the_checker_accepts(search: Search) -> N
 
 def test_the_guided_search_proves_a_dead_end_unsolvable_at_once() -> None:
     planning = _planning("join p1 p4")
-    c = _grounded(planning)
+    c = grounded(planning)
     settings = PlannerSettings(alternatives=1, search=Search.GBFS)
     result = plan(planning.domain, planning.state, planning.tasks, settings, guide=c.estimate)
     assert result.status is PlanStatus.UNSOLVABLE
@@ -199,12 +189,12 @@ def test_every_binding_of_a_precondition_only_variable_is_a_way_of_its_own() -> 
         "p.hddl",
     )
     planning = translate(domain, problem)
-    c = _grounded(planning)
+    c = grounded(planning)
     start = planning.state.dynamic
-    assert c.estimate([_a("unlock", "d")], start) == 1
-    assert c.estimate([_a("enter", "d")], start) == 1
-    without_k2 = start - {_a("have", "k2")}
-    assert c.estimate([_a("unlock", "d")], without_k2) == 2
+    assert c.estimate([fact("unlock", "d")], start) == 1
+    assert c.estimate([fact("enter", "d")], start) == 1
+    without_k2 = start - {fact("have", "k2")}
+    assert c.estimate([fact("unlock", "d")], without_k2) == 2
 
 
 # A workshop: finish(i) coats the item in some colour with some brush, then sands it with
@@ -272,16 +262,16 @@ def test_parameters_only_subtasks_name_are_bound_by_what_can_occur(monkeypatch: 
     # From the start, h_add: coat 1; sand needs smooth (2: a polish and the paint before
     # it) for sand-done, or for sand-once painted (1) and polish (1 + painted's 1): 3; and
     # both items add up.
-    assert c.least[_a("finish", "i1")] == 1
-    assert c.estimate([_a("finish", "i1")], planning.state.dynamic) == 3
+    assert c.least[fact("finish", "i1")] == 1
+    assert c.estimate([fact("finish", "i1")], planning.state.dynamic) == 3
     assert c.estimate(planning.tasks, planning.state.dynamic) == 6
     # A coat nothing can do (i1 is not wanted in c2) is a dead end, though no method met it.
-    assert _a("coat", "i1", "c2", "b2") not in c.least
-    assert c.estimate([_a("coat", "i1", "c2", "b2")], planning.state.dynamic) == math.inf
+    assert fact("coat", "i1", "c2", "b2") not in c.least
+    assert c.estimate([fact("coat", "i1", "c2", "b2")], planning.state.dynamic) == math.inf
     # Sanding with a blunt tool: only once the item is smooth (sand-done, with any tool):
     # polish(i1,t1) and the paint before it.
-    assert c.estimate([_a("sand", "i1", "t2")], planning.state.dynamic) == 2
-    assert c.estimate([_a("sand", "i1", "t2")], planning.state.dynamic | {_a("smooth", "i1")}) == 0
+    assert c.estimate([fact("sand", "i1", "t2")], planning.state.dynamic) == 2
+    assert c.estimate([fact("sand", "i1", "t2")], planning.state.dynamic | {fact("smooth", "i1")}) == 0
     _by_types(monkeypatch)
     assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None
 
@@ -294,9 +284,9 @@ def test_binding_by_what_can_occur_leaves_the_estimate_as_it_was(monkeypatch: py
     joined = ground(planning.domain, planning.state, planning.tasks, cap=2_000)
     assert joined is not None
     _by_types(monkeypatch)
-    typed = _grounded(planning)
+    typed = grounded(planning)
     start = planning.state.dynamic
-    painted = start | {_a("painted", "i1")}
+    painted = start | {fact("painted", "i1")}
     tasks = [t for t in typed.least if not t.name.startswith("__")]
     assert len(tasks) > 100  # the types' bindings: every colour, brush and tool met
     for t in tasks:

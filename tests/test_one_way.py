@@ -10,13 +10,12 @@ import pytest
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
-from htnagent.model.terms import Atom
 from htnagent.planning import composition
-from htnagent.planning.composition import Composition, ground
 from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.one_way import OneWay
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from tests.support import fact, grounded
 
 SWITCHES = 7
 """Switches set between the two houses' building: 2**7 ways to set them, each a state."""
@@ -74,52 +73,42 @@ def _plots(plots: int = 3) -> HddlPlanning:
     return translate(domain, problem)
 
 
-def _grounded(planning: HddlPlanning) -> Composition:
-    found = ground(planning.domain, planning.state, planning.tasks)
-    assert found is not None
-    return found
-
-
-def _a(name: str, *args: str) -> Atom:
-    return Atom(name, args)
-
-
 def test_a_fact_used_up_before_a_later_task_needs_it_is_a_dead_end() -> None:
     planning = _plots()
-    c = _grounded(planning)
+    c = grounded(planning)
     start = planning.state.dynamic
-    sets = [_a("set", f"s{k}") for k in range(1, SWITCHES + 1)]
-    apart = [*sets, _a("build", "h1", "p1"), _a("build", "h2", "p2")]
-    clash = [*sets, _a("build", "h1", "p1"), _a("build", "h2", "p1")]
+    sets = [fact("set", f"s{k}") for k in range(1, SWITCHES + 1)]
+    apart = [*sets, fact("build", "h1", "p1"), fact("build", "h2", "p2")]
+    clash = [*sets, fact("build", "h1", "p1"), fact("build", "h2", "p1")]
     assert c.estimate(apart, start) < math.inf
     # Without the build before it, the second house could still go on p1.
     assert c.estimate(clash[:-2] + clash[-1:], start) < math.inf
     assert c.estimate(clash, start) == math.inf
     # Nor where the state has no free p1 to begin with.
-    assert c.estimate(clash[-1:], start - {_a("free", "p1")}) == math.inf
+    assert c.estimate(clash[-1:], start - {fact("free", "p1")}) == math.inf
 
 
 def test_a_negated_fact_nothing_undoes_is_one_way_too() -> None:
     # started(h1) is added by build and deleted by nothing: a second build of h1 needs its
     # negation, which the first one ends.
     planning = _plots()
-    c = _grounded(planning)
-    twice = [_a("build", "h1", "p1"), _a("build", "h1", "p2")]
+    c = grounded(planning)
+    twice = [fact("build", "h1", "p1"), fact("build", "h1", "p2")]
     assert c.estimate(twice, planning.state.dynamic) == math.inf
     assert c.estimate(twice[1:], planning.state.dynamic) < math.inf
 
 
 def test_what_every_decomposition_needs_a_compound_task_needs() -> None:
     planning = _plots()
-    c = _grounded(planning)
-    settle = _a("settle", "h1", "h2")
+    c = grounded(planning)
+    settle = fact("settle", "h1", "h2")
     start = planning.state.dynamic
     assert c.estimate([settle], start) < math.inf
     # Every way to settle builds h1, which needs h1 not started: a build of h1 before it
     # ends that.
-    assert c.estimate([_a("build", "h1", "p3"), settle], start) == math.inf
+    assert c.estimate([fact("build", "h1", "p3"), settle], start) == math.inf
     # No one plot is needed by every way (each picks its own): without p3, the others.
-    assert c.estimate([settle], start - {_a("free", "p3")}) < math.inf
+    assert c.estimate([settle], start - {fact("free", "p3")}) < math.inf
 
 
 def test_the_search_escapes_the_plateau_the_clash_makes(monkeypatch: pytest.MonkeyPatch) -> None:
@@ -128,14 +117,14 @@ def test_the_search_escapes_the_plateau_the_clash_makes(monkeypatch: pytest.Monk
     # With one-way facts the clash is dropped where it is made.
     planning = _plots()
     settings = PlannerSettings(alternatives=1, budget=400, search=Search.GBFS)
-    guide = _grounded(planning).estimate
+    guide = grounded(planning).estimate
     found = plan(planning.domain, planning.state, planning.tasks, settings, guide=guide)
     assert found.status is PlanStatus.SOLVED
     assert found.best is not None
     assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(found.best))] == []
     # The same search without them is lost in the dead region.
     monkeypatch.setattr(composition, "OneWay", _NoOneWay)
-    guide = _grounded(planning).estimate
+    guide = grounded(planning).estimate
     lost = plan(planning.domain, planning.state, planning.tasks, settings, guide=guide)
     assert lost.status is PlanStatus.BUDGET_EXHAUSTED
 
