@@ -761,3 +761,26 @@ def test_a_plan_moved_on_keeps_its_actions_and_text_without_walking_them_again()
     # What is left once the first step is done is the very tuple the agent kept when it
     # showed the plan: unchanged by identity, with no comparison of the two.
     assert rest.actions is whole.later_actions == fresh.actions
+
+
+def test_the_rewrites_a_waiting_goal_logged_are_timed_as_plan_upkeep_when_a_copy_makes_them(
+    nav: Domain,
+) -> None:
+    """The look-ahead forks a waiting goal's plans, which makes the rewrites the goal logged:
+    that is plan keeping, and counts in its planning time like the rewrites it replaced."""
+    start = nav.initial_state("n40")
+    stacked = new_plan_set(nav, a("goto_node(n1)"))
+    stacked.make(start)
+    stacked.lazy = True
+    emergency = plan(nav, start, [a("goto_node(n28)")]).best
+    assert emergency is not None
+    belief = start
+    for action in emergency.actions:
+        nxt = nav.apply(belief, action)
+        assert nxt is not None
+        stacked.action_succeeded(action, belief, nxt)
+        belief = nxt
+    before = stacked.stats.seconds
+    copy = stacked.fork()
+    assert stacked.stats.seconds > before
+    assert copy.plans[0].steps[0].record is None  # the undo of the emergency's last move

@@ -74,7 +74,11 @@ class OnlinePlanSet(PlanSet):
         (see :meth:`_follow_lazily`); only while the plans are stale."""
 
     def fork(self) -> Self:
-        self.catch_up()  # the copy starts from the plans and done steps as they are
+        if self._logged:
+            # The copy starts from the plans and done steps as they are.  Plan upkeep,
+            # timed as such: the look-ahead forks a waiting goal's plans.
+            with self._timed():
+                self.catch_up()
         forked = super().fork()
         forked.revival = self.revival.copy()
         forked._logged = []
@@ -110,8 +114,8 @@ class OnlinePlanSet(PlanSet):
         self._revise(since, state, memo=memo)
 
     def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
-        """For a goal waiting on the stack (``lazy``): rewrite each kept plan (and each
-        plan kept for revival) as the event does — ``change`` gives None for a kept plan
+        """For a goal waiting on the stack (``lazy``): take the event's rewrite of each kept
+        plan (and of each plan kept for revival) — ``change`` gives None for a kept plan
         the event ends (a plan kept for revival is then left as it is; a
         :class:`~htnagent.upkeep.success.MovedOn` leaves both as they are) — and leave the
         re-check until the goal is about to run again.
