@@ -433,7 +433,7 @@ def _area_name_spots(world: WorldMap, unit: float) -> dict[str, tuple[float, flo
     crowd = _Crowding(world, unit)
     for node in world.nodes.values():
         crowd.cover(node.x - unit, node.x + unit, node.y - unit, node.y + unit, weight=3)
-        # A node's name: to its upper right (docs/contracts.md's map; see _map_svg).
+        # A node's name: to its upper right, as _map_svg writes it.
         width = 0.6 * node_font * len(node.name)
         crowd.cover(node.x + unit, node.x + unit + width, node.y - unit - node_font, node.y - unit, weight=3)
     for arc in world.arcs.values():
