@@ -26,7 +26,7 @@ processes on a shared machine do not add to.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 
 from htnagent.runtime.events import GoalResumed, TraceEvent
@@ -116,3 +116,18 @@ async def measure_run(
     figures.planning_cpu_ms = 1000 * sum(a.stats.cpu_seconds for r in runtimes for a in r.agents.values())
     figures.succeeded = report.succeeded
     return figures
+
+
+async def interleaved_runs(
+    scenario: Scenario, runs: int, variants: Mapping[str, tuple[str, bool]]
+) -> dict[str, list[RunFigures]]:
+    """``runs`` measured runs of each variant (its mode, and its look-ahead) after one warm-up
+    run of each, the variants in turn: whatever else the machine does weighs on all alike."""
+    out: dict[str, list[RunFigures]] = {variant: [] for variant in variants}
+    for mode, look_ahead in variants.values():
+        await measure_run(scenario, mode, look_ahead=look_ahead)
+    for _ in range(runs):
+        for variant, figures in out.items():
+            mode, look_ahead = variants[variant]
+            figures.append(await measure_run(scenario, mode, look_ahead=look_ahead))
+    return out

@@ -17,8 +17,8 @@ from typing import Any
 import anyio
 
 from bench.machine import machine_line
-from bench.measure import RunFigures, measure_run
-from htnagent.scenario import Scenario, load_scenario
+from bench.measure import interleaved_runs
+from htnagent.scenario import load_scenario
 
 ROOT = Path(__file__).resolve().parent.parent
 RESULTS = Path(__file__).resolve().parent / "results"
@@ -50,20 +50,6 @@ def _median(values: list[float]) -> float:
     return statistics.median(values) if values else 0.0
 
 
-async def run_case(scenario: Scenario, runs: int) -> dict[str, list[RunFigures]]:
-    """``runs`` measured runs per mode after one warm-up run each, the modes interleaved
-    (so that whatever else the machine does weighs on both alike)."""
-    out: dict[str, list[RunFigures]] = {variant: [] for variant in VARIANTS}
-    for variant in out:
-        mode, look_ahead = VARIANTS[variant]
-        await measure_run(scenario, mode, look_ahead=look_ahead)
-    for _ in range(runs):
-        for variant, figures in out.items():
-            mode, look_ahead = VARIANTS[variant]
-            figures.append(await measure_run(scenario, mode, look_ahead=look_ahead))
-    return out
-
-
 VARIANTS: dict[str, tuple[str, bool]] = {
     "online": ("online", True),
     "naive": ("naive", True),
@@ -83,7 +69,7 @@ def main(runs: int = 25) -> int:
     started = time.perf_counter()
     for i, (case, file, start, goal, arc, emergency, _changes) in enumerate(CASES, 1):
         scenario = load_scenario(ROOT / "scenarios" / file)
-        both = anyio.run(run_case, scenario, runs)
+        both = anyio.run(interleaved_runs, scenario, runs, VARIANTS)
         for variant, (mode, look_ahead) in VARIANTS.items():
             print(
                 f"[{i}/{len(CASES)}] {case:<12} {variant:<6} {runs} runs ...",

@@ -29,7 +29,7 @@ from typing import Any
 
 import anyio
 
-from bench.measure import RunFigures, measure_run
+from bench.measure import RunFigures, interleaved_runs, measure_run
 from htnagent.domains.maps import generate_map, map_to_yaml_data
 from htnagent.scenario import Scenario, load_scenario, parse_scenario
 
@@ -152,19 +152,6 @@ def main(runs: int | None = None, quick: bool = False) -> int:
     return 0
 
 
-def _interleaved(scenario: Scenario, runs: int) -> dict[str, list[RunFigures]]:
-    """``runs`` runs of each mode, after a warm-up of each, the modes in turn: whatever else
-    the machine does weighs on both alike (a few milliseconds a run, where load shifts
-    the CPU clock by a tenth)."""
-    figures: dict[str, list[RunFigures]] = {"online": [], "naive": []}
-    for mode in figures:
-        anyio.run(measure_run, scenario, mode)
-    for _ in range(runs):
-        for mode, done in figures.items():
-            done.append(anyio.run(measure_run, scenario, mode))
-    return figures
-
-
 def nested_study(runs: int) -> list[dict[str, Any]]:
     """Museum map, n40 → n1, with 1 to 5 emergencies each arriving during the previous one."""
     base = load_scenario(ROOT / "scenarios" / "museum.yaml")
@@ -189,7 +176,7 @@ def nested_study(runs: int) -> list[dict[str, Any]]:
             "goals": goals,
         }
         scenario = parse_scenario(data, f"<nested {depth}>")
-        runs_of = _interleaved(scenario, runs)
+        runs_of = anyio.run(interleaved_runs, scenario, runs, {m: (m, True) for m in ("online", "naive")})
         for mode in ("online", "naive"):
             figures = runs_of[mode]
             out.append(
