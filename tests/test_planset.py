@@ -721,6 +721,51 @@ def test_clearing_a_suspension_turns_its_resume_into_the_whole_action(world: Wor
     assert best is not None and replay(areas, cleared, best.actions) is not None
 
 
+def test_a_waiting_goal_does_the_whole_action_another_goal_rolled_back(nav: Domain) -> None:
+    """A goal waits with ``resume(A)``; an emergency's plan rolls A back and goes elsewhere.
+    A is no longer half done: the waiting plan does the whole A, valid without a repair."""
+    belief = nav.initial_state("n40")
+    stacked = new_plan_set(nav, a("goto_node(n31)"))
+    stacked.make(belief)
+    running = a("move(n40,n35,arc59)")
+    assert texts(stacked.best)[0] == str(running)
+    half = nav.suspend(belief, running)
+    stacked.action_suspended(running, belief, half)
+    stacked.lazy = True
+    belief = half
+    for action in ("rollback(move(n40,n35,arc59))", "move(n40,n38,arc58)"):
+        belief = execute(stacked, nav, belief, action)
+    stacked.lazy = False
+    assert stacked.ensure(belief)
+    kept = [p.text() for p in stacked.plans]
+    assert ["move(n38,n40,arc58)", "move(n40,n35,arc59)", "move(n35,n31,arc51)"] in kept
+    assert stacked.stats.repairs == 0 and stacked.stats.from_scratch == 1
+    for p in stacked.plans:
+        assert replay(nav, belief, p.actions) is not None
+
+
+def test_a_waiting_goal_undoes_the_action_another_goal_resumed(world: WorldMap) -> None:
+    """The guide's goal waits to resume ``goto_node(n38)`` in area8; an emergency resumes the
+    move to area7 that an older goal had begun.  Its undo, as after the move itself, leads
+    the waiting plan back to area8: valid, no repair (the resume alone has no undo)."""
+    areas = areas_domain(world)
+    belief = areas.initial_state("n40")
+    moving = a("move_area(area8,area7)")
+    belief = areas.suspend(belief, moving)
+    stacked = new_plan_set(areas, a("goto(n38)"))
+    stacked.make(belief)
+    visiting = a("goto_node(n38)")
+    assert texts(stacked.best) == [str(visiting)]
+    half = areas.suspend(belief, visiting)
+    stacked.action_suspended(visiting, belief, half)
+    stacked.lazy = True
+    belief = execute(stacked, areas, half, "resume(move_area(area8,area7))")
+    stacked.lazy = False
+    assert stacked.ensure(belief)
+    assert texts(stacked.best) == ["move_area(area7,area8)", "resume(goto_node(n38))"]
+    assert stacked.stats.repairs == 0 and stacked.stats.from_scratch == 1
+
+
 def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
     """A long recursive plan, then its target is walled off: repair must not search per level."""
     from htnagent.domains.maps import generate_map

@@ -136,7 +136,7 @@ def test_kept_plans_stay_valid_and_agree_with_naive(
 
 
 def _walker() -> Domain:
-    """go(X,Y) has an undo, go(Y,X), and a resume; hop(X,Y) has neither."""
+    """go(X,Y) has an undo, go(Y,X), a resume and a rollback; hop(X,Y) has none."""
     d = Domain("walker")
     d.operator(
         "go(?x,?y)",
@@ -150,6 +150,7 @@ def _walker() -> Domain:
             resume=Effect(
                 pre=("heading(?x,?y)",), add=("at(?y)",), delete=("at(?x)", "heading(?x,?y)"), cost=1.0
             ),
+            rollback=Effect(pre=("heading(?x,?y)",), delete=("heading(?x,?y)",), cost=1.0),
         ),
         undo="go(?y,?x)",
     )
@@ -159,21 +160,24 @@ def _walker() -> Domain:
 
 WALKER = _walker()
 PLACES = ["a", "b", "c"]
+KINDS = ["go", "hop", "resume", "rollback"]
+
+
+def _walk(kind: str, x: str, y: str) -> Atom:
+    return parse(f"{kind}(go({x},{y}))" if kind in ("resume", "rollback") else f"{kind}({x},{y})")
 
 
 @settings(max_examples=200, deadline=None)
 @given(
     plans=st.lists(
         st.lists(
-            st.tuples(
-                st.sampled_from(["go", "hop", "resume"]), st.sampled_from(PLACES), st.sampled_from(PLACES)
-            ),
+            st.tuples(st.sampled_from(KINDS), st.sampled_from(PLACES), st.sampled_from(PLACES)),
             max_size=6,
         ),
         max_size=3,
     ),
     moves=st.lists(
-        st.tuples(st.sampled_from(["go", "hop"]), st.sampled_from(PLACES), st.sampled_from(PLACES)),
+        st.tuples(st.sampled_from(KINDS), st.sampled_from(PLACES), st.sampled_from(PLACES)),
         max_size=8,
     ),
 )
@@ -182,15 +186,16 @@ def test_a_waiting_goal_takes_the_actions_at_once_as_one_by_one(
 ) -> None:
     """``followed`` (one pass) gives the plans and done steps that §2.1's rewrite, action by
     action, gives: undo steps in front, cancelled where they meet their action (§2.6), a
-    resume behind an undo costed as the whole action, the plan that ran an action moving on."""
+    resume behind an undo costed as the whole action, the plan that ran an action moving on,
+    and a suspension another goal resumed or rolled back settled in the others."""
     actions = WALKER.actions
 
     def step(kind: str, x: str, y: str) -> Step:
-        action = parse(f"resume(go({x},{y}))" if kind == "resume" else f"{kind}({x},{y})")
+        action = _walk(kind, x, y)
         return Step(action, actions.cost(action), None)
 
     kept = [Plan(tuple(step(*s) for s in p)) for p in plans]
-    logged = [moved_on(WALKER, a, actions.undo_of(a)) for a in (parse(f"{k}({x},{y})") for k, x, y in moves)]
+    logged = [moved_on(WALKER, _walk(*m)) for m in moves]
     one_by_one, done = list(kept), []
     for move in logged:
         if (s := ran(one_by_one, move.action)) is not None:

@@ -180,7 +180,7 @@ class OnlinePlanSet(PlanSet):
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         if self.lazy or self._stale:
             with self._timed():
-                self._follow_lazily(moved_on(self.domain, action, self.domain.actions.undo_of(action)), after)
+                self._follow_lazily(moved_on(self.domain, action), after)
             return
         if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
@@ -196,18 +196,16 @@ class OnlinePlanSet(PlanSet):
                     self._checked = after
                     self.revival.tick()
                     if self.revival:
-                        undo = self.domain.actions.undo_of(action)
-                        self.revival.rewrite(moved_on(self.domain, action, undo))
+                        self.revival.rewrite(moved_on(self.domain, action))
                         self.revival.expire()
                 return
         with self._timed():
-            undo = self.domain.actions.undo_of(action)
+            move = moved_on(self.domain, action)
             self._note_done(action)
             kept = kept_after_success(
                 self.domain,
                 self.plans,
-                action,
-                undo,
+                move,
                 before,
                 after,
                 trusted=before is self._checked,
@@ -216,7 +214,7 @@ class OnlinePlanSet(PlanSet):
             # §2.5: plans kept for revival follow the same steps, so that a revived plan
             # is valid from where the robot is by then (not from where it was removed).
             if self.revival:
-                self.revival.rewrite(moved_on(self.domain, action, undo))
+                self.revival.rewrite(move)
             self._revise(before, after, kept, memo=memo)
 
     def _note_done(self, action: Atom) -> None:
