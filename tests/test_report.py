@@ -355,6 +355,21 @@ def _svg_texts(page: str, cls: str) -> list[tuple[float, str]]:
     return [(float(x), text) for x, text in found]
 
 
+def test_a_bar_too_short_for_its_goal_shows_the_task_name(tmp_path: Path) -> None:
+    """The museum's navigator first moves to area7 for 6 s, too short for
+    ``move_area(area8,area7)``: the bar says ``move_area(…)``, on its own colour (its
+    suspension was resumed in the same instant: nothing is hatched)."""
+    page, history = report_of("museum.yaml", tmp_path)
+    first = next(g for g in history.goals if g.agent == "navigator")
+    assert first.goal == "move_area(area8,area7)"
+    labels = [text for _, text in _svg_texts(page, "bar-label")]
+    assert "move_area(…)" in labels and first.goal not in labels
+    assert 'class="bar-label dark"' not in page.split("move_area(…)")[0].rsplit("<text", 1)[-1]
+    # The width a label is given assumes the regular weight: the panels' bold goal must not
+    # reach the bars (whose group is of class "goal" too).
+    assert not re.search(r"(^|})\.goal[{.]", page, re.MULTILINE)
+
+
 @pytest.mark.parametrize("name", [NESTED, FOUR])
 def test_the_stack_label_ends_before_the_depth_axis_numbers_begin(name: str, tmp_path: Path) -> None:
     page, _ = report_of(name, tmp_path)

@@ -118,6 +118,18 @@ class GoalBar:
         """Suspended now, at the end of the events read so far."""
         return bool(self.suspended) and self.suspended[-1].end is None
 
+    def first_stop(self, end: float) -> float:
+        """When the goal first sat on the stack for a while (a suspension resumed in the same
+        instant draws nothing), else ``end``: how far its bar is drawn plain."""
+        return next((s.start for s in self.suspended if s.end is None or s.end > s.start), end)
+
+    @property
+    def labels(self) -> tuple[str, ...]:
+        """What a drawing may write in the goal's bar, longest first: its name, then the
+        task's name with the arguments left out (``move_area(…)``), for a short bar."""
+        head, paren, _ = self.goal.partition("(")
+        return (self.goal, f"{head}(…)") if paren else (self.goal,)
+
 
 @dataclass(slots=True)
 class ActionSpan:

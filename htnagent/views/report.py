@@ -356,13 +356,15 @@ def _goal_bar(goal: GoalBar, y: float, scale: float, end_of_run: float) -> tuple
             f'stroke="{colour}"/>'
         )
         parts.append(f'<path class="hatch" stroke="{colour}" d="{_hatch(sx0, sx1, top, top + _BAR)}"/>')
-    label_width = len(goal.goal) * 6.2
+    # The whole name, else the task's name alone (GoalBar.labels), if either fits.
+    name = next((label for label in goal.labels if len(label) * 6.2 < width - 6), None)
     over = ""
-    if label_width < width - 6:
+    if name is not None:
+        label_width = len(name) * 6.2
         # White on the bar's colour; across hatching, dark with a white halo, over the
         # line of the emergency that suspended it.
-        first_stop = goal.suspended[0].start if goal.suspended else end
-        label = f'<text class="bar-label{{}}" x="{x0 + 3:.1f}" y="{top + 12:.1f}">{_e(goal.goal)}</text>'
+        first_stop = goal.first_stop(end)
+        label = f'<text class="bar-label{{}}" x="{x0 + 3:.1f}" y="{top + 12:.1f}">{_e(name)}</text>'
         if label_width < (first_stop - goal.received) * scale - 6:
             parts.append(label.format(""))
         else:
@@ -697,7 +699,7 @@ stroke-linecap:round}.lg-robot{fill:#ffbf00;stroke:#222;stroke-width:1.5}.lg-end
 #agents{flex:1;min-width:320px}
 .agent{border:1px solid #ddd;border-radius:6px;padding:8px 12px;margin-bottom:10px}
 .k{display:inline-block;min-width:46px;color:#666}
-.goal{font-weight:bold}.goal.emergency{color:#c62828}
+.agent .goal{font-weight:bold}.agent .goal.emergency{color:#c62828}
 .last{color:#555}.last.failure{color:#b00020}
 ol{margin:2px 0 2px 0;padding-left:26px}
 .plan li.now{font-weight:bold;background:#fff3c4}

@@ -179,7 +179,8 @@ def _bar(ax: Any, goal: GoalBar, y: float, end_of_run: float, seconds_per_inch: 
 
 
 def _label(ax: Any, goal: GoalBar, y: float, end: float) -> None:
-    """The goal's name in its bar, measured: smaller if it must, left out if the bar is too short.
+    """The goal's name in its bar, measured: smaller if it must, the task's name alone if the
+    bar is short (:attr:`GoalBar.labels`), left out if even that does not fit.
 
     White over the part where the goal ran first; dark on a white box where it
     has to cross the hatching.
@@ -201,7 +202,11 @@ def _label(ax: Any, goal: GoalBar, y: float, end: float) -> None:
         clip_on=True,
     )
     room = px(end) - px(goal.received) - 8
-    for font in (_FONT, _FONT - 1.5):
+    fitting = (
+        (label, font) for label in goal.labels for font in (_FONT, _FONT - 1.5)
+    )  # the whole name first, at the smaller font if it must, then the task's name alone
+    for label, font in fitting:
+        text.set_text(label)
         text.set_fontsize(font)
         width = text.get_window_extent(renderer).width
         if width < room:
@@ -209,7 +214,7 @@ def _label(ax: Any, goal: GoalBar, y: float, end: float) -> None:
     else:
         text.remove()
         return
-    first_stop = goal.suspended[0].start if goal.suspended else end
+    first_stop = goal.first_stop(end)
     if width >= px(first_stop) - px(goal.received) - 8:
         text.set_color("#111111")
         text.set_bbox({"facecolor": "white", "edgecolor": "none", "pad": 0.5})
