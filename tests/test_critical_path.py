@@ -24,7 +24,7 @@ from htnagent.runtime.events import GoalFinished, GoalReceived, MessageSent, Rob
 from htnagent.scenario import load_scenario, parse_scenario
 from htnagent.system.runtime import Runtime
 from htnagent.system.simulation import run_scenario
-from htnagent.upkeep import OnlinePlanSet, PlanSet
+from htnagent.upkeep import OnlinePlanSet, PlanSet, SearchMemo
 
 # -- the agent takes a prepared resumption over without walking its plans again ---------------------
 
@@ -155,10 +155,15 @@ async def test_a_child_readies_its_held_goal_for_the_parent_s_resume_on_its_last
     foresee = LookAhead._foresee_resumption
 
     def recording(
-        self: LookAhead, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]
+        self: LookAhead,
+        entry: GoalEntry,
+        plans: PlanSet,
+        belief: State,
+        done: tuple[Atom, ...],
+        memo: SearchMemo | None = None,
     ) -> Resumption:
         replayed.append(len(done))
-        return foresee(self, entry, plans, belief, done)
+        return foresee(self, entry, plans, belief, done, memo)
 
     monkeypatch.setattr(LookAhead, "_foresee_resumption", recording)
     report = await run_scenario(load_scenario(SCENARIOS / file), replanning="online")

@@ -766,6 +766,47 @@ def test_a_waiting_goal_undoes_the_action_another_goal_resumed(world: WorldMap) 
     assert stacked.stats.repairs == 0 and stacked.stats.from_scratch == 1
 
 
+def _back_from_an_emergency(nav: Domain) -> tuple[PlanSet, State]:
+    """goto_node(n1) waited while an emergency walked the robot from n40 to n28: its lone
+    plan is now behind the undo of every move (§2.1), the rewrites logged, unchecked."""
+    start = nav.initial_state("n40")
+    stacked = new_plan_set(nav, a("goto_node(n1)"))
+    assert stacked.ensure(start) and len(stacked.plans) == 1  # a goal's plan comes alone
+    stacked.lazy = True
+    emergency = plan(nav, start, [a("goto_node(n28)")]).best
+    assert emergency is not None and len(emergency.actions) > 2
+    belief = start
+    for action in emergency.actions:
+        after = nav.apply(belief, action)
+        assert after is not None
+        stacked.action_succeeded(action, belief, after)
+        belief = after
+    stacked.lazy = False
+    return stacked, belief
+
+
+def test_a_detour_beaten_by_a_way_proven_optimal_is_not_walked(
+    nav: Domain, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """At resumption the shorter way is searched before the detour is walked (§2.4): proven
+    optimal by the estimate, it is taken, and walking the detour would change nothing."""
+    stacked, belief = _back_from_an_emergency(nav)
+    optimum = plan(nav, belief, [a("goto_node(n1)")]).best
+    assert optimum is not None
+    rechecks = stacked.stats.rechecks
+    assert stacked.ensure(belief)
+    assert texts(stacked.best) == optimum.text() and stacked.stats.shortcuts == 1
+    assert stacked.stats.rechecks == rechecks  # the detour was not walked
+    assert not stacked.shorten_detours(belief)
+    # Not proven: the detour is walked first, as it always was, and loses all the same.
+    monkeypatch.setattr(online_module, "proven_optimal", lambda ps, p, state: False)
+    walked, belief = _back_from_an_emergency(nav)
+    rechecks = walked.stats.rechecks
+    assert walked.ensure(belief) and walked.stats.rechecks > rechecks
+    assert walked.best is not None and walked.best.steps[0].record is None  # behind its undo steps
+    assert walked.shorten_detours(belief) and texts(walked.best) == optimum.text()
+
+
 def test_repairs_of_a_goal_made_unreachable_cost_about_one_search() -> None:
     """A long recursive plan, then its target is walled off: repair must not search per level."""
     from htnagent.domains.maps import generate_map
@@ -815,7 +856,7 @@ def test_the_rewrites_a_waiting_goal_logged_are_timed_as_plan_upkeep_when_a_copy
     that is plan keeping, and counts in its planning time like the rewrites it replaced."""
     start = nav.initial_state("n40")
     stacked = new_plan_set(nav, a("goto_node(n1)"))
-    stacked.make(start)
+    assert stacked.ensure(start) and len(stacked.plans) == 1  # a goal's plan comes alone
     stacked.lazy = True
     emergency = plan(nav, start, [a("goto_node(n28)")]).best
     assert emergency is not None

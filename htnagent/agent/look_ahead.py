@@ -165,9 +165,10 @@ class LookAhead(NoLookAhead):
         # a copy made now would (with a thousand nested emergencies, 32 copies each).
         fork = top.plans.fork()
         fork.lazy = False
-        fork.action_succeeded(action, before, after, SearchMemo())
+        memo = SearchMemo()  # one belief, ``after``: the update and the resumption share their searches
+        fork.action_succeeded(action, before, after, memo)
         self.prediction = PredictedSuccess(action, before, after, top.plans, fork)
-        best = self._foresee_resumption(top, fork.fork(), after, (action,)).plans.best
+        best = self._foresee_resumption(top, fork.fork(), after, (action,), memo).plans.best
         if agent.executor.agent_domain is not None and best is not None and best.steps:
             # The child agent gets ready for this order too (or for resuming its goal).
             agent.order(agent.executor, Prepare(action=best.steps[0].action))
@@ -175,15 +176,21 @@ class LookAhead(NoLookAhead):
         return False
 
     def _foresee_resumption(
-        self, entry: GoalEntry, plans: PlanSet, belief: State, done: tuple[Atom, ...]
+        self,
+        entry: GoalEntry,
+        plans: PlanSet,
+        belief: State,
+        done: tuple[Atom, ...],
+        memo: SearchMemo | None = None,
     ) -> Resumption:
         """Work out ahead how ``entry`` resumes from ``belief`` with ``plans`` (a fork
-        updated up to that belief, once the actions ``done`` have succeeded)."""
+        updated up to that belief, once the actions ``done`` have succeeded; ``memo``, the
+        searches of that update)."""
         plans.lazy = False
         # A resume or rollback among the actions done settles what it finished or undid.
         settled = {a for step in done if (a := action_recovered_by(step)) is not None}
         suspended = [a for a in entry.suspended if a not in settled]
-        resumption = work_out_resumption(self.agent.domain, plans, belief, suspended)
+        resumption = work_out_resumption(self.agent.domain, plans, belief, suspended, memo)
         if plans.best is not None:
             # Worked out now: showing the plan at resumption, and following it, are then free.
             _ = plans.best.shown, plans.best.later_actions

@@ -30,10 +30,14 @@ class Resumption:
     with the belief once that action is cleared (oldest first)."""
 
 
-def work_out_resumption(domain: Domain, plans: PlanSet, belief: State, suspended: list[Atom]) -> Resumption:
+def work_out_resumption(
+    domain: Domain, plans: PlanSet, belief: State, suspended: list[Atom], memo: SearchMemo | None = None
+) -> Resumption:
     """Make a resumed goal's ``plans`` good from ``belief`` and say which of its
     ``suspended`` actions to clear.  ``plans`` is updated in place (the goal's own, or a
     fork of them when worked out ahead); the belief and ``suspended`` are not touched.
+    ``memo``: the searches an update of the plans from ``belief`` made just before (the
+    look-ahead's), to share.
 
     Algorithm 2 for a resumed goal, with §2.7 and §2.8::
 
@@ -47,7 +51,7 @@ def work_out_resumption(domain: Domain, plans: PlanSet, belief: State, suspended
     # One update from one belief: its steps share their searches (the re-check of plans
     # left unchecked while the goal waited may plan the goal afresh; shortening a detour
     # would search for that very plan again).
-    memo = SearchMemo()
+    memo = memo if memo is not None else SearchMemo()
     plans.confirm_achieved(belief, memo)
     plans.ensure(belief, memo)
     plans.reconsider(belief, memo)  # a way opened while it waited: as good as a plan made afresh

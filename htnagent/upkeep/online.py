@@ -39,7 +39,15 @@ from htnagent.model.terms import Atom
 from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.upkeep.base import PlanSet
 from htnagent.upkeep.failure import means_it_again, new_alternatives, starts_with, without_failed
-from htnagent.upkeep.quality import comparison_budget, first_own_step, fresher_kept, rival_from
+from htnagent.upkeep.quality import (
+    cheaper_rival,
+    comparison_budget,
+    first_own_step,
+    fresher_kept,
+    proven_optimal,
+    rival_from,
+    take_rival,
+)
 from htnagent.upkeep.recheck import recheck_all
 from htnagent.upkeep.repair import LOCAL_BUDGET, LOCAL_MIN, LOCAL_SHARE, OnDemand, Repairer, SearchMemo
 from htnagent.upkeep.revival import Revival
@@ -111,9 +119,37 @@ class OnlinePlanSet(PlanSet):
         since = self._stale_since if self._stale_since is not None else state
         self.catch_up()
         self._stale, self._stale_since = False, None
+        if self._detour_beaten(state, memo):
+            return
         self._revise(since, state, memo=memo)
 
-    def _follow_lazily(self, change: Callable[[Plan], Plan | None], after: State) -> None:
+    def _detour_beaten(self, state: State, memo: SearchMemo | None) -> bool:
+        """The re-check (§2.4) and the shorter way at resumption (:meth:`shorten_detours`),
+        in the order that spares a walk: the goal's lone plan comes back from its wait
+        behind the undo steps of what the emergencies did (§2.1), to be walked and then
+        offered a shorter way.  That way, searched first, is taken at once when it is
+        cheaper and the estimate proves it optimal: nothing the walk could find (the plan
+        valid, or repaired) would beat it.  Otherwise the plan is walked as always, and
+        the search, made, is shared through ``memo``."""
+        if len(self.plans) != 1:
+            return False
+        best = self.plans[0]
+        first = first_own_step(best)
+        if not first:
+            return False
+        rival = cheaper_rival(self, state, best, first, OnDemand(lambda: self._repairer(memo)))
+        if rival is None or not proven_optimal(self, rival, state):
+            return False
+        self.revival.tick()  # an update, as the re-check would count it (§2.5's window)
+        take_rival(self, rival)
+        self._checked = state
+        self._fresh_due = False  # as good as a plan made afresh: proven
+        self.revival.expire()
+        return True
+
+    def _follow_lazily(
+        self, change: Callable[[Plan], Plan | None], after: State, memo: SearchMemo | None = None
+    ) -> None:
         """For a goal waiting on the stack (``lazy``): take the event's rewrite of each kept
         plan (and of each plan kept for revival) — ``change`` gives None for a kept plan
         the event ends (a plan kept for revival is then left as it is; a
@@ -135,7 +171,7 @@ class OnlinePlanSet(PlanSet):
         if self.revival:
             self.revival.rewrite(change)
         if not self.lazy:
-            self._recheck_stale(after)
+            self._recheck_stale(after, memo)
 
     def catch_up(self) -> None:
         """Make the rewrites logged while the goal waited (:meth:`_follow_lazily`), in
@@ -180,7 +216,7 @@ class OnlinePlanSet(PlanSet):
         """The executed action finished with success; the belief went ``before`` → ``after`` (§2.1)."""
         if self.lazy or self._stale:
             with self._timed():
-                self._follow_lazily(moved_on(self.domain, action), after)
+                self._follow_lazily(moved_on(self.domain, action), after, memo)
             return
         if len(self.plans) == 1 and before is self._checked:
             # The common case, what the general case below comes to for it: the one plan,
@@ -229,7 +265,7 @@ class OnlinePlanSet(PlanSet):
         """The executed action failed (§2.2): plans starting with it go, the rest are re-checked."""
         if self.lazy or self._stale:
             with self._timed():
-                self._follow_lazily(lambda p: None if starts_with(p, action) else p, after)
+                self._follow_lazily(lambda p: None if starts_with(p, action) else p, after, memo)
             return
         with self._timed():
             had = bool(self.plans)
@@ -253,7 +289,7 @@ class OnlinePlanSet(PlanSet):
         with self._timed():
             suspended = Suspension(self.domain, action, rollbacks=self.settings.rollbacks)
             if self.lazy or self._stale:
-                self._follow_lazily(suspended, after)  # step 3's rewrite; its re-check waits
+                self._follow_lazily(suspended, after, memo)  # step 3's rewrite; its re-check waits
                 return
             kept = suspended.kept(
                 self.plans,
@@ -280,7 +316,7 @@ class OnlinePlanSet(PlanSet):
         with self._timed():
             rewrite = whole(self.domain, action)
             if self.lazy or self._stale:
-                self._follow_lazily(rewrite, after)
+                self._follow_lazily(rewrite, after, memo)
                 return
             resume = resume_action(action)
             kept = [
@@ -303,7 +339,7 @@ class OnlinePlanSet(PlanSet):
             if self.domain.opens_ways(before, after):
                 self._fresh_due = True
             if self.lazy or self._stale:
-                self._follow_lazily(lambda p: p, after)
+                self._follow_lazily(lambda p: p, after, memo)
                 return
             kept = [Kept(p, self._untouched(p, before, after)) for p in self.plans]
             self._revise(before, after, kept, memo=memo)

@@ -98,6 +98,17 @@ def rival_from(ps: PlanSet, state: State, best: Plan, first: int, repairer: Call
     """Re-decompose the lowest compound task above ``best``'s step ``first`` (the goal, if
     none is left) from ``state``, followed by the rest of ``best``; select the rival if
     it is cheaper (a repair as in §2.4).  Returns whether it was."""
+    rival = cheaper_rival(ps, state, best, first, repairer)
+    if rival is None:
+        return False
+    take_rival(ps, rival)
+    return True
+
+
+def cheaper_rival(
+    ps: PlanSet, state: State, best: Plan, first: int, repairer: Callable[[], Repairer]
+) -> Plan | None:
+    """:func:`rival_from`'s rival, if it is cheaper than ``best`` (not selected)."""
     tasks: list[TaskEntry]
     if first == len(best.steps):
         # Nothing of the goal's own is left, only the way back to where an
@@ -113,27 +124,32 @@ def rival_from(ps: PlanSet, state: State, best: Plan, first: int, repairer: Call
     # With admissible estimates nothing can beat a plan that costs no more than
     # the estimate of the rival's tasks: then the search is not worth making.
     if best.cost <= heuristic(ps.domain, [head], state) + fixed + 1e-9:
-        return False
+        return None
     rival = repairer().search(state, tasks, one_plan(ps.settings))
     if rival is None or rival.cost >= best.cost - 1e-9:
-        return False
+        return None
+    return rival
+
+
+def take_rival(ps: PlanSet, rival: Plan) -> None:
+    """Select ``rival``, which beat the best plan (:func:`cheaper_rival`)."""
     # The plan it beat is not kept as an alternative: a detour walks back over the
     # emergency's route only to go the way the rival goes, and keeping it valid would
     # cost an undo step more at every action (a goal's plan comes alone, §1, §4;
     # alternatives are looked for when an action fails: see widen).
-    shorter = rival  # the planner returns tidy plans
-    others = [p for p in ps.plans[1:] if p.actions != shorter.actions]
-    ps.plans = sorted([shorter, *others], key=lambda q: q.cost)[: ps.settings.alternatives]
+    others = [p for p in ps.plans[1:] if p.actions != rival.actions]
+    ps.plans = sorted([rival, *others], key=lambda q: q.cost)[: ps.settings.alternatives]
     ps.stats.shortcuts += 1
-    return True
 
 
 __all__ = [
     "COMPARISON_FACTOR",
     "COMPARISON_FLOOR",
+    "cheaper_rival",
     "comparison_budget",
     "first_own_step",
     "fresher_kept",
     "proven_optimal",
     "rival_from",
+    "take_rival",
 ]
