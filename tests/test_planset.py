@@ -766,9 +766,9 @@ def test_a_waiting_goal_undoes_the_action_another_goal_resumed(world: WorldMap) 
     assert stacked.stats.repairs == 0 and stacked.stats.from_scratch == 1
 
 
-def _back_from_an_emergency(nav: Domain) -> tuple[PlanSet, State]:
-    """goto_node(n1) waited while an emergency walked the robot from n40 to n28: its lone
-    plan is now behind the undo of every move (§2.1), the rewrites logged, unchecked."""
+def _waited_through_an_emergency(nav: Domain) -> tuple[PlanSet, State]:
+    """goto_node(n1) waits on the stack while an emergency walks the robot from n40 to n28:
+    its lone plan goes behind the undo of every move (§2.1), the rewrites logged, unchecked."""
     start = nav.initial_state("n40")
     stacked = new_plan_set(nav, a("goto_node(n1)"))
     assert stacked.ensure(start) and len(stacked.plans) == 1  # a goal's plan comes alone
@@ -781,7 +781,6 @@ def _back_from_an_emergency(nav: Domain) -> tuple[PlanSet, State]:
         assert after is not None
         stacked.action_succeeded(action, belief, after)
         belief = after
-    stacked.lazy = False
     return stacked, belief
 
 
@@ -790,7 +789,8 @@ def test_a_detour_beaten_by_a_way_proven_optimal_is_not_walked(
 ) -> None:
     """At resumption the shorter way is searched before the detour is walked (§2.4): proven
     optimal by the estimate, it is taken, and walking the detour would change nothing."""
-    stacked, belief = _back_from_an_emergency(nav)
+    stacked, belief = _waited_through_an_emergency(nav)
+    stacked.lazy = False  # it resumes
     optimum = plan(nav, belief, [a("goto_node(n1)")]).best
     assert optimum is not None
     rechecks = stacked.stats.rechecks
@@ -800,7 +800,8 @@ def test_a_detour_beaten_by_a_way_proven_optimal_is_not_walked(
     assert not stacked.shorten_detours(belief)
     # Not proven: the detour is walked first, as it always was, and loses all the same.
     monkeypatch.setattr(online_module, "proven_optimal", lambda ps, p, state: False)
-    walked, belief = _back_from_an_emergency(nav)
+    walked, belief = _waited_through_an_emergency(nav)
+    walked.lazy = False
     rechecks = walked.stats.rechecks
     assert walked.ensure(belief) and walked.stats.rechecks > rechecks
     assert walked.best is not None and walked.best.steps[0].record is None  # behind its undo steps
@@ -854,18 +855,7 @@ def test_the_rewrites_a_waiting_goal_logged_are_timed_as_plan_upkeep_when_a_copy
 ) -> None:
     """The look-ahead forks a waiting goal's plans, which makes the rewrites the goal logged:
     that is plan keeping, and counts in its planning time like the rewrites it replaced."""
-    start = nav.initial_state("n40")
-    stacked = new_plan_set(nav, a("goto_node(n1)"))
-    assert stacked.ensure(start) and len(stacked.plans) == 1  # a goal's plan comes alone
-    stacked.lazy = True
-    emergency = plan(nav, start, [a("goto_node(n28)")]).best
-    assert emergency is not None
-    belief = start
-    for action in emergency.actions:
-        nxt = nav.apply(belief, action)
-        assert nxt is not None
-        stacked.action_succeeded(action, belief, nxt)
-        belief = nxt
+    stacked, _ = _waited_through_an_emergency(nav)
     before = stacked.stats.seconds
     copy = stacked.fork()
     assert stacked.stats.seconds > before
