@@ -97,7 +97,7 @@ def test_the_search_drops_the_choice_that_lost_the_goal(monkeypatch: pytest.Monk
     assert found.best is not None
     assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(found.best))] == []
     # The same search as it was, any action adding any fact, is lost in the dead region.
-    monkeypatch.setattr(Below, "dead", lambda *_: False)
+    monkeypatch.setattr(Below, "lost", lambda *_: False)
     lost = plan(planning.domain, planning.state, planning.tasks, settings, guide=grounded(planning).estimate)
     assert lost.status is PlanStatus.BUDGET_EXHAUSTED
 
@@ -115,15 +115,15 @@ def test_what_a_task_needs_at_its_start_is_what_every_way_needs() -> None:
 
 
 def test_a_fact_needed_must_hold_or_come_from_a_task_before() -> None:
-    # 0 -> 1 -> 0 (recursion), 1 -> 2; 3 -> 4; primitive 2 adds fact 7, 4 adds 8;
-    # task 5 needs 7 at its start.
+    # 0 -> 1 -> 0 (recursion), 1 -> 2; 3 -> 4; primitive 2 adds fact 7, 4 adds 8.
     b = Below({0: [1], 1: [0, 2], 3: [4]}, {2: [7], 4: [8]}, {5: [7]})
     assert b.adds(0) == b.adds(1) == frozenset({7})
-    assert b.dead([5], frozenset())
-    assert not b.dead([5], frozenset({7}))
-    assert not b.dead([0, 5], frozenset())
-    assert b.dead([3, 5], frozenset())
-    assert b.dead([5, 0], frozenset())  # after it is too late
+    assert b.needs == {5: frozenset({7})}
+    assert b.lost(frozenset({7}), [])
+    assert not b.lost(frozenset({7}), [0])
+    assert b.lost(frozenset({7}), [3])
+    assert b.lost(frozenset({7, 8}), [0])
+    assert not b.lost(frozenset({7, 8}), [0, 3])
 
 
 def test_below_forgets_past_its_bound_and_answers_the_same(monkeypatch: pytest.MonkeyPatch) -> None:

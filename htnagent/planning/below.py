@@ -68,11 +68,6 @@ class Below:
         self._kept = 0
         self.needs: dict[int, frozenset[int]] = {t: frozenset(f) for t, f in first.items() if f}
         """Task id: the facts it needs at its start (only the tasks that need some)."""
-        # By id, for :meth:`dead` (looked up for every task of every list estimated).
-        size = max((*self.needs, *self._children, *self._adds), default=-1) + 1
-        self._by_id: list[frozenset[int] | None] = [None] * size
-        for t, need in self.needs.items():
-            self._by_id[t] = need
 
     @staticmethod
     def of(
@@ -126,25 +121,16 @@ class Below:
         memo[task] = found
         return found
 
-    def dead(self, tasks: Sequence[int], holds: frozenset[int]) -> bool:
-        """Whether some task of the list needs at its start a fact that is not in ``holds``
-        (the state's) and that no task before it can add."""
-        needs = self._by_id
-        size = len(needs)
+    def lost(self, missing: frozenset[int], before: Sequence[int]) -> bool:
+        """Whether some of the ``missing`` facts (that a task needs at its start and the
+        state lacks) is added below none of the tasks ``before`` it."""
         memo = self._memo
-        for k, t in enumerate(tasks):
-            need = needs[t] if t < size else None
-            if need is None or need <= holds:
-                continue
-            missing = need - holds
-            # The nearest task before it first: the likeliest to add what is missing.
-            for e in range(k - 1, -1, -1):
-                missing -= memo.get(tasks[e]) or self.adds(tasks[e])
-                if not missing:
-                    break
-            else:
-                return True
-        return False
+        # The nearest task before it first: the likeliest to add what is missing.
+        for e in reversed(before):
+            missing -= memo.get(e) or self.adds(e)
+            if not missing:
+                return False
+        return True
 
 
 class Split:

@@ -48,7 +48,6 @@ import math
 from collections import Counter, defaultdict
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
-from typing import cast
 
 from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import Literal, satisfiers
@@ -198,7 +197,7 @@ class Composition:
         self._cache: dict[frozenset[Atom], list[float]] = {}
         # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
         self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
-        self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
+        self._last: tuple[frozenset[Atom] | None, list[float], frozenset[int]] = (None, [], frozenset())
         # What the delete relaxation cannot see run out (step 5): a fact's id is its index in
         # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.  By
         # task id, what it needs and what it ends (a list: looked up for every task of every
@@ -214,7 +213,12 @@ class Composition:
         needed = set().union(*self._below.needs.values())
         self._needed = {f: i for f, i in self._facts.items() if i in needed}
         self._needed_negated = [(f, i) for f, i in self._negated if i in needed]
-        self._holds: tuple[frozenset[Atom] | None, frozenset[int]] = (None, frozenset())
+        # By task id, what it needs at its start (None: nothing); None where no task needs any.
+        self._starts: list[frozenset[int] | None] | None = None
+        if self._below.needs:
+            self._starts = [None] * self._size
+            for i, need in self._below.needs.items():
+                self._starts[i] = need
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -311,17 +315,13 @@ class Composition:
                             push(heap, (v, o))
         return dist
 
-    def holds(self, dynamic: frozenset[Atom]) -> frozenset[int]:
+    def _holding(self, dynamic: frozenset[Atom]) -> frozenset[int]:
         """The facts some task needs at its start (step 6) that hold in the state whose
         changing facts are ``dynamic``, by id (a negated fact where its fact is false)."""
-        last, found = self._holds
-        if dynamic is not last:
-            needed = self._needed
-            here = [i for f in dynamic if (i := needed.get(f)) is not None]
-            here += [i for f, i in self._needed_negated if f not in dynamic]
-            found = frozenset(here)
-            self._holds = (dynamic, found)
-        return found
+        needed = self._needed
+        here = [i for f in dynamic if (i := needed.get(f)) is not None]
+        here += [i for f, i in self._needed_negated if f not in dynamic]
+        return frozenset(here)
 
     def estimate(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
         """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
@@ -329,27 +329,35 @@ class Composition:
         cannot come from the tasks grounded) counts its name's least cost -- or ``inf``
         where the grounding worked out what can be produced at all and it is not."""
         # The children of one node mostly share its state: the same object, asked again.
-        last_dynamic, dist = self._last
+        last_dynamic, dist, holds = self._last
         if dynamic is not last_dynamic:
             dist = self.task_costs(dynamic)
-            self._last = (dynamic, dist)
+            holds = self._holding(dynamic)
+            self._last = (dynamic, dist, holds)
         ids = self._tasks
-        known = list(map(ids.get, tasks))
-        if None not in known and self._below.dead(cast("list[int]", known), self.holds(dynamic)):
-            return _INF  # step 6 (a task the grounding never met might add anything: not checked)
         total = 0.0
         one_way = self._one_way
         ended: set[int] = set()  # the one-way facts the primitive tasks so far make false
-        for t, i in zip(tasks, known, strict=True):
+        starts = self._starts
+        before: list[int] = []  # the tasks so far, by id (step 6)
+        for t in tasks:
+            i = ids.get(t)
             if i is not None:
                 total += dist[i]
+                if starts is not None:
+                    # Step 6: what the task needs at its start, the state lacks and no
+                    # task before it adds, no plan makes true in time.
+                    need = starts[i]
+                    if need is not None and not need <= holds and self._below.lost(need - holds, before):
+                        return _INF
+                    before.append(i)
                 if one_way is None or (found := one_way[i]) is None:
                     continue
                 # Step 5: a one-way fact the task needs must hold now and not be ended
                 # before it by a task of the list (a fact nothing adds costs 0 only when
                 # the state holds it).
-                need, gone = found
-                for f in need:
+                one_way_need, gone = found
+                for f in one_way_need:
                     if dist[f] != 0.0 or f in ended:
                         return _INF
                 ended |= gone
@@ -359,7 +367,8 @@ class Composition:
                 return _INF
             else:
                 total += self._fallback.get(t.name, 0.0)
-                one_way = None  # what it does is unknown (it might renew any fact): no more checks
+                # What it does is unknown (it might renew or add any fact): no more checks.
+                one_way = starts = None
         return total
 
 
