@@ -59,9 +59,8 @@ class Below:
         first: Mapping[int, Iterable[int]],
     ) -> None:
         """``children``: each compound task's subtasks over all its ground methods;
-        ``adds``: each primitive task's facts added (over its actions); ``first``: each
-        compound task's first subtasks, one a method, with the precondition facts
-        (:func:`starting_needs`)."""
+        ``adds``: each primitive task's facts added (over its actions); ``first``: what
+        each task needs at its start (:func:`starting_needs`)."""
         self._children = {t: tuple(set(subs)) for t, subs in children.items()}
         self._adds = {t: frozenset(facts) for t, facts in adds.items()}
         self._memo: dict[int, frozenset[int]] = {}
