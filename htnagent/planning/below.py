@@ -42,10 +42,10 @@ from htnagent.planning.one_way import GroundSplit, GroundStep
 
 _NONE: frozenset[int] = frozenset()
 
-MAX_KEPT = 4_000_000
-"""About how many facts, summed over the tasks worked out, :class:`Below` keeps: past it (a
-large grounding whose every task reaches most of the actions) it forgets them and works
-them out again as lists ask -- memory over time."""
+MAX_KEPT = 1_000_000
+"""About how many facts, summed over the tasks worked out, :class:`Below` keeps (some tens
+of megabytes): past it (a large grounding whose every task reaches most of the actions) it
+forgets them and works them out again as lists ask -- time over memory."""
 
 
 class Below:
