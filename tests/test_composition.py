@@ -269,8 +269,9 @@ def test_parameters_only_subtasks_name_are_bound_by_what_can_occur(monkeypatch: 
     assert fact("coat", "i1", "c2", "b2") not in c.least
     assert c.estimate([fact("coat", "i1", "c2", "b2")], planning.state.dynamic) == math.inf
     # Sanding with a blunt tool: only once the item is smooth (sand-done, with any tool):
-    # polish(i1,t1) and the paint before it.
-    assert c.estimate([fact("sand", "i1", "t2")], planning.state.dynamic) == 2
+    # polish(i1,t1) and the paint before it -- which only a task before it can do (step 6).
+    assert c.estimate([fact("finish", "i1"), fact("sand", "i1", "t2")], planning.state.dynamic) == 3 + 2
+    assert c.estimate([fact("sand", "i1", "t2")], planning.state.dynamic) == math.inf
     assert c.estimate([fact("sand", "i1", "t2")], planning.state.dynamic | {fact("smooth", "i1")}) == 0
     _by_types(monkeypatch)
     assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None

@@ -32,6 +32,9 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
 5. **One-way facts** (:mod:`htnagent.planning.one_way`): ``inf`` too where a task of the
    list needs a fact nothing makes true again that the state lacks, or that a task before
    it uses up -- which the delete relaxation of step 4 cannot see.
+6. **What the list can still make true** (:mod:`htnagent.planning.below`): ``inf`` too where
+   a task needs at its start a fact the state lacks that no action below the tasks before
+   it adds -- step 4 lets any action add it, even one no task left comes down to.
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
 :func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads
@@ -50,6 +53,7 @@ from htnagent.model.domain import Domain, Method
 from htnagent.model.preconditions import Literal, satisfiers
 from htnagent.model.state import FactBase, State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
+from htnagent.planning.below import Below
 from htnagent.planning.ground_methods import Decompositions, GroundWay, decompositions
 from htnagent.planning.hddl_translation import EQ, TYPE
 from htnagent.planning.one_way import OneWay
@@ -69,6 +73,10 @@ task leave room for ten such tasks at most.  Working out what can be produced is
 over the whole problem, which costs more than it saves where the types add only a few
 ways (Entertainment's methods: six bindings; AssemblyHierarchical's: up to 1,600 in its
 10th problem); Woodworking's make up to 48,600."""
+
+MAX_WHOLE = 100
+"""The dearest action, in whole numbers, for which :meth:`Composition.task_costs` lists nodes
+by cost (a list a cost) instead of keeping a heap."""
 
 CACHED_COSTS = 2_000_000
 """About how many task and fact costs :meth:`Composition.task_costs` keeps for the states
@@ -180,13 +188,16 @@ class Composition:
                 consumers[i].append(k)
         self._needs = needs
         self._base = base
+        # Whole-number costs (the IPC's actions cost 1): the costs' Dijkstra by buckets.
+        self._whole = all(b == int(b) and 0 <= b <= MAX_WHOLE for b in base)
+        self._int_base = [int(b) for b in base] if self._whole else []
         self._outputs = outputs
         self._consumers = [tuple(c) for c in consumers]
         self._free = [k for k, n in enumerate(needs) if n == 0]
         self._cache: dict[frozenset[Atom], list[float]] = {}
         # States' costs kept: about CACHED_COSTS numbers in all (each a Python float).
         self._cache_size = max(64, CACHED_COSTS // max(self._size, 1))
-        self._last: tuple[frozenset[Atom] | None, list[float]] = (None, [])
+        self._last: tuple[frozenset[Atom] | None, list[float], frozenset[int]] = (None, [], frozenset())
         # What the delete relaxation cannot see run out (step 5): a fact's id is its index in
         # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.  By
         # task id, what it needs and what it ends (a list: looked up for every task of every
@@ -197,6 +208,17 @@ class Composition:
             self._one_way = [None] * self._size
             for i in {*one_way.needs, *one_way.ends}:
                 self._one_way[i] = (one_way.needs.get(i, ()), one_way.ends.get(i, frozenset()))
+        # What the list can still make true (step 6).
+        self._below = Below.of(actions, methods, ids, task_ids)
+        needed = set().union(*self._below.needs.values())
+        self._needed = {f: i for f, i in self._facts.items() if i in needed}
+        self._needed_negated = [(f, i) for f, i in self._negated if i in needed]
+        # By task id, what it needs at its start (None: nothing); None where no task needs any.
+        self._starts: list[frozenset[int] | None] | None = None
+        if self._below.needs:
+            self._starts = [None] * self._size
+            for i, need in self._below.needs.items():
+                self._starts[i] = need
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -206,6 +228,51 @@ class Composition:
             return found
         if len(self._cache) >= self._cache_size:
             self._cache.clear()  # a bound on memory: the searches revisit few states late
+        dist = self._by_buckets(dynamic) if self._whole else self._by_heap(dynamic)
+        self._cache[dynamic] = dist
+        return dist
+
+    def _by_buckets(self, dynamic: frozenset[Atom]) -> list[float]:
+        """:meth:`task_costs` where every action costs a whole number: Dijkstra's algorithm
+        with a list of what each cost reaches in place of the heap (Dial's), which reads
+        every cost in turn -- h_add's are sums of whole numbers, few and small.  A node may
+        be listed more than once; it is settled at its first, cheapest, listing."""
+        dist: list[float] = [_INF] * self._size
+        left = self._needs[:]
+        acc = [0] * len(left)
+        base = self._int_base
+        outputs = self._outputs
+        consumers = self._consumers
+        facts = self._facts
+        start = [i for f in dynamic if (i := facts.get(f)) is not None]
+        start += [i for f, i in self._negated if f not in dynamic]
+        buckets: list[list[int]] = [start]
+        for k in self._free:
+            v = base[k]
+            while len(buckets) <= v:
+                buckets.append([])
+            buckets[v].extend(outputs[k])
+        cost = 0
+        while cost < len(buckets):
+            # The list grows as it is read: a method (cost 0) reaches its task at the cost
+            # its subtasks reached.
+            for n in buckets[cost]:
+                if dist[n] != _INF:
+                    continue
+                dist[n] = cost
+                for k in consumers[n]:
+                    acc[k] += cost
+                    left[k] -= 1
+                    if not left[k]:
+                        v = acc[k] + base[k]
+                        while len(buckets) <= v:
+                            buckets.append([])
+                        buckets[v].extend(outputs[k])
+            cost += 1
+        return dist
+
+    def _by_heap(self, dynamic: frozenset[Atom]) -> list[float]:
+        """:meth:`task_costs` by Dijkstra's algorithm on a heap: for any action costs."""
         dist = [_INF] * self._size
         pushed = [_INF] * self._size
         left = self._needs[:]
@@ -246,8 +313,15 @@ class Composition:
                         if v < pushed[o]:
                             pushed[o] = v
                             push(heap, (v, o))
-        self._cache[dynamic] = dist
         return dist
+
+    def _holding(self, dynamic: frozenset[Atom]) -> frozenset[int]:
+        """The facts some task needs at its start (step 6) that hold in the state whose
+        changing facts are ``dynamic``, by id (a negated fact where its fact is false)."""
+        needed = self._needed
+        here = [i for f in dynamic if (i := needed.get(f)) is not None]
+        here += [i for f, i in self._needed_negated if f not in dynamic]
+        return frozenset(here)
 
     def estimate(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
         """The task list's estimate from the state: the sum of its tasks' costs; ``inf``
@@ -255,25 +329,35 @@ class Composition:
         cannot come from the tasks grounded) counts its name's least cost -- or ``inf``
         where the grounding worked out what can be produced at all and it is not."""
         # The children of one node mostly share its state: the same object, asked again.
-        last_dynamic, dist = self._last
+        last_dynamic, dist, holds = self._last
         if dynamic is not last_dynamic:
             dist = self.task_costs(dynamic)
-            self._last = (dynamic, dist)
+            holds = self._holding(dynamic)
+            self._last = (dynamic, dist, holds)
         ids = self._tasks
         total = 0.0
         one_way = self._one_way
         ended: set[int] = set()  # the one-way facts the primitive tasks so far make false
+        starts = self._starts
+        before: list[int] = []  # the tasks so far, by id (step 6)
         for t in tasks:
             i = ids.get(t)
             if i is not None:
                 total += dist[i]
+                if starts is not None:
+                    # Step 6: what the task needs at its start, the state lacks and no
+                    # task before it adds, no plan makes true in time.
+                    need = starts[i]
+                    if need is not None and not need <= holds and self._below.lost(need - holds, before):
+                        return _INF
+                    before.append(i)
                 if one_way is None or (found := one_way[i]) is None:
                     continue
                 # Step 5: a one-way fact the task needs must hold now and not be ended
                 # before it by a task of the list (a fact nothing adds costs 0 only when
                 # the state holds it).
-                need, gone = found
-                for f in need:
+                one_way_need, gone = found
+                for f in one_way_need:
                     if dist[f] != 0.0 or f in ended:
                         return _INF
                 ended |= gone
@@ -283,7 +367,8 @@ class Composition:
                 return _INF
             else:
                 total += self._fallback.get(t.name, 0.0)
-                one_way = None  # what it does is unknown (it might renew any fact): no more checks
+                # What it does is unknown (it might renew or add any fact): no more checks.
+                one_way = starts = None
         return total
 
 
