@@ -38,7 +38,7 @@ from collections import defaultdict
 from collections.abc import Iterable, Mapping, Sequence
 
 from htnagent.model.terms import Atom
-from htnagent.planning.one_way import GroundSplit, GroundStep
+from htnagent.planning.one_way import GroundSplit, GroundStep, greatest_fixed_point
 
 _NONE: frozenset[int] = frozenset()
 
@@ -161,25 +161,14 @@ def starting_needs(
         of_task[me.task].append(me)
         if me.subtasks:
             starts[me.subtasks[0]].add(me.task)
-    todo = list(of_task)
-    queued = set(todo)
-    while todo:
-        task = todo.pop()
-        queued.discard(task)
-        value: frozenset[int] | None = None
-        for me in of_task[task]:
-            if me.subtasks and me.subtasks[0] not in found:
-                continue  # its first subtask still "everything": so is this way
-            way = me.pre | found[me.subtasks[0]] if me.subtasks else me.pre
-            value = way if value is None else value & way
-        if value is None or value == found.get(task):
-            continue
-        found[task] = value
-        for up in starts.get(task, ()):
-            if up not in queued:
-                queued.add(up)
-                todo.append(up)
-    return found
+
+    def way(me: Split, known: Mapping[int, frozenset[int]]) -> frozenset[int] | None:
+        if not me.subtasks:
+            return me.pre
+        first = known.get(me.subtasks[0])
+        return None if first is None else me.pre | first  # None: its first subtask still "everything"
+
+    return greatest_fixed_point(of_task, starts, way, found)
 
 
 __all__ = ["MAX_KEPT", "Below", "Split", "starting_needs"]

@@ -37,11 +37,15 @@ finite decomposition needs.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, TypeVar
 
 from htnagent.model.terms import Atom
+
+_T = TypeVar("_T")
+_W = TypeVar("_W")
+_F = TypeVar("_F")
 
 
 class GroundStep(Protocol):
@@ -134,27 +138,45 @@ def _method_needs(
         of_task[me.task].append(me)
         for sub in me.subtasks:
             parents[sub].add(me.task)
-    found: dict[Atom, frozenset[Atom]] = {}
-    todo = list(of_task)
+
+    def way(me: GroundSplit, known: Mapping[Atom, frozenset[Atom]]) -> frozenset[Atom] | None:
+        subs = [known.get(sub, primitive.get(sub)) for sub in me.subtasks]
+        if any(s is None for s in subs):
+            return None  # a subtask still "all": so is this way, which the meet ignores
+        return frozenset(f for f in me.pre if f in one_way).union(*(s for s in subs if s is not None))
+
+    return greatest_fixed_point(of_task, parents, way, {})
+
+
+def greatest_fixed_point(
+    ways: Mapping[_T, Sequence[_W]],
+    readers: Mapping[_T, Iterable[_T]],
+    way: Callable[[_W, Mapping[_T, frozenset[_F]]], frozenset[_F] | None],
+    found: dict[_T, frozenset[_F]],
+) -> dict[_T, frozenset[_F]]:
+    """Each task's set of facts: the intersection of what its ``ways`` give (``way``: None
+    while what it reads is still "everything"), worked out from "everything" (a task absent
+    from ``found``) downwards -- so that a recursive method counts only what every finite
+    decomposition has.  A task whose set shrinks sends its ``readers`` to be worked out
+    again.  ``found`` holds the tasks known from the start (primitive ones), and is filled."""
+    todo = list(ways)
     queued = set(todo)
     while todo:
         task = todo.pop()
         queued.discard(task)
-        value: frozenset[Atom] | None = None
-        for me in of_task[task]:
-            subs = [found.get(sub, primitive.get(sub)) for sub in me.subtasks]
-            if any(s is None for s in subs):
-                continue  # a subtask still "all": so is this way, which the meet ignores
-            way = frozenset(f for f in me.pre if f in one_way).union(*(s for s in subs if s is not None))
-            value = way if value is None else value & way
+        value: frozenset[_F] | None = None
+        for me in ways[task]:
+            given = way(me, found)
+            if given is not None:
+                value = given if value is None else value & given
         if value is None or value == found.get(task):
             continue
         found[task] = value
-        for up in parents.get(task, ()):
+        for up in readers.get(task, ()):
             if up not in queued:
                 queued.add(up)
                 todo.append(up)
     return found
 
 
-__all__ = ["GroundSplit", "GroundStep", "OneWay"]
+__all__ = ["GroundSplit", "GroundStep", "OneWay", "greatest_fixed_point"]
