@@ -38,6 +38,7 @@ from htnagent.model.state import State
 from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.goal_support import GoalSupport, checks_goal
 from htnagent.planning.ground_methods import Decompositions
+from htnagent.planning.landmarks import GoalLandmarks
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -415,6 +416,9 @@ def _search(
     # new tasks need looking at -- not the whole list, thousands long (Blocksworld).
     new_only = dfs and task_costs is not None and guide is None
     distinct_goals = len(goal_set) == len(goal_facts)
+    landmarks = GoalLandmarks.of(domain, dyn_preds) if goal_facts and task_costs is not None else None
+    if landmarks is not None and not landmarks.beyond_goals:
+        landmarks = None  # the false goal facts alone, counted below as they always were
     # A state goal checked at the end of the list: a node where a goal fact is false and no
     # task left may add it is a dead end (design §7.3), whatever the search -- found where it
     # happens, not at the end.
@@ -444,7 +448,10 @@ def _search(
         if task_costs is not None:
             # Each task's least cost whatever the state: their sum never over-estimates.
             h = sum(map(cost_of, map(_name, tasks)))
-            if goal_facts:
+            if landmarks is not None:
+                # Design §7.4: the false goal facts and the landmarks still needed behind them.
+                h += landmarks.count(dynamic)
+            elif goal_facts:
                 if distinct_goals:
                     h += len(goal_set.difference(dynamic))
                 else:

@@ -1,0 +1,109 @@
+"""The goal's fact landmarks: what greedy search counts on the way to a state goal.
+
+An HDDL ``:goal`` is checked once the whole network is done, and the lifted estimate
+(each task's least number of actions, whatever the state) counts a false goal fact as
+one action more -- nothing about what it takes to make it true.  Where the goal is a
+fact only one particular action adds, and that action needs another particular fact
+first, and so on (Monroe-Partially-Observable: the goal ``l7`` is added only by the
+sixth observed action, which needs ``l6``, which only the fifth adds...), greedy search
+sees a plateau until the very end.
+
+This module backchains from the goal facts (docs/design.md §7.4): a fact's *necessary
+preconditions* are the ground facts in the precondition of every action that may add
+it (its add effect unified with the fact; a precondition some variable of the action
+alone leaves open is no one fact).  A fact that is false must be added again before
+the goal holds, and every action that may add it needs each of its necessary
+preconditions true at that moment: so a false goal fact, and a false necessary
+precondition of a fact still needed, are still needed.  :meth:`GoalLandmarks.count`
+is how many facts are still needed in a state -- the goal facts that are false, and
+the landmarks behind them -- which greedy search adds to its estimate in place of the
+false goal facts alone.  One action may add two of them, so the count is a guide, not
+a bound: only greedy search reads it (A* keeps its own estimate).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from htnagent.model.domain import Domain
+from htnagent.model.terms import Atom, substitute, unify
+
+_KEEP = 8
+"""How many domains' landmarks :meth:`GoalLandmarks.of` keeps (held, so an id is not reused)."""
+_MADE: dict[tuple[object, ...], tuple[Domain, GoalLandmarks]] = {}
+
+
+def necessary_preconditions(
+    domain: Domain, goals: Sequence[Atom], dynamic: frozenset[str]
+) -> dict[Atom, frozenset[Atom]]:
+    """Each goal fact and each landmark found behind it, with its necessary preconditions:
+    the ground facts on changing predicates (``dynamic``) that every action that may add it
+    needs.  A fact no action adds has none (it is true at the start or never)."""
+    adders = [(op, x) for ops in domain.operators.values() for op in ops for x in op.add]
+    found: dict[Atom, frozenset[Atom]] = {}
+    todo = list(dict.fromkeys(goals))
+    while todo:
+        fact = todo.pop()
+        if fact in found:
+            continue
+        common: set[Atom] | None = None
+        for op, added in adders:
+            b = unify(added, fact, {})
+            if b is None:
+                continue
+            needs = {
+                atom
+                for lit in op.pre
+                if lit.positive and lit.atom.name in dynamic
+                if (atom := substitute(lit.atom, b)).is_ground
+            }
+            common = needs if common is None else common & needs
+            if not common:
+                break
+        found[fact] = frozenset(common or ())
+        todo.extend(f for f in found[fact] if f not in found)
+    return found
+
+
+class GoalLandmarks:
+    """The goal facts and the landmarks behind them, for greedy search's estimate
+    (:meth:`count`).  Made once for a domain and its goal (:meth:`of`)."""
+
+    @classmethod
+    def of(cls, domain: Domain, dynamic: frozenset[str]) -> GoalLandmarks:
+        """The landmarks of ``domain``'s goal facts, made once for the last few domains seen
+        (the key holds the domain's size and goal too, as :meth:`GoalSupport.of`'s does)."""
+        key = (id(domain), domain.goal_facts, len(domain.operators), dynamic)
+        known = _MADE.get(key)
+        if known is not None and known[0] is domain:
+            return known[1]
+        made = cls(domain.goal_facts, necessary_preconditions(domain, domain.goal_facts, dynamic))
+        _MADE[key] = (domain, made)
+        while len(_MADE) > _KEEP:
+            del _MADE[next(iter(_MADE))]  # the oldest
+        return made
+
+    def __init__(self, goals: Sequence[Atom], needs: dict[Atom, frozenset[Atom]]) -> None:
+        self.goals = tuple(dict.fromkeys(goals))
+        self.needs = {fact: pre for fact, pre in needs.items() if pre}
+        """The facts with necessary preconditions, and those preconditions."""
+
+    @property
+    def beyond_goals(self) -> bool:
+        """Whether any goal fact has a landmark behind it (otherwise :meth:`count` is the
+        number of false goal facts)."""
+        return bool(self.needs)
+
+    def count(self, dynamic: frozenset[Atom]) -> int:
+        """How many facts must still be made true in a state of changing facts ``dynamic``:
+        each false goal fact, and each false necessary precondition of a fact counted."""
+        needed = [g for g in self.goals if g not in dynamic]
+        if not self.needs:
+            return len(needed)
+        seen = set(needed)
+        for fact in needed:  # grows as it goes: each fact counted is looked behind once
+            for pre in self.needs.get(fact, ()):
+                if pre not in seen and pre not in dynamic:
+                    seen.add(pre)
+                    needed.append(pre)
+        return len(needed)
