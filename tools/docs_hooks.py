@@ -259,7 +259,10 @@ RENDERERS: dict[str, Callable[[], str]] = {
     "hddl_read": _hddl_read,
     "astar_estimate": _astar_estimate,
     **{n: _generic(n) for n in ("nested", "reaction", "fleet", "step", "differential", "planset_updates")},
-    **{n: (lambda n=n: md_tables(n)) for n in ("ipc", "ipc_all", "ipc_other_hard", "ipc_other_first10", "ipc_interrupt")},
+    **{
+        n: (lambda n=n: md_tables(n))
+        for n in ("ipc", "ipc_all", "ipc_other_hard", "ipc_other_first10", "ipc_interrupt")
+    },
 }
 
 
