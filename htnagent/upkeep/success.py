@@ -141,12 +141,17 @@ def followed(
             if move.settles is not None:
                 # Another goal ended a suspension this plan meant to resume or roll back
                 # (rare: once a suspension): the plan is made as it stands, and settled.
-                own = p.steps[at:] if not behind_undo[i] else tuple(_whole(domain, s) for s in p.steps[at:])
-                now = settled(domain, move.settles, (*reversed(front), *own))
+                made = (*reversed(front), *p.steps[at:])
+                if behind_undo[i]:
+                    made = tuple(_whole(domain, s) for s in made)
+                now = settled(domain, move.settles, made)
                 if now is not None:
                     p = plans[i] = Plan(now)
                     front = fronts[i] = []
                     at = starts[i] = 0
+                    # Costed as they stand, as one by one: a resume the settling's tidy-up
+                    # makes is costed as the whole action only behind a later undo.
+                    behind_undo[i] = False
                     first = p.steps[0] if p.steps else None
             if move.undo is not None:
                 # §2.1: the undo goes in front and meets the step after it (§2.6).
