@@ -18,12 +18,15 @@ each task may add, so a node dropped has no plan below it.
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
+from collections.abc import Callable, Iterable, Sequence
+from typing import Generic, TypeVar
 
 from htnagent.model.domain import Domain
 from htnagent.model.networks import is_network
 from htnagent.model.terms import Atom, is_variable
 from htnagent.planning.hddl_translation import GOAL
+
+_T = TypeVar("_T")
 
 _Spec = tuple[tuple[str, object] | None, ...]
 """How a fact's arguments come from a task's: ``("p", j)`` the task's j-th argument,
@@ -88,9 +91,32 @@ def _through(spec: _Spec, sub: Atom, head: Atom) -> _Spec:
     return tuple(out)
 
 
-_KEEP = 8
-"""How many domains' tests :meth:`GoalSupport.of` keeps (held, so an id is not reused)."""
-_MADE: dict[tuple[object, ...], tuple[Domain, GoalSupport]] = {}
+class PerDomain(Generic[_T]):
+    """What is worked out once for a domain (:meth:`GoalSupport.of`,
+    :meth:`~htnagent.planning.landmarks.GoalLandmarks.of`), kept for the last ``keep``
+    domains seen; each domain is held, so that its id is not reused while its entry lives."""
+
+    def __init__(self, keep: int = 8) -> None:
+        self._keep = keep
+        self._made: dict[tuple[object, ...], tuple[Domain, _T]] = {}
+
+    def get(self, domain: Domain, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
+        """The value for ``domain`` under ``key`` (which holds ``id(domain)``), made by
+        ``make()`` the first time."""
+        known = self._made.get(key)
+        if known is not None and known[0] is domain:
+            return known[1]
+        made = make()
+        self._made[key] = (domain, made)
+        while len(self._made) > self._keep:
+            del self._made[next(iter(self._made))]  # the oldest
+        return made
+
+    def clear(self) -> None:
+        self._made.clear()
+
+
+_MADE: PerDomain[GoalSupport] = PerDomain()
 
 
 def checks_goal(domain: Domain, tasks: Sequence[Atom]) -> bool:
@@ -121,14 +147,7 @@ class GoalSupport:
         (an HDDL domain is complete when the translation hands it over; the key also holds
         its size and goal, so that a domain built on after a search gets a new one)."""
         key = (id(domain), domain.goal_facts, len(domain.operators), len(domain.methods))
-        known = _MADE.get(key)
-        if known is not None and known[0] is domain:
-            return known[1]
-        made = cls(domain, domain.goal_facts)
-        _MADE[key] = (domain, made)
-        while len(_MADE) > _KEEP:
-            del _MADE[next(iter(_MADE))]  # the oldest
-        return made
+        return _MADE.get(domain, key, lambda: cls(domain, domain.goal_facts))
 
     def __init__(self, domain: Domain, goals: Sequence[Atom]) -> None:
         self.goals = frozenset(goals)

@@ -27,10 +27,7 @@ from collections.abc import Sequence
 
 from htnagent.model.domain import Domain
 from htnagent.model.terms import Atom, substitute, unify
-
-_KEEP = 8
-"""How many domains' landmarks :meth:`GoalLandmarks.of` keeps (held, so an id is not reused)."""
-_MADE: dict[tuple[object, ...], tuple[Domain, GoalLandmarks]] = {}
+from htnagent.planning.goal_support import PerDomain
 
 
 def necessary_preconditions(
@@ -74,14 +71,8 @@ class GoalLandmarks:
         """The landmarks of ``domain``'s goal facts, made once for the last few domains seen
         (the key holds the domain's size and goal too, as :meth:`GoalSupport.of`'s does)."""
         key = (id(domain), domain.goal_facts, len(domain.operators), dynamic)
-        known = _MADE.get(key)
-        if known is not None and known[0] is domain:
-            return known[1]
-        made = cls(domain.goal_facts, necessary_preconditions(domain, domain.goal_facts, dynamic))
-        _MADE[key] = (domain, made)
-        while len(_MADE) > _KEEP:
-            del _MADE[next(iter(_MADE))]  # the oldest
-        return made
+        goals = domain.goal_facts
+        return _MADE.get(domain, key, lambda: cls(goals, necessary_preconditions(domain, goals, dynamic)))
 
     def __init__(self, goals: Sequence[Atom], needs: dict[Atom, frozenset[Atom]]) -> None:
         self.goals = tuple(dict.fromkeys(goals))
@@ -107,3 +98,6 @@ class GoalLandmarks:
                     seen.add(pre)
                     needed.append(pre)
         return len(needed)
+
+
+_MADE: PerDomain[GoalLandmarks] = PerDomain()
