@@ -294,6 +294,10 @@ DOMAIN_ERRORS = [
         "d.hddl:2:25: expected a parameter (a variable such as ?x), got 'x'",
     ),
     (_domain("(:action a :parameters (?x -))"), "d.hddl:2:28: '-' with no type after it"),
+    (
+        _domain("(:action a :parameters (- t))"),
+        "d.hddl:2:25: '-' with nothing before it (expected a parameter, then '- type')",
+    ),
     (_domain("(:action a :parameters (?x - t) :precondition)"), "d.hddl:2:33: :precondition has no value"),
     (
         _domain("(:hello)"),

@@ -200,7 +200,7 @@ class _Reader:
             at = node.ats[i]
             if item == "-":
                 if not pending:
-                    raise self.error(at, f"'-' with no {what} before it")
+                    raise self.error(at, f"'-' with nothing before it (expected {what}, then '- type')")
                 if i + 1 >= len(items):
                     raise self.error(at, "'-' with no type after it")
                 types = self.type_ref(node, i + 1)

@@ -19,28 +19,149 @@ each task may add, so a node dropped has no plan below it.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
-from typing import Generic, TypeVar
 
-from htnagent.model.domain import Domain
+from htnagent.model.domain import Domain, Method
 from htnagent.model.networks import is_network
-from htnagent.model.terms import Atom, is_variable
-from htnagent.planning.hddl_translation import GOAL
-
-_T = TypeVar("_T")
+from htnagent.model.preconditions import Literal
+from htnagent.model.state import FactBase
+from htnagent.model.terms import Atom, is_variable, unify
+from htnagent.planning.hddl_translation import EQ, GOAL
+from htnagent.planning.landmarks import GoalLandmarks
+from htnagent.planning.per_domain import PerDomain
 
 _Spec = tuple[tuple[str, object] | None, ...]
 """How a fact's arguments come from a task's: ``("p", j)`` the task's j-th argument,
 ``("c", name)`` that constant, None anything."""
-_Pattern = tuple[str, _Spec]
-"""A fact a task may add: its predicate and where each argument comes from."""
+_Cond = tuple[tuple[int, str], ...]
+"""What a task's arguments must be for it to add the fact: ``(j, name)``, its j-th argument
+is that object (sorted by j; empty: whatever they are)."""
+_Pattern = tuple[str, _Spec, _Cond]
+"""A fact a task may add: its predicate, where each argument comes from, and when."""
+
+_MAX_PATTERNS = 512
+"""Past this many patterns for one task name, its conditions are dropped (each pattern then
+holds for any arguments): what the task may add stays over-approximated, and the fixed point
+small whatever the domain."""
 
 
-def _spec_of(fact: Atom, head: Atom) -> _Spec:
-    """Where ``fact``'s arguments come from, seen from a task ``head``."""
+def adders(
+    domain: Domain, static: FactBase | None = None, predicates: Iterable[str] | None = None
+) -> dict[str, frozenset[_Pattern]]:
+    """For each task name, the facts it may add (lifted): a fixed point over the methods,
+    from the actions' add lists up (only facts on ``predicates``, if given).
+
+    A pattern holds only for the tasks whose arguments meet its condition: what a method's
+    equalities fix (Monroe-Partially-Observable's ``prefix_2`` does the observed action only
+    for ``cclimb_in(person_121967, pvan2, marketplace)``), passed up where the method's own
+    arguments carry it.  Where a variable the method binds itself is fixed so, its precondition's
+    static facts (``static``: types, ``can_lift(?person, ?obj)``) must allow that object, or the
+    method adds nothing that way."""
+    wanted = None if predicates is None else frozenset(predicates)
+    dynamic = domain.dynamic_predicates
+    found: dict[str, set[_Pattern]] = {}
+    loose: set[str] = set()  # task names past _MAX_PATTERNS: conditions dropped
+
+    def put(name: str, pattern: _Pattern) -> None:
+        out = found[name]
+        if name in loose:
+            pattern = (pattern[0], pattern[1], ())
+        out.add(pattern)
+        if len(out) > _MAX_PATTERNS and name not in loose:
+            loose.add(name)
+            found[name] = {(pred, spec, ()) for pred, spec, _ in out}
+
+    for name, ops in domain.operators.items():
+        found.setdefault(name, set())
+        for op in ops:
+            fixed = _fixed(op.pre, {})
+            if fixed is None or not _possible(op.pre, fixed, static, dynamic):
+                continue
+            cond = _cond_of(op.head, fixed)
+            for f in op.add:
+                if wanted is None or f.name in wanted:
+                    put(name, (f.name, _spec_of(f, op.head, fixed), cond))
+    for name in domain.methods:
+        found.setdefault(name, set())
+    # A method's own equalities, once: None where they contradict each other.
+    pins = {id(method): _fixed(method.pre, {}) for methods in domain.methods.values() for method in methods}
+    changed = True
+    while changed:
+        changed = False
+        for name, methods in domain.methods.items():
+            before = len(found[name])
+            for method in methods:
+                pinned = pins[id(method)]
+                if pinned is None:
+                    continue
+                for sub in method.subtasks:
+                    for pattern in tuple(found.get(sub.name, ())):
+                        up = _through(pattern, sub, method, pinned, static, dynamic)
+                        if up is not None:
+                            put(name, up)
+            changed |= len(found[name]) != before
+    return {name: frozenset(patterns) for name, patterns in found.items()}
+
+
+def _fixed(pre: Sequence[Literal], given: dict[str, str]) -> dict[str, str] | None:
+    """``given`` and the variables a precondition's equalities fix (``?obj = person_121967``,
+    or equal to a variable fixed), or None where they contradict each other."""
+    fixed = dict(given)
+    grew = True
+    while grew:
+        grew = False
+        for lit in pre:
+            if not lit.positive or lit.atom.name != EQ or len(lit.atom.args) != 2:
+                continue
+            a, b = (fixed.get(x, x) if isinstance(x, str) else x for x in lit.atom.args)
+            if not (isinstance(a, str) and isinstance(b, str)):
+                continue
+            if is_variable(a) and not is_variable(b):
+                fixed[a], grew = b, True
+            elif is_variable(b) and not is_variable(a):
+                fixed[b], grew = a, True
+            elif not is_variable(a) and a != b:
+                return None
+    return fixed
+
+
+def _possible(
+    pre: Sequence[Literal], fixed: dict[str, str], static: FactBase | None, dynamic: frozenset[str]
+) -> bool:
+    """Whether a precondition's unchanging part can hold with these variables fixed: each
+    of its static literals that names a fixed variable or an object matches a static fact
+    (the other variables: anything), and no inequality is broken."""
+    for lit in pre:
+        name = lit.atom.name
+        if name in dynamic:
+            continue
+        args = [fixed.get(a, a) if isinstance(a, str) else a for a in lit.atom.args]
+        known = [(i, a) for i, a in enumerate(args) if isinstance(a, str) and not is_variable(a)]
+        if name == EQ:
+            if len(known) == 2 and (known[0][1] == known[1][1]) != lit.positive:
+                return False
+            continue
+        if not lit.positive or not known or static is None:
+            continue
+        (i, value), rest = known[0], known[1:]
+        if not any(all(f.args[j] == v for j, v in rest) for f in static.candidates(name, i, value)):
+            return False
+    return True
+
+
+def _cond_of(head: Atom, fixed: dict[str, str]) -> _Cond:
+    """The condition on a task ``head``'s arguments: those its variables fixed fix."""
+    return tuple((j, fixed[a]) for j, a in enumerate(head.args) if isinstance(a, str) and a in fixed)
+
+
+def _spec_of(fact: Atom, head: Atom, fixed: dict[str, str] | None = None) -> _Spec:
+    """Where ``fact``'s arguments come from, seen from a task ``head`` (a variable ``fixed``
+    fixes: that object)."""
     out: list[tuple[str, object] | None] = []
     for a in fact.args:
         if not isinstance(a, str):
             out.append(None)  # a nested term: anything (never in HDDL)
+        elif fixed and a in fixed:
+            out.append(("c", fixed[a]))
         elif is_variable(a):
             out.append(("p", head.args.index(a)) if a in head.args else None)
         else:
@@ -48,72 +169,47 @@ def _spec_of(fact: Atom, head: Atom) -> _Spec:
     return tuple(out)
 
 
-def adders(domain: Domain) -> dict[str, frozenset[_Pattern]]:
-    """For each task name, the facts it may add (lifted): a fixed point over the methods,
-    from the actions' add lists up."""
-    found: dict[str, set[_Pattern]] = {}
-    for name, ops in domain.operators.items():
-        out = found.setdefault(name, set())
-        for op in ops:
-            out.update((f.name, _spec_of(f, op.head)) for f in op.add)
-    for name in domain.methods:
-        found.setdefault(name, set())
-    changed = True
-    while changed:
-        changed = False
-        for name, methods in domain.methods.items():
-            out = found[name]
-            before = len(out)
-            for method in methods:
-                for sub in method.subtasks:
-                    for pred, spec in tuple(found.get(sub.name, ())):
-                        out.add((pred, _through(spec, sub, method.head)))
-            changed |= len(out) != before
-    return {name: frozenset(patterns) for name, patterns in found.items()}
-
-
-def _through(spec: _Spec, sub: Atom, head: Atom) -> _Spec:
-    """A subtask's pattern seen from the method's task: its arguments through the method."""
+def _through(
+    pattern: _Pattern,
+    sub: Atom,
+    method: Method,
+    pinned: dict[str, str],
+    static: FactBase | None,
+    dynamic: frozenset[str],
+) -> _Pattern | None:
+    """A subtask's pattern seen from the method's task: its arguments through the method,
+    its condition on them with the method's equalities (None: the method never meets it)."""
+    pred, spec, cond = pattern
+    fixed = dict(pinned)
+    for j, value in cond:
+        term = sub.args[j] if j < len(sub.args) else None
+        if not isinstance(term, str):
+            continue
+        if not is_variable(term):
+            if term != value:
+                return None
+        elif fixed.setdefault(term, value) != value:
+            return None
+    if cond and not _possible(method.pre, fixed, static, dynamic):
+        return None
+    head = method.head
     out: list[tuple[str, object] | None] = []
     for where in spec:
         if where is None or where[0] == "c":
             out.append(where)
             continue
-        j = where[1]
-        assert isinstance(j, int)
-        term = sub.args[j] if j < len(sub.args) else None
+        k = where[1]
+        assert isinstance(k, int)
+        term = sub.args[k] if k < len(sub.args) else None
         if not isinstance(term, str):
             out.append(None)
+        elif term in fixed:
+            out.append(("c", fixed[term]))
         elif is_variable(term):
             out.append(("p", head.args.index(term)) if term in head.args else None)
         else:
             out.append(("c", term))
-    return tuple(out)
-
-
-class PerDomain(Generic[_T]):
-    """What is worked out once for a domain (:meth:`GoalSupport.of`,
-    :meth:`~htnagent.planning.landmarks.GoalLandmarks.of`), kept for the last ``keep``
-    domains seen; each domain is held, so that its id is not reused while its entry lives."""
-
-    def __init__(self, keep: int = 8) -> None:
-        self._keep = keep
-        self._made: dict[tuple[object, ...], tuple[Domain, _T]] = {}
-
-    def get(self, domain: Domain, key: tuple[object, ...], make: Callable[[], _T]) -> _T:
-        """The value for ``domain`` under ``key`` (which holds ``id(domain)``), made by
-        ``make()`` the first time."""
-        known = self._made.get(key)
-        if known is not None and known[0] is domain:
-            return known[1]
-        made = make()
-        self._made[key] = (domain, made)
-        while len(self._made) > self._keep:
-            del self._made[next(iter(self._made))]  # the oldest
-        return made
-
-    def clear(self) -> None:
-        self._made.clear()
+    return pred, tuple(out), _cond_of(head, fixed)
 
 
 _MADE: PerDomain[GoalSupport] = PerDomain()
@@ -135,43 +231,123 @@ def checks_goal(domain: Domain, tasks: Sequence[Atom]) -> bool:
 
 
 class GoalSupport:
-    """The goal facts each task may add, for the search's dead-end test (:meth:`lost`).
+    """The facts the goal may still need that each task may add, for the search's dead-end
+    tests (:meth:`lost_at_start`, :meth:`lost_after_action`, :meth:`lost_after_decomposing`):
+    the goal facts, and the landmarks behind them (:mod:`~htnagent.planning.landmarks`).
 
     Made once for a domain and its goal (:meth:`of`): working it out is a fixed point over
     the whole domain (0.25 ms for Snake, 1.6 ms for Barman), and plan repair searches
     again and again, each time with the goal's check at the end of its list."""
 
     @classmethod
-    def of(cls, domain: Domain) -> GoalSupport:
-        """The test for ``domain``'s goal facts, made once for the last few domains seen
-        (an HDDL domain is complete when the translation hands it over; the key also holds
-        its size and goal, so that a domain built on after a search gets a new one)."""
-        key = (id(domain), domain.goal_facts, len(domain.operators), len(domain.methods))
-        return _MADE.get(domain, key, lambda: cls(domain, domain.goal_facts))
+    def of(
+        cls, domain: Domain, static: FactBase | None = None, dynamic: frozenset[str] | None = None
+    ) -> GoalSupport:
+        """The test for ``domain``'s goal over the static facts ``static`` (None: any), made
+        once for the last few domains seen (an HDDL domain is complete when the translation
+        hands it over; the key also holds its size and goal, so that a domain built on after a
+        search gets a new one, and the static facts by identity).  ``dynamic``: the changing
+        predicates (the domain's, if not given)."""
+        dyn = domain.dynamic_predicates if dynamic is None else dynamic
+        key = (id(domain), domain.goal_facts, len(domain.operators), len(domain.methods), static, dyn)
+        return _MADE.get(domain, key, lambda: cls(domain, GoalLandmarks.of(domain, dyn), static))
 
-    def __init__(self, domain: Domain, goals: Sequence[Atom]) -> None:
-        self.goals = frozenset(goals)
-        self._adders = adders(domain)
+    def __init__(self, domain: Domain, landmarks: GoalLandmarks, static: FactBase | None = None) -> None:
+        self.landmarks = landmarks
+        self.goals = frozenset(landmarks.goals)
+        # The landmarks watched beside the goal facts: those only one action adds (an observed
+        # action's mark, Monroe's l1 ... l7, behind the goal).  A fact many actions add
+        # (Blocksworld's clear(b)) is hardly ever one no task left may add, and watching it
+        # would cost a walk over the needed facts at every state.
+        self.marks = frozenset(f for f in landmarks.facts - self.goals if _adding_operators(domain, f) == 1)
+        self.watched = self.goals | self.marks
+        self._adders = adders(domain, static, {f.name for f in self.watched})
         by_pred: dict[str, set[Atom]] = {}
         at: dict[tuple[str, int, str], set[Atom]] = {}
-        for g in self.goals:
-            by_pred.setdefault(g.name, set()).add(g)
-            for i, a in enumerate(g.args):
+        for f in self.watched:
+            by_pred.setdefault(f.name, set()).add(f)
+            for i, a in enumerate(f.args):
                 if isinstance(a, str):
-                    at.setdefault((g.name, i, a), set()).add(g)
+                    at.setdefault((f.name, i, a), set()).add(f)
         self._by_pred = {k: frozenset(v) for k, v in by_pred.items()}
         self._at = {k: frozenset(v) for k, v in at.items()}
         self._cache: dict[Atom, frozenset[Atom]] = {}
-        wanted = {g.name for g in self.goals}
-        # The actions that may delete a goal fact: only after them is a lost fact possible.
+        wanted = {f.name for f in self.watched}
+        # The actions that may delete a fact watched: only after them can more be needed.
         self.deleters = frozenset(
             name
             for name, ops in domain.operators.items()
             if any(d.name in wanted for op in ops for d in op.delete)
         )
 
+    def needed(self, dynamic: frozenset[Atom]) -> frozenset[Atom]:
+        """The facts watched that must still be made true in a state of changing facts
+        ``dynamic``: the false goal facts, and the marks still needed behind them."""
+        if not self.marks:
+            return self.goals.difference(dynamic)
+        return self.landmarks.needed(dynamic) & self.watched
+
+    def before_next_marks(
+        self, tasks: Sequence[Atom], dynamic: frozenset[Atom], cost: Callable[[str], float]
+    ) -> float:
+        """What the tasks ahead of the next marks cost: for each mark still needed with no
+        mark needed behind it (the next observed action's), the least cost (``cost`` of a
+        task name) of the tasks before the first that may add it."""
+        need = self.needed(dynamic)
+        behind = self.landmarks.needs
+        waiting = {m for m in need & self.marks if need.isdisjoint(behind.get(m, ()))}
+        total = before = 0.0
+        for t in tasks:  # one pass: each mark is met at the first task that may add it
+            if not waiting:
+                break
+            met = waiting.intersection(self.may_add(t))
+            if met:
+                total += before * len(met)
+                waiting -= met
+            before += cost(t.name)
+        return total
+
+    def lost_at_start(self, dynamic: frozenset[Atom], tasks: Sequence[Atom]) -> bool:
+        """Whether a fact still needed in the state (changing facts ``dynamic``) is added by
+        no task of ``tasks``: then there is no plan."""
+        return self.lost(self.needed(dynamic), tasks)
+
+    def lost_after_action(
+        self, action: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: Sequence[Atom]
+    ) -> bool:
+        """After ``action`` took the state's changing facts from ``before`` to ``after``: a fact
+        still needed that it may have added and did not, or that it deleted (or, deleting a
+        mark, made needed), which no task of ``rest`` may add."""
+        adds = self.may_add(action)
+        deleter = action.name in self.deleters
+        if not adds and not deleter:
+            return False
+        if not self.marks:  # the goal facts alone, without a walk over them
+            missing = [g for g in adds if g not in after]
+            if deleter:
+                missing.extend(self.goals.intersection(before).difference(after))
+        else:
+            need = self.needed(after)
+            missing = [f for f in adds if f in need]
+            if deleter:
+                missing.extend(need.difference(self.needed(before)))
+        return self.lost(missing, rest)
+
+    def lost_after_decomposing(
+        self, task: Atom, dynamic: frozenset[Atom], child_tasks: Sequence[Atom]
+    ) -> bool:
+        """After decomposing ``task``: a fact still needed that it may add and none of its
+        subtasks and later tasks (``child_tasks``) may."""
+        adds = self.may_add(task)
+        if not adds:
+            return False
+        if not self.marks:
+            return self.lost([g for g in adds if g not in dynamic], child_tasks)
+        return self.lost(adds & self.needed(dynamic), child_tasks)
+
     def may_add(self, task: Atom) -> frozenset[Atom]:
-        """The goal facts ``task`` may add (a variable among its arguments: any value)."""
+        """The facts watched (goal facts and landmarks) that ``task`` may add (a variable
+        among its arguments: any value)."""
         known = self._cache.get(task)
         if known is not None:
             return known
@@ -184,9 +360,9 @@ class GoalSupport:
                 out.update(self.may_add(sub))
             known = self._cache[task] = frozenset(out)
             return known
-        for pred, spec in self._adders.get(task.name, ()):
+        for pred, spec, cond in self._adders.get(task.name, ()):
             pool = self._by_pred.get(pred)
-            if not pool:
+            if not pool or any(_arg(task, j) not in (None, value) for j, value in cond):
                 continue
             chosen: frozenset[Atom] | None = None
             for i, where in enumerate(spec):
@@ -204,7 +380,7 @@ class GoalSupport:
         return known
 
     def lost(self, missing: Iterable[Atom], tasks: Sequence[Atom]) -> bool:
-        """Whether one of the ``missing`` goal facts (false in the node's state) is added
+        """Whether one of the ``missing`` facts (needed in the node's state) is added
         by no task of ``tasks`` (the node's list): then the node is a dead end."""
         need = set(missing)
         if not need:
@@ -215,6 +391,15 @@ class GoalSupport:
             if not need:
                 return False
         return True
+
+
+def _adding_operators(domain: Domain, fact: Atom) -> int:
+    """How many operators have an add effect that may be ``fact``."""
+    return sum(
+        any(unify(added, fact, {}) is not None for added in op.add)
+        for ops in domain.operators.values()
+        for op in ops
+    )
 
 
 def _arg(task: Atom, j: object) -> str | None:

@@ -27,7 +27,7 @@ from collections.abc import Sequence
 
 from htnagent.model.domain import Domain
 from htnagent.model.terms import Atom, substitute, unify
-from htnagent.planning.goal_support import PerDomain
+from htnagent.planning.per_domain import PerDomain
 
 
 def necessary_preconditions(
@@ -78,6 +78,7 @@ class GoalLandmarks:
         self.goals = tuple(dict.fromkeys(goals))
         self.needs = {fact: pre for fact, pre in needs.items() if pre}
         """The facts with necessary preconditions, and those preconditions."""
+        self._needed: dict[frozenset[Atom], frozenset[Atom]] = {}
 
     @property
     def beyond_goals(self) -> bool:
@@ -85,19 +86,37 @@ class GoalLandmarks:
         number of false goal facts)."""
         return bool(self.needs)
 
-    def count(self, dynamic: frozenset[Atom]) -> int:
-        """How many facts must still be made true in a state of changing facts ``dynamic``:
-        each false goal fact, and each false necessary precondition of a fact counted."""
+    def needed(self, dynamic: frozenset[Atom]) -> frozenset[Atom]:
+        """The facts that must still be made true in a state of changing facts ``dynamic``:
+        each false goal fact, and each false necessary precondition of a fact needed."""
+        known = self._needed.get(dynamic)
+        if known is not None:
+            return known
         needed = [g for g in self.goals if g not in dynamic]
-        if not self.needs:
-            return len(needed)
-        seen = set(needed)
-        for fact in needed:  # grows as it goes: each fact counted is looked behind once
-            for pre in self.needs.get(fact, ()):
-                if pre not in seen and pre not in dynamic:
-                    seen.add(pre)
-                    needed.append(pre)
-        return len(needed)
+        if self.needs:
+            seen = set(needed)
+            for fact in needed:  # grows as it goes: each fact counted is looked behind once
+                for pre in self.needs.get(fact, ()):
+                    if pre not in seen and pre not in dynamic:
+                        seen.add(pre)
+                        needed.append(pre)
+        if len(self._needed) >= _KEEP_NEEDED:
+            self._needed.clear()
+        found = self._needed[dynamic] = frozenset(needed)
+        return found
 
+    def count(self, dynamic: frozenset[Atom]) -> int:
+        """How many facts must still be made true in a state (:meth:`needed`)."""
+        return len(self.needed(dynamic))
+
+    @property
+    def facts(self) -> frozenset[Atom]:
+        """Every fact that may be needed: the goal facts and the landmarks behind them."""
+        return frozenset(self.goals).union(*self.needs.values())
+
+
+_KEEP_NEEDED = 4096
+"""The states whose needed facts :meth:`GoalLandmarks.needed` keeps (a search asks again for
+a node's state when it applies the node's action, and greedy search's estimate asks too)."""
 
 _MADE: PerDomain[GoalLandmarks] = PerDomain()

@@ -423,24 +423,8 @@ def _search(
     # task left may add it is a dead end (design §7.3), whatever the search -- found where it
     # happens, not at the end.
     given_tasks = [t for t, _ in entries]
-    support = GoalSupport.of(domain) if checks_goal(domain, given_tasks) else None
-    goal_deleters = support.deleters if support is not None else frozenset()
-
-    def undone(task: Atom, before: frozenset[Atom], after: frozenset[Atom], rest: tuple[Atom, ...]) -> bool:
-        """After the action ``task``: a goal fact it deleted, or one it may add and did
-        not, that no task of ``rest`` may add."""
-        assert support is not None
-        missing = [g for g in support.may_add(task) if g not in after]
-        if task.name in goal_deleters:
-            missing.extend(support.goals.intersection(before).difference(after))
-        return support.lost(missing, rest)
-
-    def dropped(task: Atom, dynamic: frozenset[Atom], child_tasks: tuple[Atom, ...]) -> bool:
-        """After decomposing ``task``: a false goal fact it may add that none of its
-        subtasks and later tasks (``child_tasks``) may."""
-        assert support is not None
-        adds = support.may_add(task)
-        return bool(adds) and support.lost([g for g in adds if g not in dynamic], child_tasks)
+    support = GoalSupport.of(domain, static, dyn_preds) if checks_goal(domain, given_tasks) else None
+    ahead = support.before_next_marks if support is not None and support.marks and landmarks else None
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if guide is not None:
@@ -451,6 +435,8 @@ def _search(
             if landmarks is not None:
                 # Design §7.4: the false goal facts and the landmarks still needed behind them.
                 h += landmarks.count(dynamic)
+                if ahead is not None:
+                    h += ahead(tasks, dynamic, cost_of)
             elif goal_facts:
                 if distinct_goals:
                     h += len(goal_set.difference(dynamic))
@@ -525,7 +511,7 @@ def _search(
     )
     if new_only and root.f == _INF:
         pass  # a task that can never be done: no plan (its children are not checked again)
-    elif support is None or not support.lost(support.goals.difference(state.dynamic), root_tasks):
+    elif support is None or not support.lost_at_start(state.dynamic, root_tasks):
         heappush(heap, root)  # (else no task may add some goal fact: no plan)
     if recover and (recovery := domain.recovery_operators()):
         # A suspended action's facts are in the state: try finishing or undoing it first.
@@ -604,6 +590,7 @@ def _search(
             more = popped_entry
             way = next(more.ways, None)
             if support is not None:
+                dropped = support.lost_after_decomposing
                 while way is not None and dropped(more.task, more.parent.dynamic, way + more.rest_tasks):
                     way = next(more.ways, None)
             if way is not None:
@@ -687,7 +674,7 @@ def _search(
                     continue
                 if check_loops and _revisits(node, dyn, rest_t):
                     continue
-                if support is not None and undone(action, dynamic, dyn, rest_t):
+                if support is not None and support.lost_after_action(action, dynamic, dyn, rest_t):
                     continue
                 child_g = g + c
                 if bounded and child_g + lb(rest_t) >= bound:
@@ -714,6 +701,7 @@ def _search(
                 ways = run(task, st)
                 first_way = next(ways, None)
                 if support is not None:
+                    dropped = support.lost_after_decomposing
                     while first_way is not None and dropped(task, dynamic, first_way + rest_t):
                         first_way = next(ways, None)
                 if first_way is None:
@@ -764,7 +752,7 @@ def _search(
                 h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
-                if support is not None and dropped(task, dynamic, child_tasks):
+                if support is not None and support.lost_after_decomposing(task, dynamic, child_tasks):
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
                 f = node.f - 1.0 if dfs else g * wg + h
