@@ -57,14 +57,14 @@ _DOMAIN = """
 def _planning(people: int, crates: int, lifts: str = "all") -> HddlPlanning:
     """``people`` others besides the watched one, ``crates`` crates, one in the yard and the
     others elsewhere; everyone lifts every crate (``lifts="all"``), or the watched person
-    lifts none (``"none"``)."""
+    lifts none (``"none"``) or the one crate named."""
     others = [f"q{i}" for i in range(people)]
     boxes = [f"c{i}" for i in range(crates)]
     places = [f"s{i}" for i in range(crates)]
     everywhere = ["home", "yard", *places]
     roads = " ".join(f"(road {x} {y})" for x in everywhere for y in everywhere if x != y)
-    lifting = [p for p in [*others, "watched"] if lifts == "all" or p != "watched"]
-    can = " ".join(f"(can_lift {p} {c})" for p in lifting for c in boxes)
+    can = " ".join(f"(can_lift {p} {c})" for p in others for c in boxes)
+    can += " ".join(f" (can_lift watched {c})" for c in boxes if lifts in ("all", c))
     at = " ".join(f"(at {c} {'yard' if i == crates - 1 else places[i]})" for i, c in enumerate(boxes))
     people = " ".join(others) + " - person" if others else ""
     domain = parse_domain(_DOMAIN, "fetching.hddl")
@@ -80,15 +80,19 @@ def _conditions(found: dict[str, frozenset[tuple[str, object, object]]], name: s
     return {cond for pred, _, cond in found[name] if pred == "l2"}
 
 
+def _one(*objects: str) -> frozenset[str]:
+    return frozenset(objects)
+
+
 def test_a_methods_equalities_become_the_condition_on_its_task_and_pass_up() -> None:
     planning = _planning(2, 2)
     found = adders(planning.domain, planning.state.static)
     assert _conditions(found, "obs") == {()}
-    assert _conditions(found, "cwalk") == {((0, "watched"), (1, "home"), (2, "yard"))}
+    assert _conditions(found, "cwalk") == {((0, _one("watched")), (1, _one("home")), (2, _one("yard")))}
     # walk(?p,?to) binds ?from itself: the condition keeps what its own arguments carry.
-    assert _conditions(found, "walk") == {((0, "watched"), (1, "yard"))}
-    # fetch(?c) binds the lifter itself: any crate the watched person can lift.
-    assert _conditions(found, "fetch") == {()}
+    assert _conditions(found, "walk") == {((0, _one("watched")), (1, _one("yard")))}
+    # fetch(?c) binds the lifter itself: the crates the watched person can lift.
+    assert _conditions(found, "fetch") == {((0, _one("c0", "c1")),)}
     assert _conditions(found, "go") == set()
 
 
@@ -97,9 +101,15 @@ def test_a_static_fact_a_fixed_variable_needs_must_exist() -> None:
     # a walk may add the goal -- and with no static facts given, anything may.
     planning = _planning(2, 2, lifts="none")
     found = adders(planning.domain, planning.state.static)
-    assert _conditions(found, "walk") == {((0, "watched"), (1, "yard"))}
+    assert _conditions(found, "walk") == {((0, _one("watched")), (1, _one("yard")))}
     assert _conditions(found, "fetch") == set()
     assert _conditions(adders(planning.domain), "fetch") == {()}
+    # The watched person lifts c1 alone: only a fetch of c1 may send them to the yard.
+    planning = _planning(2, 2, lifts="c1")
+    assert _conditions(adders(planning.domain, planning.state.static), "fetch") == {((0, _one("c1")),)}
+    support = GoalSupport.of(planning.domain, planning.state.static)
+    assert Atom("l2") in support.may_add(Atom("fetch", ("c1",)))
+    assert Atom("l2") not in support.may_add(Atom("fetch", ("c0",)))
 
 
 def test_may_add_reads_the_condition_on_the_ground_task() -> None:

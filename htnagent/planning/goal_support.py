@@ -32,9 +32,9 @@ from htnagent.planning.per_domain import PerDomain
 _Spec = tuple[tuple[str, object] | None, ...]
 """How a fact's arguments come from a task's: ``("p", j)`` the task's j-th argument,
 ``("c", name)`` that constant, None anything."""
-_Cond = tuple[tuple[int, str], ...]
-"""What a task's arguments must be for it to add the fact: ``(j, name)``, its j-th argument
-is that object (sorted by j; empty: whatever they are)."""
+_Cond = tuple[tuple[int, frozenset[str]], ...]
+"""What a task's arguments must be for it to add the fact: ``(j, names)``, its j-th argument
+is one of those objects (sorted by j; empty: whatever they are)."""
 _Pattern = tuple[str, _Spec, _Cond]
 """A fact a task may add: its predicate, where each argument comes from, and when."""
 
@@ -74,16 +74,18 @@ def adders(
         found.setdefault(name, set())
         for op in ops:
             fixed = _fixed(op.pre, {})
-            if fixed is None or not _possible(op.pre, fixed, static, dynamic):
+            allowed = None if fixed is None else _narrowed(op.pre, _sets(fixed), static, dynamic)
+            if allowed is None:
                 continue
-            cond = _cond_of(op.head, fixed)
+            cond = _cond_of(op.head, allowed)
             for f in op.add:
                 if wanted is None or f.name in wanted:
-                    put(name, (f.name, _spec_of(f, op.head, fixed), cond))
+                    put(name, (f.name, _spec_of(f, op.head, _single(allowed)), cond))
     for name in domain.methods:
         found.setdefault(name, set())
     # A method's own equalities, once: None where they contradict each other.
     pins = {id(method): _fixed(method.pre, {}) for methods in domain.methods.values() for method in methods}
+    seen: dict[tuple[_Pattern, int, int], _Pattern | None] = {}  # each pattern through each place once
     changed = True
     while changed:
         changed = False
@@ -93,9 +95,12 @@ def adders(
                 pinned = pins[id(method)]
                 if pinned is None:
                     continue
-                for sub in method.subtasks:
+                for at, sub in enumerate(method.subtasks):
                     for pattern in tuple(found.get(sub.name, ())):
-                        up = _through(pattern, sub, method, pinned, static, dynamic)
+                        key = (pattern, id(method), at)
+                        if key in seen:
+                            continue
+                        up = seen[key] = _through(pattern, sub, method, pinned, static, dynamic)
                         if up is not None:
                             put(name, up)
             changed |= len(found[name]) != before
@@ -124,33 +129,80 @@ def _fixed(pre: Sequence[Literal], given: dict[str, str]) -> dict[str, str] | No
     return fixed
 
 
-def _possible(
-    pre: Sequence[Literal], fixed: dict[str, str], static: FactBase | None, dynamic: frozenset[str]
-) -> bool:
-    """Whether a precondition's unchanging part can hold with these variables fixed: each
-    of its static literals that names a fixed variable or an object matches a static fact
-    (the other variables: anything), and no inequality is broken."""
-    for lit in pre:
-        name = lit.atom.name
-        if name in dynamic:
-            continue
-        args = [fixed.get(a, a) if isinstance(a, str) else a for a in lit.atom.args]
-        known = [(i, a) for i, a in enumerate(args) if isinstance(a, str) and not is_variable(a)]
-        if name == EQ:
-            if len(known) == 2 and (known[0][1] == known[1][1]) != lit.positive:
-                return False
-            continue
-        if not lit.positive or not known or static is None:
-            continue
-        (i, value), rest = known[0], known[1:]
-        if not any(all(f.args[j] == v for j, v in rest) for f in static.candidates(name, i, value)):
-            return False
-    return True
+def _sets(fixed: dict[str, str]) -> dict[str, frozenset[str]]:
+    return {v: frozenset((c,)) for v, c in fixed.items()}
 
 
-def _cond_of(head: Atom, fixed: dict[str, str]) -> _Cond:
-    """The condition on a task ``head``'s arguments: those its variables fixed fix."""
-    return tuple((j, fixed[a]) for j, a in enumerate(head.args) if isinstance(a, str) and a in fixed)
+def _single(allowed: dict[str, frozenset[str]]) -> dict[str, str]:
+    """The variables left one object."""
+    return {v: next(iter(c)) for v, c in allowed.items() if len(c) == 1}
+
+
+def _narrowed(
+    pre: Sequence[Literal],
+    allowed: dict[str, frozenset[str]],
+    static: FactBase | None,
+    dynamic: frozenset[str],
+) -> dict[str, frozenset[str]] | None:
+    """The objects each variable may be under a precondition's unchanging part, from those
+    ``allowed`` already: each static literal that names an object or a narrowed variable
+    must match a static fact, and narrows its other variables to those facts' objects (the
+    watched person fixed, ``can_lift(?person, ?obj)`` narrows ?obj to what they can lift).
+    None where a literal matches no fact, or an inequality is broken."""
+    out = dict(allowed)
+    for _ in range(2):  # twice: a narrowing reaches a neighbour's neighbour
+        narrower = False
+        for lit in pre:
+            name, args = lit.atom.name, lit.atom.args
+            if name in dynamic:
+                continue
+            if name == EQ:
+                if not lit.positive and len(args) == 2:
+                    x, y = (_objects(a, out) for a in args)
+                    if len(x) == len(y) == 1 and x == y:
+                        return None
+                continue
+            if not lit.positive or static is None:
+                continue
+            known = [(i, seen) for i, a in enumerate(args) if (seen := _objects(a, out))]
+            if not known:
+                continue
+            i, values = min(known, key=lambda k: len(k[1]))
+            matching = [
+                f
+                for v in values
+                for f in static.candidates(name, i, v)
+                if all(f.args[j] in vs for j, vs in known)
+            ]
+            if not matching:
+                return None
+            for j, a in enumerate(args):
+                if not (isinstance(a, str) and is_variable(a)):
+                    continue
+                there = frozenset(o for f in matching if isinstance(o := f.args[j], str))
+                old = out.get(a)
+                new = there if old is None else old & there
+                if not new:
+                    return None
+                if new != old:
+                    out[a], narrower = new, True
+        if not narrower:
+            break
+    return out
+
+
+def _objects(term: object, allowed: dict[str, frozenset[str]]) -> frozenset[str]:
+    """The objects a term may be: a name itself, a narrowed variable its objects (empty: any)."""
+    if not isinstance(term, str):
+        return frozenset()
+    if is_variable(term):
+        return allowed.get(term, frozenset())
+    return frozenset((term,))
+
+
+def _cond_of(head: Atom, allowed: dict[str, frozenset[str]]) -> _Cond:
+    """The condition on a task ``head``'s arguments: the objects its narrowed variables may be."""
+    return tuple((j, allowed[a]) for j, a in enumerate(head.args) if isinstance(a, str) and a in allowed)
 
 
 def _spec_of(fact: Atom, head: Atom, fixed: dict[str, str] | None = None) -> _Spec:
@@ -178,20 +230,28 @@ def _through(
     dynamic: frozenset[str],
 ) -> _Pattern | None:
     """A subtask's pattern seen from the method's task: its arguments through the method,
-    its condition on them with the method's equalities (None: the method never meets it)."""
+    its condition on them with the method's equalities and static facts (None: the method
+    never meets it)."""
     pred, spec, cond = pattern
-    fixed = dict(pinned)
-    for j, value in cond:
+    allowed = _sets(pinned)
+    for j, values in cond:
         term = sub.args[j] if j < len(sub.args) else None
         if not isinstance(term, str):
             continue
         if not is_variable(term):
-            if term != value:
+            if term not in values:
                 return None
-        elif fixed.setdefault(term, value) != value:
+            continue
+        new = allowed[term] & values if term in allowed else values
+        if not new:
             return None
-    if cond and not _possible(method.pre, fixed, static, dynamic):
-        return None
+        allowed[term] = new
+    if allowed:
+        narrowed = _narrowed(method.pre, allowed, static, dynamic)
+        if narrowed is None:
+            return None
+        allowed = narrowed
+    fixed = _single(allowed)
     head = method.head
     out: list[tuple[str, object] | None] = []
     for where in spec:
@@ -209,7 +269,7 @@ def _through(
             out.append(("p", head.args.index(term)) if term in head.args else None)
         else:
             out.append(("c", term))
-    return pred, tuple(out), _cond_of(head, fixed)
+    return pred, tuple(out), _cond_of(head, allowed)
 
 
 _MADE: PerDomain[GoalSupport] = PerDomain()
@@ -362,7 +422,7 @@ class GoalSupport:
             return known
         for pred, spec, cond in self._adders.get(task.name, ()):
             pool = self._by_pred.get(pred)
-            if not pool or any(_arg(task, j) not in (None, value) for j, value in cond):
+            if not pool or any(not _meets(_arg(task, j), values) for j, values in cond):
                 continue
             chosen: frozenset[Atom] | None = None
             for i, where in enumerate(spec):
@@ -391,6 +451,10 @@ class GoalSupport:
             if not need:
                 return False
         return True
+
+
+def _meets(arg: str | None, values: frozenset[str]) -> bool:
+    return arg is None or arg in values
 
 
 def _adding_operators(domain: Domain, fact: Atom) -> int:
