@@ -19,6 +19,7 @@ from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.landmarks import GoalLandmarks
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from tests.test_landmarks import _DOMAIN as _WATCHED_DOMAIN
 from tests.test_landmarks import _planning as _watched
 
 _DOMAIN = """
@@ -197,39 +198,20 @@ def test_the_search_brings_the_next_mark_forward() -> None:
     assert support.before_next_marks([Atom("errand", ("watched",))], start, cost) == 0.0
 
 
-# Two ways to do the day: the helper's errand first and the observed trips after, or the
-# trips first.  Nothing tells the two ways apart but where the trips come.
-_DAY = """
-(define (domain day)
-  (:requirements :typing :hierarchy :equality)
-  (:types agent place)
-  (:constants watched helper - agent home shop - place)
-  (:predicates (at ?a - agent ?p - place) (road ?x ?y - place) (l1) (l2) (l3))
-  (:task day)
-  (:task trip :parameters (?a - agent ?from ?to - place))
+# Two ways to do the day, in the watched domain of tests/test_landmarks.py: the helper's
+# errand first and the observed trips after, or the trips first.  Nothing tells the two
+# ways apart but where the trips come.
+_DAY = _WATCHED_DOMAIN.format(agents="watched helper", places="").replace(
+    "  (:action move",
+    """  (:task day)
   (:method early :parameters () :task (day)
-    :ordered-subtasks (and (trip watched home shop) (trip watched shop home)
+    :ordered-subtasks (and (cmove watched home shop) (cmove watched shop home)
                            (move helper home shop) (move helper shop home)))
   (:method late :parameters () :task (day)
     :ordered-subtasks (and (move helper home shop) (move helper shop home)
-                           (trip watched home shop) (trip watched shop home)))
-  (:method plain :parameters (?a - agent ?from ?to - place) :task (trip ?a ?from ?to)
-    :ordered-subtasks (move ?a ?from ?to))
-  (:method seen :parameters (?a - agent ?from ?to - place) :task (trip ?a ?from ?to)
-    :precondition (and (= ?a watched) (= ?from home) (= ?to shop)) :ordered-subtasks (obs1))
-  (:method seen-back :parameters (?a - agent ?from ?to - place) :task (trip ?a ?from ?to)
-    :precondition (and (= ?a watched) (= ?from shop) (= ?to home)) :ordered-subtasks (obs2))
-  (:action move :parameters (?a - agent ?from ?to - place)
-    :precondition (and (at ?a ?from) (road ?from ?to))
-    :effect (and (at ?a ?to) (not (at ?a ?from))))
-  (:action obs1 :parameters ()
-    :precondition (and (at watched home) (l1))
-    :effect (and (at watched shop) (not (at watched home)) (l2) (not (l1))))
-  (:action obs2 :parameters ()
-    :precondition (and (at watched shop) (l2))
-    :effect (and (at watched home) (not (at watched shop)) (l3) (not (l2))))
+                           (cmove watched home shop) (cmove watched shop home)))
+  (:action move""",
 )
-"""
 
 
 def test_greedy_search_takes_the_way_that_brings_the_observed_trips_first(
@@ -240,7 +222,7 @@ def test_greedy_search_takes_the_way_that_brings_the_observed_trips_first(
     it (monkeypatched to nothing) the two ways look the same, and the last one written (ties
     go to the newest node), the errand first, is taken."""
     domain = parse_domain(_DAY, "day.hddl")
-    problem = """(define (problem p) (:domain day)
+    problem = """(define (problem p) (:domain watched)
       (:htn :ordered-subtasks (day))
       (:init (at watched home) (at helper home) (road home shop) (road shop home) (l1))
       (:goal (l3)))"""
