@@ -10,10 +10,13 @@ Yet the tasks left say what can still happen: only the actions some remaining ta
 decompose into can add a fact.  This module works out, lifted (no grounding), which
 facts each task name may add, with the task's own arguments where they pass down to the
 action's effect (``do_put_on(?x,?y)`` may add ``on(?x,?y)``, through ``do_move(?x,?y)``
-and ``stack(?x,?y)``; a variable its methods bind themselves may be anything).  A node at
-which a goal fact is false and no task left may add it can never reach the goal: the
-planner drops it (:meth:`GoalSupport.lost`; design §7.3).  An over-approximation of what
-each task may add, so a node dropped has no plan below it.
+and ``stack(?x,?y)``; a variable its methods bind themselves may be anything), and for
+which arguments: a method's equalities and static facts narrow them (only
+``get_to(person_121967, ...)`` may lead to the observed ``p_2``).  A node at which a goal
+fact is false and no task left may add it can never reach the goal: the planner drops it
+(:meth:`GoalSupport.lost`; design §7.3).  So too for the *marks* behind the goal, the
+landmarks (:mod:`~htnagent.planning.landmarks`) only one action adds.  An
+over-approximation of what each task may add, so a node dropped has no plan below it.
 """
 
 from __future__ import annotations
@@ -52,10 +55,10 @@ def adders(
 
     A pattern holds only for the tasks whose arguments meet its condition: what a method's
     equalities fix (Monroe-Partially-Observable's ``prefix_2`` does the observed action only
-    for ``cclimb_in(person_121967, pvan2, marketplace)``), passed up where the method's own
-    arguments carry it.  Where a variable the method binds itself is fixed so, its precondition's
-    static facts (``static``: types, ``can_lift(?person, ?obj)``) must allow that object, or the
-    method adds nothing that way."""
+    for ``cclimb_in(person_121967, pvan2, marketplace)``) and its precondition's static facts
+    (``static``: types, ``can_lift(?person, ?obj)``) narrow, passed up where the method's own
+    arguments carry it.  A method whose static facts no object so narrowed meets adds nothing
+    that way."""
     wanted = None if predicates is None else frozenset(predicates)
     dynamic = domain.dynamic_predicates
     found: dict[str, set[_Pattern]] = {}

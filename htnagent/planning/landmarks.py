@@ -115,8 +115,9 @@ class GoalLandmarks:
         return frozenset(self.goals).union(*self.needs.values())
 
 
-_KEEP_NEEDED = 4096
-"""The states whose needed facts :meth:`GoalLandmarks.needed` keeps (a search asks again for
-a node's state when it applies the node's action, and greedy search's estimate asks too)."""
+_KEEP_NEEDED = 256
+"""The states whose needed facts :meth:`GoalLandmarks.needed` keeps: a search asks again for
+a state it has just made (greedy search's estimate, then the dead-end test), or for the
+state before an action; a miss is a walk again, never a wrong answer."""
 
 _MADE: PerDomain[GoalLandmarks] = PerDomain()

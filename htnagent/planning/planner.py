@@ -419,9 +419,10 @@ def _search(
     landmarks = GoalLandmarks.of(domain, dyn_preds) if goal_facts and task_costs is not None else None
     if landmarks is not None and not landmarks.beyond_goals:
         landmarks = None  # the false goal facts alone, counted below as they always were
-    # A state goal checked at the end of the list: a node where a goal fact is false and no
-    # task left may add it is a dead end (design §7.3), whatever the search -- found where it
-    # happens, not at the end.
+    # A state goal checked at the end of the list: a node where a goal fact (or a mark behind
+    # it) is still needed and no task left may add it is a dead end (design §7.3), whatever the
+    # search -- found where it happens, not at the end.  Greedy search also weighs how far
+    # ahead in the list the next mark can come (design §7.4).
     given_tasks = [t for t, _ in entries]
     support = GoalSupport.of(domain, static, dyn_preds) if checks_goal(domain, given_tasks) else None
     ahead = support.before_next_marks if support is not None and support.marks and landmarks else None
