@@ -5,6 +5,8 @@ last of a chain of observed actions adds, each needing the fact the one before i
 from __future__ import annotations
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
@@ -142,3 +144,35 @@ def test_greedy_search_follows_the_landmarks_to_the_observed_agent(
     assert guided <= 100
     if watched_at == 0:  # the last binding tried: unguided, every other agent's errand first
         assert unguided > 5 * guided
+
+
+@st.composite
+def _graphs_and_states(
+    draw: st.DrawFn,
+) -> tuple[GoalLandmarks, frozenset[Atom], frozenset[Atom], frozenset[Atom]]:
+    """Random landmarks (cycles allowed) over a few facts, a state whose needed facts are
+    known, an unrelated one, and a state a few facts away from the first."""
+    facts = [Atom(f"f{i}") for i in range(draw(st.integers(2, 9)))]
+    goals = draw(st.lists(st.sampled_from(facts), min_size=1, max_size=4))
+    needs = {
+        f: frozenset(draw(st.lists(st.sampled_from(facts), max_size=3)))
+        for f in draw(st.lists(st.sampled_from(facts), max_size=len(facts)))
+    }
+    states = st.frozensets(st.sampled_from(facts))
+    before, other = draw(states), draw(states)
+    flipped = draw(st.frozensets(st.sampled_from(facts), max_size=3))
+    return GoalLandmarks(goals, needs), before, other, before ^ flipped
+
+
+@given(_graphs_and_states())
+@settings(max_examples=300, deadline=None)
+def test_the_needed_facts_after_an_action_are_those_a_fresh_walk_finds(
+    case: tuple[GoalLandmarks, frozenset[Atom], frozenset[Atom], frozenset[Atom]],
+) -> None:
+    # The search works out the state after an action from the state before it (only what
+    # the changed facts are behind, or behind them, again); the oracle walks from scratch.
+    marks, before, other, after = case
+    fresh = GoalLandmarks(marks.goals, marks.needs)
+    marks.needed(before)  # known: worked out from it
+    assert marks.needed_after(before, after) == fresh.needed(after)
+    assert marks.needed_after(other, before) == fresh.needed(before)  # (other unknown: a walk)

@@ -335,6 +335,7 @@ class GoalSupport:
         self._by_pred = {k: frozenset(v) for k, v in by_pred.items()}
         self._at = {k: frozenset(v) for k, v in at.items()}
         self._cache: dict[Atom, frozenset[Atom]] = {}
+        self._last_next: tuple[frozenset[Atom] | None, frozenset[Atom]] = (None, frozenset())
         wanted = {f.name for f in self.watched}
         # The actions that may delete a fact watched: only after them can more be needed.
         self.deleters = frozenset(
@@ -353,22 +354,28 @@ class GoalSupport:
     def before_next_marks(
         self, tasks: Sequence[Atom], dynamic: frozenset[Atom], cost: Callable[[str], float]
     ) -> float:
-        """What the tasks ahead of the next marks cost: for each mark still needed with no
-        mark needed behind it (the next observed action's), the least cost (``cost`` of a
-        task name) of the tasks before the first that may add it."""
-        need = self.needed(dynamic)
+        """What the tasks ahead of the next mark cost: the least cost (``cost`` of a task
+        name) of the tasks before the first that may add a mark still needed with no mark
+        needed behind it (the next observed action's; where marks do not follow one another,
+        Robot's ``holding(o)`` for each object, the nearest of them)."""
+        waiting = self._next_marks(self.landmarks.needed(dynamic))
+        before = 0.0
+        if waiting:
+            for t in tasks:
+                if not waiting.isdisjoint(self.may_add(t)):
+                    return before
+                before += cost(t.name)
+        return 0.0
+
+    def _next_marks(self, need: frozenset[Atom]) -> frozenset[Atom]:
+        """The marks still needed (among ``need``, the facts needed) with no mark needed behind
+        them; the children of one node share their state, and so ask again for the same."""
+        if self._last_next[0] is need:
+            return self._last_next[1]
         behind = self.landmarks.needs
-        waiting = {m for m in need & self.marks if need.isdisjoint(behind.get(m, ()))}
-        total = before = 0.0
-        for t in tasks:  # one pass: each mark is met at the first task that may add it
-            if not waiting:
-                break
-            met = waiting.intersection(self.may_add(t))
-            if met:
-                total += before * len(met)
-                waiting -= met
-            before += cost(t.name)
-        return total
+        found = frozenset(m for m in need & self.marks if need.isdisjoint(behind.get(m, ())))
+        self._last_next = (need, found)
+        return found
 
     def lost_at_start(self, dynamic: frozenset[Atom], tasks: Sequence[Atom]) -> bool:
         """Whether a fact still needed in the state (changing facts ``dynamic``) is added by
@@ -389,11 +396,12 @@ class GoalSupport:
             missing = [g for g in adds if g not in after]
             if deleter:
                 missing.extend(self.goals.intersection(before).difference(after))
-        else:
-            need = self.needed(after)
+        else:  # (what an action may add is watched: needed or not is all that is asked)
+            need = self.landmarks.needed_after(before, after)
             missing = [f for f in adds if f in need]
             if deleter:
-                missing.extend(need.difference(self.needed(before)))
+                newly = need.difference(self.landmarks.needed(before))
+                missing.extend(f for f in newly if f in self.watched)
         return self.lost(missing, rest)
 
     def lost_after_decomposing(
@@ -406,7 +414,7 @@ class GoalSupport:
             return False
         if not self.marks:
             return self.lost([g for g in adds if g not in dynamic], child_tasks)
-        return self.lost(adds & self.needed(dynamic), child_tasks)
+        return self.lost(adds & self.landmarks.needed(dynamic), child_tasks)
 
     def may_add(self, task: Atom) -> frozenset[Atom]:
         """The facts watched (goal facts and landmarks) that ``task`` may add (a variable

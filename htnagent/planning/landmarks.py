@@ -23,7 +23,7 @@ a bound: only greedy search reads it (A* keeps its own estimate).
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 
 from htnagent.model.domain import Domain
 from htnagent.model.terms import Atom, substitute, unify
@@ -78,6 +78,13 @@ class GoalLandmarks:
         self.goals = tuple(dict.fromkeys(goals))
         self.needs = {fact: pre for fact, pre in needs.items() if pre}
         """The facts with necessary preconditions, and those preconditions."""
+        self.facts = frozenset(self.goals).union(*self.needs.values())
+        """Every fact that may be needed: the goal facts and the landmarks behind them."""
+        self._goal_set = frozenset(self.goals)
+        self._above: dict[Atom, list[Atom]] = {}  # a fact: the facts it is behind
+        for fact, pre in self.needs.items():
+            for p in pre:
+                self._above.setdefault(p, []).append(fact)
         self._needed: dict[frozenset[Atom], frozenset[Atom]] = {}
 
     @property
@@ -92,14 +99,19 @@ class GoalLandmarks:
         known = self._needed.get(dynamic)
         if known is not None:
             return known
-        needed = [g for g in self.goals if g not in dynamic]
-        if self.needs:
-            seen = set(needed)
-            for fact in needed:  # grows as it goes: each fact counted is looked behind once
-                for pre in self.needs.get(fact, ()):
-                    if pre not in seen and pre not in dynamic:
-                        seen.add(pre)
-                        needed.append(pre)
+        needed = {g for g in self.goals if g not in dynamic}
+        behind = self.needs
+        frontier: Iterable[Atom] = needed
+        while behind and frontier:  # a level at a time: what is behind the facts just found
+            more: set[Atom] = set()
+            for fact in frontier:
+                pre = behind.get(fact)
+                if pre:
+                    more.update(pre)
+            more.difference_update(dynamic)
+            more.difference_update(needed)
+            needed |= more
+            frontier = more
         if len(self._needed) >= _KEEP_NEEDED:
             self._needed.clear()
         found = self._needed[dynamic] = frozenset(needed)
@@ -109,10 +121,51 @@ class GoalLandmarks:
         """How many facts must still be made true in a state (:meth:`needed`)."""
         return len(self.needed(dynamic))
 
-    @property
-    def facts(self) -> frozenset[Atom]:
-        """Every fact that may be needed: the goal facts and the landmarks behind them."""
-        return frozenset(self.goals).union(*self.needs.values())
+    def needed_after(self, before: frozenset[Atom], after: frozenset[Atom]) -> frozenset[Atom]:
+        """:meth:`needed` in the state ``after`` an action, worked out from the state before it
+        where that is known: only what the facts it changed are behind, or behind them, is
+        looked at again (a search applies thousands of actions, most touching a few facts)."""
+        known = self._needed.get(after)
+        if known is not None:
+            return known
+        was = self._needed.get(before)
+        if was is None or not self.needs:
+            return self.needed(after)
+        facts = self.facts
+        made = [f for f in after.difference(before) if f in facts]
+        lost = [f for f in before.difference(after) if f in facts]
+        if not made and not lost:
+            found = was
+        else:
+            need = set(was)
+            # A fact made true is needed no more, nor, perhaps, what is behind it: take out all
+            # that is behind it, then put back what a fact still needed is behind.
+            gone: set[Atom] = set()
+            todo = [f for f in made if f in need]
+            while todo:
+                fact = todo.pop()
+                if fact in need:
+                    need.discard(fact)
+                    gone.add(fact)
+                    todo.extend(self.needs.get(fact, ()))
+            back = [
+                f
+                for f in gone
+                if f not in after and (f in self._goal_set or any(p in need for p in self._above.get(f, ())))
+            ]
+            # A fact made false is needed if it is a goal fact or behind a fact needed.
+            back += [f for f in lost if f in self._goal_set or any(p in need for p in self._above.get(f, ()))]
+            while back:  # and so is what is false behind a fact needed
+                fact = back.pop()
+                if fact in need or fact in after:
+                    continue
+                need.add(fact)
+                back.extend(self.needs.get(fact, ()))
+            found = frozenset(need)
+        if len(self._needed) >= _KEEP_NEEDED:
+            self._needed.clear()
+        self._needed[after] = found
+        return found
 
 
 _KEEP_NEEDED = 256
