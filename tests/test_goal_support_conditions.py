@@ -196,6 +196,11 @@ def test_the_search_brings_the_next_mark_forward() -> None:
     assert support.before_next_marks([trip, Atom("__goal", ())], start, cost) == 0.0
     assert support.before_next_marks([other, other, trip], start, cost) == 2.0
     assert support.before_next_marks([Atom("errand", ("watched",))], start, cost) == 0.0
+    # Away from home, at(watched,home) is needed behind l2 too: not a mark (every move adds
+    # it), so l2 is still the next mark.
+    away = (start - {Atom("at", ("watched", "home"))}) | {Atom("at", ("watched", "q0"))}
+    assert Atom("at", ("watched", "home")) in support.landmarks.needed(away)
+    assert support.before_next_marks([other, other, trip], away, cost) == 2.0
 
 
 # Two ways to do the day, in the watched domain of tests/test_landmarks.py: the helper's

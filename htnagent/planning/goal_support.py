@@ -324,6 +324,7 @@ class GoalSupport:
         # would cost a walk over the needed facts at every state.
         self.marks = frozenset(f for f in landmarks.facts - self.goals if _adding_operators(domain, f) == 1)
         self.watched = self.goals | self.marks
+        self._marks_behind = {m: pre & self.marks for m, pre in landmarks.needs.items() if m in self.marks}
         self._adders = adders(domain, static, {f.name for f in self.watched})
         by_pred: dict[str, set[Atom]] = {}
         at: dict[tuple[str, int, str], set[Atom]] = {}
@@ -372,7 +373,7 @@ class GoalSupport:
         them; the children of one node share their state, and so ask again for the same."""
         if self._last_next[0] is need:
             return self._last_next[1]
-        behind = self.landmarks.needs
+        behind = self._marks_behind
         found = frozenset(m for m in need & self.marks if need.isdisjoint(behind.get(m, ())))
         self._last_next = (need, found)
         return found
