@@ -8,6 +8,8 @@ goal.  Which crate, and which lifter, the methods choose themselves."""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+
 import pytest
 
 from htnagent.hddl import parse_domain, parse_problem
@@ -67,17 +69,17 @@ def _planning(people: int, crates: int, lifts: str = "all") -> HddlPlanning:
     can = " ".join(f"(can_lift {p} {c})" for p in others for c in boxes)
     can += " ".join(f" (can_lift watched {c})" for c in boxes if lifts in ("all", c))
     at = " ".join(f"(at {c} {'yard' if i == crates - 1 else places[i]})" for i, c in enumerate(boxes))
-    people = " ".join(others) + " - person" if others else ""
+    named = " ".join(others) + " - person" if others else ""
     domain = parse_domain(_DOMAIN, "fetching.hddl")
     problem = f"""(define (problem p) (:domain fetching)
-      (:objects {people} {" ".join(boxes)} - crate {" ".join(places)} - place)
+      (:objects {named} {" ".join(boxes)} - crate {" ".join(places)} - place)
       (:htn :ordered-subtasks (top))
       (:init {" ".join(f"(at {p} home)" for p in [*others, "watched"])} {at} {roads} {can} (l1))
       (:goal (l2)))"""
     return translate(domain, parse_problem(problem, domain, "p.hddl"))
 
 
-def _conditions(found: dict[str, frozenset[tuple[str, object, object]]], name: str) -> set[object]:
+def _conditions(found: Mapping[str, frozenset[tuple[str, object, object]]], name: str) -> set[object]:
     return {cond for pred, _, cond in found[name] if pred == "l2"}
 
 
