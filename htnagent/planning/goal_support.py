@@ -296,7 +296,9 @@ def checks_goal(domain: Domain, tasks: Sequence[Atom]) -> bool:
 class GoalSupport:
     """The facts the goal may still need that each task may add, for the search's dead-end
     tests (:meth:`lost_at_start`, :meth:`lost_after_action`, :meth:`lost_after_decomposing`):
-    the goal facts, and the landmarks behind them (:mod:`~htnagent.planning.landmarks`).
+    the goal facts, and the marks behind them (the landmarks of
+    :mod:`~htnagent.planning.landmarks` only one action adds); and, for greedy search, what
+    the tasks ahead of the next mark cost (:meth:`before_next_marks`).
 
     Made once for a domain and its goal (:meth:`of`): working it out is a fixed point over
     the whole domain (0.25 ms for Snake, 1.6 ms for Barman), and plan repair searches

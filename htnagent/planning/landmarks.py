@@ -18,7 +18,10 @@ precondition of a fact still needed, are still needed.  :meth:`GoalLandmarks.cou
 is how many facts are still needed in a state -- the goal facts that are false, and
 the landmarks behind them -- which greedy search adds to its estimate in place of the
 false goal facts alone.  One action may add two of them, so the count is a guide, not
-a bound: only greedy search reads it (A* keeps its own estimate).
+a bound: only greedy search reads it (A* keeps its own estimate).  The facts needed
+(:meth:`GoalLandmarks.needed`, and after an action :meth:`GoalLandmarks.needed_after`)
+also tell the dead-end test of :mod:`~htnagent.planning.goal_support` which marks to
+watch (design §7.3).
 """
 
 from __future__ import annotations
@@ -64,7 +67,8 @@ def necessary_preconditions(
 
 class GoalLandmarks:
     """The goal facts and the landmarks behind them, for greedy search's estimate
-    (:meth:`count`).  Made once for a domain and its goal (:meth:`of`)."""
+    (:meth:`count`) and the dead-end test's marks (:meth:`needed`, :meth:`needed_after`).
+    Made once for a domain and its goal (:meth:`of`)."""
 
     @classmethod
     def of(cls, domain: Domain, dynamic: frozenset[str]) -> GoalLandmarks:

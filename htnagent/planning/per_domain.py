@@ -13,7 +13,7 @@ _T = TypeVar("_T")
 
 
 class PerDomain(Generic[_T]):
-    """What is worked out once for a domain (:meth:`GoalSupport.of`,
+    """What is worked out once for a domain (:meth:`~htnagent.planning.goal_support.GoalSupport.of`,
     :meth:`~htnagent.planning.landmarks.GoalLandmarks.of`), kept for the last ``keep``
     domains seen; each domain is held, so that its id is not reused while its entry lives."""
 

@@ -426,6 +426,7 @@ def _search(
     given_tasks = [t for t, _ in entries]
     support = GoalSupport.of(domain, static, dyn_preds) if checks_goal(domain, given_tasks) else None
     ahead = support.before_next_marks if support is not None and support.marks and landmarks else None
+    dropped = support.lost_after_decomposing if support is not None else None
 
     def h_of(tasks: tuple[Atom, ...], dynamic: frozenset[Atom], st: State | None) -> float:
         if guide is not None:
@@ -590,8 +591,7 @@ def _search(
         if isinstance(popped_entry, _More):
             more = popped_entry
             way = next(more.ways, None)
-            if support is not None:
-                dropped = support.lost_after_decomposing
+            if dropped is not None:
                 while way is not None and dropped(more.task, more.parent.dynamic, way + more.rest_tasks):
                     way = next(more.ways, None)
             if way is not None:
@@ -701,8 +701,7 @@ def _search(
             for method_name, run in runs:
                 ways = run(task, st)
                 first_way = next(ways, None)
-                if support is not None:
-                    dropped = support.lost_after_decomposing
+                if dropped is not None:
                     while first_way is not None and dropped(task, dynamic, first_way + rest_t):
                         first_way = next(ways, None)
                 if first_way is None:
@@ -753,7 +752,7 @@ def _search(
                 h = h_of(subtasks if new_only else child_tasks, dynamic, st)
                 if h == _INF:
                     continue
-                if support is not None and support.lost_after_decomposing(task, dynamic, child_tasks):
+                if dropped is not None and dropped(task, dynamic, child_tasks):
                     continue
                 child_records = (rec,) * len(subtasks) + rest_r
                 f = node.f - 1.0 if dfs else g * wg + h
