@@ -17,7 +17,8 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    types alone would bind a method's parameters by the thousand, they are bound by
    joining its subtasks with the ground tasks that can occur at all
    (:mod:`htnagent.planning.producible`; see :data:`JOIN_ABOVE`), and parameters in
-   groups independent of each other are grounded apart (design §7.2).
+   groups independent of each other are grounded apart (design §7.2).  Where one way goes
+   past the cap, the other is tried.
 3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
    over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
    subtasks' costs``, an action 1); a task that no decomposition finishes costs ``inf``,
@@ -36,8 +37,9 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    a task needs at its start a fact the state lacks that no action below the tasks before
    it adds -- step 4 lets any action add it, even one no task left comes down to.
 
-Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings: past that
-:func:`ground` gives None, and the searches keep the lifted estimate.  Grounding reads
+Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings, each way
+of binding: past that both ways :func:`ground` gives None, and the searches keep the lifted
+estimate.  Grounding reads
 ``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
 """
 
@@ -68,11 +70,15 @@ search reaches)."""
 JOIN_ABOVE = 0.1
 """The share of the cap past which the bindings some method's types make for one task send
 the grounder to bind methods by joining their subtasks with the producible tasks
-(:mod:`htnagent.planning.producible`) instead: types that use a tenth of the cap on one
+(:mod:`htnagent.planning.producible`) first: types that use a tenth of the cap on one
 task leave room for ten such tasks at most.  Working out what can be produced is a pass
 over the whole problem, which costs more than it saves where the types add only a few
-ways (Entertainment's methods: six bindings; AssemblyHierarchical's: up to 1,600 in its
-10th problem); Woodworking's make up to 48,600."""
+ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  It is a
+guess from one task: where it is wrong, the first way goes past the cap and
+:func:`ground` tries the other.  AssemblyHierarchical has one task whose method takes any
+two ports (676 bindings in its 12th problem, 14,400 in its 30th), and bottom up the join
+pairs every plugged port with every pair of devices: past its 12th problem the join goes
+past the cap, and binding by types takes 6,000 (13th) to 20,000 (24th)."""
 
 MAX_WHOLE = 100
 """The dearest action, in whole numbers, for which :meth:`Composition.task_costs` lists nodes
@@ -135,8 +141,9 @@ class Composition:
     ) -> None:
         self.least = least
         self.decompositions: Decompositions = by_ground or {}
-        """The decomposers of the methods the grounder bound by the join, for the searches
-        (:mod:`htnagent.planning.ground_methods`): empty where it bound none."""
+        """The decomposers of the methods the grounder bound by the join, or by types where
+        their types made many bindings, for the searches
+        (:mod:`htnagent.planning.ground_methods`): empty where there are none."""
         self.actions = len(actions)
         self.methods = len(methods)
         self._fallback = fallback
@@ -381,16 +388,34 @@ def ground(
     checkpoint: Callable[[], bool] | None = None,
 ) -> Composition | None:
     """The problem grounded and compiled for relaxed composition (the module's steps 1-3),
-    or None when that takes more than ``cap`` ground actions and method bindings, or when
+    or None when that takes more than ``cap`` ground actions and method bindings both by
+    the join and by types (the one :data:`JOIN_ABOVE` chooses first), or when
     ``checkpoint()`` (called every :data:`CHECK_EVERY` of them) says stop."""
+    first = _Grounder(domain, state, cap, checkpoint)
     try:
-        return _Grounder(domain, state, cap, checkpoint).run(tasks)
+        return first.run(tasks)
+    except TooLarge:
+        if first.stopped or not first.enumerates:
+            return None
+    # Past the cap one way, the other way may fit (design §7.2, step 1): binding by types
+    # where the join's pass over the problem costs more than the enumerations it saves
+    # (AssemblyHierarchical's one ``ConnectDevices`` task, whose method ``m1`` takes any
+    # two ports), by the join where the enumerations were many.
+    try:
+        return _Grounder(domain, state, cap, checkpoint, joining=not first.joining).run(tasks)
     except TooLarge:
         return None
 
 
 class _Grounder:
-    def __init__(self, domain: Domain, state: State, cap: int, checkpoint: Callable[[], bool] | None) -> None:
+    def __init__(
+        self,
+        domain: Domain,
+        state: State,
+        cap: int,
+        checkpoint: Callable[[], bool] | None,
+        joining: bool | None = None,
+    ) -> None:
         self.domain = domain
         self.dyn = state.dynamic_predicates
         pres = [op.pre for ops in domain.operators.values() for op in ops]
@@ -404,7 +429,29 @@ class _Grounder:
         self._producible: Producible | None = None
         self.roots: tuple[Atom, ...] = ()
         self.by_ground: set[Method] = set()
-        """The methods bound by the join, which the searches decompose by their ground methods."""
+        """The methods the searches decompose by their ground methods: those bound by the
+        join, or -- bound by types -- those whose types alone make many bindings."""
+        self.stopped = False
+        """Whether ``checkpoint()`` said stop (rather than the cap being passed)."""
+        facts = self.start.facts()
+        # How many objects each enumeration goes through: every object of a type, or every
+        # object (an equality).
+        sizes = Counter(f.name for f in facts if f.name.startswith(TYPE) or f.name == EQ)
+        every = [me for ms in domain.methods.values() for me in ms]
+        self.by_types = [(me, _by_types(me, self.relaxed, sizes)) for me in every]
+        """Each method, with how many bindings of one task its types alone make."""
+        self.enumerates = any(n for _, n in self.by_types)
+        """Whether some method has a parameter that only an enumeration binds."""
+        # Working out what can be produced is a pass over the whole problem: worth it where
+        # some method's types alone would use a good share of the cap on one task; once
+        # done, every method that would enumerate is joined (the join also drops the
+        # bindings nothing can finish, which keeps the rest of the grounding small).
+        many = self.cap * JOIN_ABOVE
+        self.joining = max((n for _, n in self.by_types), default=0) > many if joining is None else joining
+        if not self.joining:
+            # Bound by types, the method's many ground ways, most of which nothing can
+            # finish, are pruned here: the searches need not make and estimate them.
+            self.by_ground = {me for me, n in self.by_types if n > many}
 
     def producible(self) -> Producible:
         """The ground tasks that can be produced at all, worked out the first time a method
@@ -439,6 +486,7 @@ class _Grounder:
         """One more unit of work: every :data:`CHECK_EVERY`, ask the checkpoint."""
         self.work += 1
         if self.checkpoint is not None and not self.work % CHECK_EVERY and self.checkpoint():
+            self.stopped = True
             raise TooLarge
 
     def relaxed(self, pre: Sequence[Literal]) -> tuple[Literal, ...]:
@@ -476,18 +524,9 @@ class _Grounder:
         domain = self.domain
         facts: set[Atom] = set(self.start.facts())
         reached = State(FactBase(facts), frozenset(), _NONE)
-        # How many objects each enumeration goes through: every object of a type, or every
-        # object (an equality).
-        sizes = Counter(f.name for f in facts if f.name.startswith(TYPE) or f.name == EQ)
-        every = [me for ms in domain.methods.values() for me in ms]
-        # Working out what can be produced is a pass over the whole problem: worth it where
-        # some method's types alone would use a good share of the cap on one task; once
-        # done, every method that would enumerate is joined (the join also drops the
-        # bindings nothing can finish, which keeps the rest of the grounding small).
-        joining = max((_by_types(me, self.relaxed, sizes) for me in every), default=0) > self.cap * JOIN_ABOVE
         orders: dict[str, list[_Way]] = defaultdict(list)
-        for index, me in enumerate(every):
-            if not joining:
+        for index, (me, _) in enumerate(self.by_types):
+            if not self.joining:
                 order = _binding_order(self.relaxed(me.pre), me.head.variables())
                 orders[me.head.name].append(_Way(me, me.head, me.pre, order, me.subtasks, None))
                 continue

@@ -11,6 +11,8 @@ has bound those methods already, by joining their subtasks with the ground tasks
 occur (:mod:`htnagent.planning.producible`), and pruned what no decomposition finishes.
 Here, a search that has the grounding decomposes a ground task the grounder met by the
 ground methods it kept for it, each one's precondition checked in the search's own state.
+Where the grounder bound such a method by types (the join would have cost more), it pruned
+its ways all the same, and the searches decompose it by those too.
 
 Nothing a plan needs is lost.  The grounding is a delete relaxation from the start state:
 a method that applies in a state the plan reaches, with subtasks it finishes, was grounded

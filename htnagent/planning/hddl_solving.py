@@ -57,9 +57,10 @@ greedy search has its time."""
 GROUNDED_DFS_SECONDS = 0.5
 """The seconds of its own work the grounded search spends first depth-first in method order
 (guided only to drop the dead ends the grounding sees, decomposing by the ground methods),
-before its greedy best-first search -- where the grounder bound some method by the join:
-the lifted depth-first search, binding such a method by types, is lost there.  Greedy
-search can lose itself in a region where the estimate falls but the goal is out of reach
+before its greedy best-first search -- where the searches decompose some method by its
+ground methods (:attr:`~htnagent.planning.composition.Composition.decompositions`): the
+lifted depth-first search, binding such a method by types, is lost there.  Greedy search
+can lose itself in a region where the estimate falls but the goal is out of reach
 (Woodworking's 10th problem: an estimate of 15 two tasks from the end, and no plan below);
 depth-first search, pruned by the grounding, answered that one in 2,000 expansions."""
 
@@ -299,8 +300,8 @@ def _portfolio(
                 decompositions=composition.decompositions,
             )
 
-        # Where the grounder bound methods by the join, first depth-first in method order by
-        # their ground methods, dropping the dead ends the grounding sees, for a moment of
+        # Where the searches decompose methods by their ground methods, first depth-first in
+        # method order by them, dropping the dead ends the grounding sees, for a moment of
         # work (design §7.2): where it wins, it wins at once.  Elsewhere the lifted
         # depth-first search already goes the same way.
         first = PlanResult(PlanStatus.INTERRUPTED)

@@ -1,0 +1,166 @@
+"""Grounding one way, then the other (docs/design.md §7.2, step 1): where binding a method's
+parameters by the join goes past the cap, by their types may fit -- and the other way round
+-- and the methods whose types make many bindings are then decomposed by their ground
+methods all the same."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Sequence
+
+import pytest
+
+from htnagent.hddl import parse_domain, parse_problem
+from htnagent.hddl.check import check_plan
+from htnagent.model.terms import Atom
+from htnagent.planning import composition
+from htnagent.planning.composition import TooLarge, _Grounder, ground
+from htnagent.planning.hddl_translation import HddlPlanning, translate
+from htnagent.planning.ipc_output import ipc_plan
+from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from tests.test_composition import _workshop
+
+# A chain of cables from the pc's port s to the printer's port t: wire(d1, d2) plugs any two
+# ports (bound by their type alone), unplugs two plugged ones, or checks that d1 reaches d2
+# from plug to plug through the cables.  Every cable is a device too, so that bottom up --
+# where the join works out what can be produced -- wire() can be produced for every pair of
+# devices, and wire-unplug joins every plugged pair with each of them; top down, only
+# wire(pc, printer) is ever met.
+WIRING = """
+(define (domain wiring)
+  (:requirements :typing :hierarchy :negative-preconditions :method-preconditions)
+  (:types port device)
+  (:predicates (fits ?a ?b - port) (plugged ?a ?b - port) (used ?p - port)
+               (through ?a ?b - port) (on ?p - port ?d - device) (done))
+  (:task wire :parameters (?d1 ?d2 - device))
+  (:task plug :parameters (?a ?b - port))
+  (:task reach :parameters (?a ?b - port))
+  (:method wire-plug :parameters (?d1 ?d2 - device ?a ?b - port) :task (wire ?d1 ?d2)
+    :ordered-subtasks (and (plug ?a ?b) (wire ?d1 ?d2)))
+  (:method wire-unplug :parameters (?d1 ?d2 - device ?a ?b - port) :task (wire ?d1 ?d2)
+    :precondition (plugged ?a ?b)
+    :ordered-subtasks (and (unplug ?a ?b) (wire ?d1 ?d2)))
+  (:method wire-check :parameters (?d1 ?d2 - device ?a ?b - port) :task (wire ?d1 ?d2)
+    :precondition (and (on ?a ?d1) (on ?b ?d2))
+    :ordered-subtasks (reach ?a ?b))
+  (:method reach-next :parameters (?a ?b ?c ?d - port) :task (reach ?a ?b)
+    :precondition (and (plugged ?a ?c) (through ?c ?d))
+    :ordered-subtasks (reach ?d ?b))
+  (:method reach-end :parameters (?a ?b - port) :task (reach ?a ?b)
+    :precondition (plugged ?a ?b) :ordered-subtasks (finish))
+  (:method plug-m :parameters (?a ?b - port) :task (plug ?a ?b) :ordered-subtasks (connect ?a ?b))
+  (:method plug-back :parameters (?a ?b - port) :task (plug ?a ?b)
+    :ordered-subtasks (connect-back ?a ?b))
+  (:action connect :parameters (?a ?b - port)
+    :precondition (and (fits ?a ?b) (not (used ?a)) (not (used ?b)))
+    :effect (and (plugged ?a ?b) (used ?a) (used ?b)))
+  (:action connect-back :parameters (?a ?b - port)
+    :precondition (and (fits ?b ?a) (not (used ?a)) (not (used ?b)))
+    :effect (and (plugged ?a ?b) (used ?a) (used ?b)))
+  (:action unplug :parameters (?a ?b - port) :precondition (plugged ?a ?b)
+    :effect (and (not (plugged ?a ?b)) (not (used ?a)) (not (used ?b))))
+  (:action finish :parameters () :effect (done))
+)
+"""
+
+CABLES = 12
+"""Cables of the chain: 26 ports, so wire-plug has 676 bindings of a task by types -- past a
+tenth of :data:`CAP`, so the join is tried first."""
+CAP = 3_000
+"""Between what the grounding takes bound by types (about 1,500) and by the join (about 5,600)."""
+
+
+def _wiring(n: int = CABLES) -> HddlPlanning:
+    ports = ["s", "t"] + [f"c{k}-{end}" for k in range(1, n + 1) for end in "ab"]
+    devices = ["pc", "printer"] + [f"d{k}" for k in range(1, n + 1)]
+    init = ["(on s pc)", "(on t printer)"]
+    for k in range(1, n + 1):
+        init += [f"(through c{k}-a c{k}-b)", f"(through c{k}-b c{k}-a)"]
+        init += [f"(on c{k}-a d{k})", f"(on c{k}-b d{k})"]
+    chain = ["s"] + [f"c{k}-{end}" for k in range(1, n + 1) for end in "ab"] + ["t"]
+    init += [f"(fits {a} {b})" for a, b in zip(chain[0::2], chain[1::2], strict=True)]
+    domain = parse_domain(WIRING, "wiring.hddl")
+    problem = parse_problem(
+        f"(define (problem chain) (:domain wiring) (:objects {' '.join(ports)} - port"
+        f" {' '.join(devices)} - device) (:htn :ordered-subtasks (wire pc printer))"
+        f" (:init {' '.join(init)}))",
+        domain,
+        "chain.hddl",
+    )
+    return translate(domain, problem)
+
+
+def test_where_the_join_passes_the_cap_the_grounder_binds_by_types() -> None:
+    planning = _wiring()
+    first = _Grounder(planning.domain, planning.state, CAP, None)
+    assert first.joining  # wire-plug's 676 bindings of a task by types: the join first ...
+    with pytest.raises(TooLarge):
+        first.run(planning.tasks)  # ... which goes past the cap, bottom up
+    c = ground(planning.domain, planning.state, planning.tasks, cap=CAP)
+    assert c is not None  # bound by types, it fits
+    # The estimate is the grounding's: plug the 13 gaps of the chain, then finish.
+    assert c.estimate(planning.tasks, planning.state.dynamic) == 14
+    # Bound by types, wire-plug's 676 ways are pruned to the plugs that can be made (each
+    # gap, one way round or the other); the searches decompose by those alone.
+    (plug,) = [me for me in planning.domain.methods["wire"] if me.name == "wire-plug"]
+    assert plug in c.decompositions
+    lifted = plug.compiled(planning.state.dynamic_predicates)(Atom("wire", ("pc", "printer")), planning.state)
+    ways = c.decompositions[plug](Atom("wire", ("pc", "printer")), planning.state)
+    assert len(lifted) == 26**2
+    assert len(ways) == 2 * (CABLES + 1)
+    live = {w for w in lifted if c.estimate(w, planning.state.dynamic) < math.inf}
+    assert live == set(ways)
+
+
+def test_the_grounded_search_finds_the_chain() -> None:
+    planning = _wiring()
+    c = ground(planning.domain, planning.state, planning.tasks, cap=CAP)
+    assert c is not None
+    estimated = [0]
+
+    def guide(tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> float:
+        estimated[0] += 1
+        return c.estimate(tasks, dynamic)
+
+    settings = PlannerSettings(
+        alternatives=1, search=Search.GBFS, guide=guide, decompositions=c.decompositions
+    )
+    result = plan(planning.domain, planning.state, planning.tasks, settings)
+    assert result.status is PlanStatus.SOLVED and result.best is not None
+    assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(result.best))] == []
+    assert len(result.best.steps) == (CABLES + 1) + 1  # a plug a gap, then finish
+    # The ground ways keep the search to the plugs that can be made: each wire task's
+    # 26 ways estimated, not its 676 by types (about 3,000 lists estimated, not 55,000).
+    assert estimated[0] < 10 * 26**2
+
+
+def test_where_types_pass_the_cap_the_grounder_joins(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The workshop the other way round: told to bind by types first, which passes the cap
+    # (1,728 bindings of finish-m an item), the grounder then joins -- and fits.
+    monkeypatch.setattr(composition, "JOIN_ABOVE", math.inf)
+    planning = _workshop(12)
+    first = _Grounder(planning.domain, planning.state, 1_000, None)
+    assert not first.joining
+    with pytest.raises(TooLarge):
+        first.run(planning.tasks)
+    c = ground(planning.domain, planning.state, planning.tasks, cap=1_000)
+    assert c is not None
+    (finish,) = planning.domain.methods["finish"]
+    assert finish in c.decompositions
+
+
+def test_a_grounding_stopped_by_its_checkpoint_is_not_tried_again() -> None:
+    planning = _wiring()
+    asked = [0]
+
+    def stop() -> bool:
+        asked[0] += 1
+        return True
+
+    assert ground(planning.domain, planning.state, planning.tasks, cap=CAP, checkpoint=stop) is None
+    assert asked[0] == 1
+
+
+def test_past_the_cap_both_ways_there_is_no_grounding() -> None:
+    planning = _wiring()
+    assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None
