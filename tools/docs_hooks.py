@@ -261,7 +261,15 @@ RENDERERS: dict[str, Callable[[], str]] = {
     **{n: _generic(n) for n in ("nested", "reaction", "fleet", "step", "differential", "planset_updates")},
     **{
         n: (lambda n=n: md_tables(n))
-        for n in ("ipc", "ipc_all", "ipc_other_hard", "ipc_other_first10", "ipc_monroe_po", "ipc_interrupt")
+        for n in (
+            "ipc",
+            "ipc_all",
+            "ipc_other_hard",
+            "ipc_other_first10",
+            "ipc_monroe_po",
+            "ipc_assembly",
+            "ipc_interrupt",
+        )
     },
 }
 

@@ -17,8 +17,8 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    types alone would bind a method's parameters by the thousand, they are bound by
    joining its subtasks with the ground tasks that can occur at all
    (:mod:`htnagent.planning.producible`; see :data:`JOIN_ABOVE`), and parameters in
-   groups independent of each other are grounded apart (design §7.2).  Where one way goes
-   past the cap, the other is tried.
+   groups independent of each other are grounded apart (design §7.2).  Where the join goes
+   past the cap, binding by types is tried.
 3. **Pruning** (step 3): the least number of actions each ground task takes, bottom up
    over the graph (a fixed point: ``cost(task) = min over its methods of the sum of its
    subtasks' costs``, an action 1); a task that no decomposition finishes costs ``inf``,
@@ -38,7 +38,7 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    it adds -- step 4 lets any action add it, even one no task left comes down to.
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings, each way
-of binding: past that both ways :func:`ground` gives None, and the searches keep the lifted
+of binding tried: past that :func:`ground` gives None, and the searches keep the lifted
 estimate.  Grounding reads
 ``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
 """
@@ -74,11 +74,13 @@ the grounder to bind methods by joining their subtasks with the producible tasks
 task leave room for ten such tasks at most.  Working out what can be produced is a pass
 over the whole problem, which costs more than it saves where the types add only a few
 ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  It is a
-guess from one task: where it is wrong, the first way goes past the cap and
-:func:`ground` tries the other.  AssemblyHierarchical has one task whose method takes any
-two ports (676 bindings in its 12th problem, 14,400 in its 30th), and bottom up the join
-pairs every plugged port with every pair of devices: past its 12th problem the join goes
-past the cap, and binding by types takes 6,000 (13th) to 20,000 (24th)."""
+guess from one task: where the join goes past the cap, :func:`ground` binds by types
+(where one task's bindings fit under the cap).  AssemblyHierarchical has one task whose
+method takes any two ports (676 bindings in its 12th problem, 14,400 in its 30th), and
+bottom up the join pairs every plugged port with every pair of devices: past its 12th
+problem the join goes past the cap, and binding by types takes 6,000 (13th) to 20,000
+(24th).  The other way round never helped: of the 210 problems of both suites past the cap
+by types, none fits by the join."""
 
 MAX_WHOLE = 100
 """The dearest action, in whole numbers, for which :meth:`Composition.task_costs` lists nodes
@@ -388,21 +390,22 @@ def ground(
     checkpoint: Callable[[], bool] | None = None,
 ) -> Composition | None:
     """The problem grounded and compiled for relaxed composition (the module's steps 1-3),
-    or None when that takes more than ``cap`` ground actions and method bindings both by
-    the join and by types (the one :data:`JOIN_ABOVE` chooses first), or when
-    ``checkpoint()`` (called every :data:`CHECK_EVERY` of them) says stop."""
+    or None when that takes more than ``cap`` ground actions and method bindings -- by the
+    join where :data:`JOIN_ABOVE` chooses it, and then by types where one task's types
+    alone do not pass the cap -- or when ``checkpoint()`` (called every
+    :data:`CHECK_EVERY` of them) says stop."""
     first = _Grounder(domain, state, cap, checkpoint)
     try:
         return first.run(tasks)
     except TooLarge:
-        if first.stopped or not first.enumerates:
+        if first.stopped or not first.joining or first.most > cap:
             return None
-    # Past the cap one way, the other way may fit (design §7.2, step 1): binding by types
-    # where the join's pass over the problem costs more than the enumerations it saves
-    # (AssemblyHierarchical's one ``ConnectDevices`` task, whose method ``m1`` takes any
-    # two ports), by the join where the enumerations were many.
+    # Past the cap by the join, binding by types may fit where one task's bindings do
+    # (design §7.2, step 1): the join's pass over the whole problem can cost more than the
+    # enumerations it saves (AssemblyHierarchical's one ``ConnectDevices`` task, whose
+    # method ``m1`` takes any two ports).
     try:
-        return _Grounder(domain, state, cap, checkpoint, joining=not first.joining).run(tasks)
+        return _Grounder(domain, state, cap, checkpoint, joining=False).run(tasks)
     except TooLarge:
         return None
 
@@ -440,14 +443,14 @@ class _Grounder:
         every = [me for ms in domain.methods.values() for me in ms]
         self.by_types = [(me, _by_types(me, self.relaxed, sizes)) for me in every]
         """Each method, with how many bindings of one task its types alone make."""
-        self.enumerates = any(n for _, n in self.by_types)
-        """Whether some method has a parameter that only an enumeration binds."""
+        self.most = max((n for _, n in self.by_types), default=0)
+        """The most bindings of one task some method's types make."""
         # Working out what can be produced is a pass over the whole problem: worth it where
         # some method's types alone would use a good share of the cap on one task; once
         # done, every method that would enumerate is joined (the join also drops the
         # bindings nothing can finish, which keeps the rest of the grounding small).
         many = self.cap * JOIN_ABOVE
-        self.joining = max((n for _, n in self.by_types), default=0) > many if joining is None else joining
+        self.joining = self.most > many if joining is None else joining
         if not self.joining:
             # Bound by types, the method's many ground ways, most of which nothing can
             # finish, are pruned here: the searches need not make and estimate them.
