@@ -39,8 +39,8 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings, each way
 of binding tried: past that :func:`ground` gives None, and the searches keep the lifted
-estimate.  Grounding reads
-``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
+estimate.  Grounding reads ``checkpoint()`` as it goes, so a portfolio can pace it or stop
+it.
 """
 
 from __future__ import annotations
