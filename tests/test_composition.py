@@ -281,7 +281,7 @@ def test_parameters_only_subtasks_name_are_bound_by_what_can_occur() -> None:
 def test_binding_by_what_can_occur_leaves_the_estimate_as_it_was(monkeypatch: pytest.MonkeyPatch) -> None:
     # Small enough for both ways: every ground task's least cost and estimate, from the start
     # and after painting, are the same joined as bound by types (7**3 bindings of finish-m
-    # an item: past a tenth of a cap of 2,000, so the join is what runs).
+    # an item: past a twenty-fifth of a cap of 2,000, so the join is what runs).
     planning = _workshop(7)
     joined = ground(planning.domain, planning.state, planning.tasks, cap=2_000)
     assert joined is not None

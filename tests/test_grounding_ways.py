@@ -65,7 +65,7 @@ WIRING = """
 
 CABLES = 12
 """Cables of the chain: 26 ports, so wire-plug has 676 bindings of a task by types -- past a
-tenth of :data:`CAP`, so the join is tried first."""
+twenty-fifth of :data:`CAP`, so the join is tried first."""
 CAP = 3_000
 """Between what the grounding takes bound by types (about 1,500) and by the join (about 5,600)."""
 

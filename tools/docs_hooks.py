@@ -268,6 +268,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
             "ipc_other_first10",
             "ipc_monroe_po",
             "ipc_assembly",
+            "ipc_cap",
             "ipc_interrupt",
         )
     },

@@ -61,26 +61,30 @@ from htnagent.planning.hddl_translation import EQ, TYPE
 from htnagent.planning.one_way import OneWay
 from htnagent.planning.producible import Producible, enumerated
 
-MAX_GROUND = 20_000
+MAX_GROUND = 50_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
-through before it gives up: past this, the grounding takes seconds, and one estimate from
-a state costs more than the guidance is worth (it is worked out anew for every state the
-search reaches)."""
+through, each way of binding, before it gives up: about what the portfolio's two seconds
+of grounding (``GROUNDING_SECONDS`` in :mod:`htnagent.planning.hddl_solving`) bind, 0.5 to
+2 s on the IPC's problems.  Past it, the grounding would take longer than the search it
+guides has, and one estimate from a state (worked out anew for every state the search
+reaches) costs more than the guidance is worth.  It was 20,000: AssemblyHierarchical's
+25th-30th problems need 21,388-30,468 bindings, and 99 problems of the two IPC suites
+ground between the two (docs/benchmarks.md)."""
 
-JOIN_ABOVE = 0.1
+JOIN_ABOVE = 0.04
 """The share of the cap past which the bindings some method's types make for one task send
 the grounder to bind methods by joining their subtasks with the producible tasks
-(:mod:`htnagent.planning.producible`) first: types that use a tenth of the cap on one
-task leave room for ten such tasks at most.  Working out what can be produced is a pass
+(:mod:`htnagent.planning.producible`) first: 2,000 bindings of one task at the default
+cap, which leaves room for 25 such tasks at most.  Working out what can be produced is a pass
 over the whole problem, which costs more than it saves where the types add only a few
 ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  It is a
 guess from one task: where the join goes past the cap, :func:`ground` binds by types
 (where one task's bindings fit under the cap).  AssemblyHierarchical has one task whose
-method takes any two ports (676 bindings in its 12th problem, 14,400 in its 30th), and
-bottom up the join pairs every plugged port with every pair of devices: past its 12th
-problem the join goes past the cap, and binding by types takes 6,000 (13th) to 20,000
-(24th).  The other way round never helped: of the 210 problems of both suites past the cap
-by types, none fits by the join."""
+method takes any two ports (2,304 bindings in its 12th problem, 14,400 in its 30th), and
+bottom up the join pairs every plugged port with every pair of devices: past its 17th
+problem the join goes past the cap (55,565 bindings in the 18th, 217,000 in the 30th),
+where binding by types takes 11,364 to 30,468.  The other way round never helped: of the
+210 problems of both suites past a cap of 20,000 by types, none fits by the join."""
 
 MAX_WHOLE = 100
 """The dearest action, in whole numbers, for which :meth:`Composition.task_costs` lists nodes
