@@ -3,13 +3,16 @@
 
 from __future__ import annotations
 
+import heapq
 import itertools
 import json
+import random
 import signal
 import subprocess
 import sys
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -19,6 +22,7 @@ from htnagent.hddl import read_domain, read_problem
 from htnagent.hddl.check import check_plan
 from htnagent.hddl.plan_file import parse_plan
 from htnagent.model.plans import Plan
+from htnagent.planning import hddl_solving
 from htnagent.planning.hddl_solving import solve, solve_anytime
 from htnagent.planning.hddl_translation import translate
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
@@ -27,6 +31,7 @@ HERE = Path(__file__).resolve().parent / "hddl"
 ROOT = Path(__file__).resolve().parent.parent
 DOMAIN = HERE / "courier-domain.hddl"
 SHARED_ROVER = ROOT.parent / "shared" / "data" / "ipc" / "Rover-GTOHP"
+LIFT = HERE / "lift-domain.hddl"
 
 
 def ring(tmp_path: Path, rooms: int = 8) -> Path:
@@ -86,6 +91,95 @@ def test_solve_anytime_finds_first_as_solve_does_then_the_cheapest(tmp_path: Pat
     told.clear()
     solve_anytime(domain, problem, told.append, search=Search.ASTAR, timeout=30)
     assert [p.cost for p in told] == [6]
+
+
+def lift(tmp_path: Path, seed: int, floors: int = 10, riders: int = 5) -> tuple[Path, float]:
+    """A lift problem drawn from ``seed``, and the cost of its cheapest plan worked out
+    apart from the planner: each rider's board and depart, one move to the rider's floor
+    where the lift is not there already, and one to the rider's destination."""
+    rng = random.Random(seed)
+    names = [f"f{i}" for i in range(floors)]
+    above = " ".join(f"(above {a} {b})" for i, a in enumerate(names) for b in names[i + 1 :])
+    trips = [rng.sample(names, 2) for _ in range(riders)]
+    facts = " ".join(f"(origin r{i} {a}) (destin r{i} {b})" for i, (a, b) in enumerate(trips))
+    riders_named = " ".join(f"r{i}" for i in range(riders))
+    tasks = " ".join(f"(serve r{i})" for i in range(riders))
+    path = tmp_path / f"lift-{seed}.hddl"
+    path.write_text(
+        f"(define (problem lift-{seed}) (:domain lift)\n"
+        f"  (:objects {' '.join(names)} - floor {riders_named} - rider)\n"
+        f"  (:htn :ordered-subtasks (and {tasks}))\n"
+        f"  (:init (lift-at f0) {above} {facts}))\n"
+    )
+    at, cost = "f0", 0.0
+    for origin, destination in trips:
+        cost += (origin != at) + 3.0  # board, the move to the destination, depart
+        at = destination
+    return path, cost
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_anytime_runs_a_star_under_the_first_plans_cost_first(tmp_path: Path, seed: int) -> None:
+    # The first plan, depth-first in method order, stops at every floor on the way; greedy
+    # branch and bound would shed one move at a time.  A* under the first plan's cost ends
+    # with the cheapest plan at once, and says it is the cheapest.
+    domain = read_domain(LIFT)
+    path, cheapest = lift(tmp_path, seed)
+    problem = read_problem(path, domain)
+    told: list[Plan] = []
+    solved = solve_anytime(domain, problem, told.append, timeout=30)
+    first = solve(domain, problem).result.best
+    assert first is not None and first.cost > cheapest
+    assert [p.cost for p in told] == [first.cost, cheapest]
+    assert solved.search is Search.ASTAR and solved.result.exhausted
+    assert solved.result.best is told[-1]
+
+
+def test_anytime_goes_on_by_branch_and_bound_when_a_stars_share_runs_out(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A* gets a share of the time and budget left; out of it, greedy branch and bound
+    # goes on under the cheapest cost so far.
+    monkeypatch.setattr(hddl_solving, "ANYTIME_ASTAR_SHARE", 1e-9)
+    domain = read_domain(LIFT)
+    path, cheapest = lift(tmp_path, 0)
+    told: list[Plan] = []
+    solved = solve_anytime(domain, read_problem(path, domain), told.append, timeout=30)
+    costs = [p.cost for p in told]
+    assert len(costs) > 2 and all(a > b for a, b in itertools.pairwise(costs))
+    assert costs[-1] == cheapest
+    assert solved.search is Search.GBFS and solved.result.exhausted
+
+
+def test_a_star_under_a_bound_stops_at_its_first_plan(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A*'s f is the cost so far plus the least cost of the tasks, the bound's own test: the
+    # first plan it finds is the cheapest, and no node left on the open list is looked at.
+    domain = read_domain(LIFT)
+    path, cheapest = lift(tmp_path, 1)
+    planning = translate(domain, read_problem(path, domain))
+    pops = 0
+    real_pop = heapq.heappop
+
+    def counting_pop(heap: list[Any]) -> Any:
+        nonlocal pops
+        pops += 1
+        return real_pop(heap)
+
+    monkeypatch.setattr(heapq, "heappop", counting_pop)
+    told: list[tuple[float, int]] = []
+    settings = PlannerSettings(alternatives=1, search=Search.ASTAR, cost_bound=cheapest + 10)
+    found = plan(
+        planning.domain,
+        planning.state,
+        planning.tasks,
+        settings,
+        improving=lambda p: told.append((p.cost, pops)),
+    )
+    assert [cost for cost, _ in told] == [cheapest]
+    assert found.exhausted and found.best is not None and found.best.cost == cheapest
+    assert pops - told[0][1] <= 2  # the next entry (a lazy one may make one node first): the end
 
 
 def test_settings_refuse_a_bound_of_nothing_and_improving_alternatives() -> None:

@@ -473,6 +473,8 @@ def _search(
     def lb(tasks: tuple[Atom, ...]) -> float:
         return sum([least.get(t.name, 0.0) for t in tasks]) if least else 0.0
 
+    # A*'s f is exactly that sum where h is the task costs' (no guide, no goal facts).
+    exact_f = bounded and search is Search.ASTAR and guide is None and task_costs is not None
     best_g: dict[_Key, float] = {}  # improving: the lowest cost at which each key was expanded
     wanted = k if improving is None else _INF
     root_tasks = tuple(t for t, _ in entries)
@@ -613,6 +615,11 @@ def _search(
                 heappush(heap, more._replace(seq=later))
             continue
         node = popped_entry
+        if exact_f and node.f >= bound:
+            # A* whose f is the cost so far plus the least cost of the tasks: the nodes come
+            # in the order of that bound, so no node left can lead under it.
+            heap.clear()
+            break
         node_tasks = node.tasks
         if bounded and -node.neg_g + lb(node_tasks) >= bound:
             continue  # the bound fell since it was pushed
