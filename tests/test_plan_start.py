@@ -16,12 +16,20 @@ DOMAIN, PROBLEM = str(HERE / "courier-domain.hddl"), str(HERE / "courier.hddl")
 HEAVY = ("pydantic", "matplotlib", "anyio", "rich", "yaml", "htnagent.scenario", "htnagent.runtime")
 
 PROBE = """\
-import atexit, json, sys
+import atexit, json, os, sys
 watched = json.loads(sys.argv[1])
 def said():
     heavy = [m for m in watched if m in sys.modules]
     sys.stderr.write("LOADED " + json.dumps(heavy) + "\\n")
+    sys.stderr.flush()
 atexit.register(said)
+exit_now = os._exit
+def said_and_exit(code):  # plan --hddl ends the process at once, without atexit
+    said()
+    sys.stderr.write(f"ENDED AT ONCE {code}\\n")
+    sys.stderr.flush()
+    exit_now(code)
+os._exit = said_and_exit
 sys.argv = ["htnagent", *sys.argv[2:]]
 from htnagent.cli.launch import run
 run()
@@ -48,6 +56,20 @@ def test_plan_hddl_imports_only_what_planning_needs(options: list[str]) -> None:
     done, loaded = _probe("plan", "--hddl", DOMAIN, PROBLEM, *options)
     assert done.returncode == 0, done.stderr
     assert loaded == []
+
+
+@pytest.mark.parametrize(("problem", "code"), [(PROBLEM, 0), (str(HERE / "courier-held.hddl"), 1)])
+def test_plan_hddl_ends_its_process_at_once_its_answer_printed(problem: str, code: int) -> None:
+    # No shutdown that frees a long search's objects one by one, past --timeout: the answer
+    # is flushed, then the process ends (os._exit) with the command's code.
+    done, _ = _probe("plan", "--hddl", DOMAIN, problem, "--format", "json")
+    assert done.returncode == code
+    assert f"ENDED AT ONCE {code}" in done.stderr
+    if code == 0:
+        assert json.loads(done.stdout)["plan"]
+    # Other commands end as Python ends them.
+    done, _ = _probe("check", "--hddl", DOMAIN, PROBLEM)
+    assert done.returncode == 0 and "ENDED AT ONCE" not in done.stderr
 
 
 def test_a_mistake_in_plan_hddl_is_worded_by_the_full_command_line() -> None:
@@ -87,7 +109,7 @@ def test_a_bad_hddl_file_is_one_line_on_the_fast_path(tmp_path: Path) -> None:
     bad.write_text("(define (domain d) (:action a :parameters (?x)")
     done, loaded = _probe("plan", "--hddl", str(bad), PROBLEM)
     assert done.returncode == 2
-    errors = [line for line in done.stderr.splitlines() if not line.startswith("LOADED ")]
+    errors = [line for line in done.stderr.splitlines() if not line.startswith(("LOADED ", "ENDED AT ONCE "))]
     assert len(errors) == 1 and errors[0].startswith(f"htnagent: error: {bad}:")
     assert "Traceback" not in done.stderr
     assert loaded == []

@@ -13,11 +13,14 @@ traceback) however early or late it comes:
   (:class:`htnagent.cli.commands._RunSignals`), and keeps them to the end.
 - Once the command has returned, signals are ignored: at shutdown Python would
   put the default actions back, and a late SIGTERM would kill the process
-  after its result was printed.
+  after its result was printed.  ``plan --hddl`` then ends the process at once
+  (``os._exit``), its output flushed: a search of millions of nodes would
+  otherwise take seconds to free them one by one, past its ``--timeout``.
 - A signal the process was started ignoring (``trap '' INT``, the background
   jobs of a non-interactive shell) stays ignored throughout, as Python leaves it.
 """
 
+import contextlib
 import os
 import signal
 from typing import NoReturn
@@ -44,7 +47,14 @@ def run() -> NoReturn:
             from htnagent.cli.commands import main
 
             code = main(owns_process=True)
+            raise SystemExit(code)
     finally:
         signal.signal(signal.SIGINT, signal.SIG_IGN)
         signal.signal(signal.SIGTERM, signal.SIG_IGN)
-    raise SystemExit(code)
+    # plan --hddl has printed its answer (standard output flushed, by fast_main) and has
+    # nothing to save: the process ends here, its memory given back whole.  Python's own
+    # shutdown would free a long search's millions of objects one by one: a second or more
+    # past --timeout.
+    with contextlib.suppress(AttributeError, OSError, ValueError):  # closed, or started without one
+        sys.stderr.flush()
+    os._exit(code)
