@@ -301,3 +301,35 @@ def test_an_expansion_making_hundreds_of_ways_reads_the_clock_next() -> None:
     )
     assert asked and result.status is PlanStatus.INTERRUPTED
     assert result.expansions == 1
+
+
+DROPS = """(define (domain drops) (:requirements :typing :hierarchy)
+  (:types thing)
+  (:predicates (done) (noted ?a ?b ?c ?d - thing))
+  (:task main :parameters ())
+  (:method wander :parameters (?a ?b ?c ?d - thing) :task (main)
+    :ordered-subtasks (and (note ?a ?b ?c ?d)))
+  (:method finish :parameters () :task (main) :ordered-subtasks (and (do-it)))
+  (:action note :parameters (?a ?b ?c ?d - thing) :effect (noted ?a ?b ?c ?d))
+  (:action do-it :parameters () :effect (done)))"""
+
+
+@pytest.mark.parametrize("search", list(Search))
+def test_the_time_limit_holds_among_a_methods_dropped_ways(search: Search) -> None:
+    # wander's 60**4 ways by type (about 13 million) each leave the goal fact to a task that
+    # cannot add it: the goal's check drops them one by one (design §7.3), in one expansion.
+    # The clock is read among them, as among nodes.
+    domain = parse_domain(DROPS, "drops.hddl")
+    things = " ".join(f"o{i}" for i in range(60))
+    problem = parse_problem(
+        f"(define (problem p) (:domain drops) (:objects {things} - thing)"
+        " (:htn :ordered-subtasks (and (main))) (:init) (:goal (done)))",
+        domain,
+        "p.hddl",
+    )
+    planning = translate(domain, problem)
+    started = time.perf_counter()
+    settings = PlannerSettings(alternatives=1, search=search, time_limit=0.3)
+    result = plan(planning.domain, planning.state, planning.tasks, settings)
+    assert result.status is PlanStatus.TIMED_OUT and not result.exhausted
+    assert time.perf_counter() - started < 5  # generous: only that it stopped

@@ -568,18 +568,43 @@ def _search(
     # run of nodes already expanded (or of lazy ways) expands nothing.
     ticks = 0
     next_report = started + PROGRESS_EVERY
+
+    def read_clock() -> None:
+        """Out of time, or told to stop (a signal, the checkpoint): the search ends at the
+        next node, as when the budget runs out."""
+        nonlocal limit, timed_out, halted
+        if stop.requested or (deadline is not None and time.perf_counter() > deadline):
+            limit = expansions
+            timed_out = True
+        elif checkpoint is not None and checkpoint():
+            limit = expansions
+            timed_out = halted = True
+
+    def next_kept(
+        ways: Iterator[tuple[Atom, ...]], task: Atom, dynamic: frozenset[Atom], rest: tuple[Atom, ...]
+    ) -> tuple[Atom, ...] | None:
+        """The next of a method's ways the goal's check keeps (design §7.3).  A method bound
+        by types may make millions of ways the check drops (Woodworking's network, fifteen
+        parameters): the clock is read every 256 of them, as every 256 nodes."""
+        assert dropped is not None
+        way = next(ways, None)
+        dropped_ways = 0
+        while way is not None and dropped(task, dynamic, way + rest):
+            dropped_ways += 1
+            if not dropped_ways & 255:
+                read_clock()
+                if expansions >= limit:
+                    return None
+            way = next(ways, None)
+        return way
+
     while heap and len(found) < wanted:
         ticks += 1
         if not ticks & every:
             if progress is not None and (now := time.perf_counter()) >= next_report:
                 next_report = now + PROGRESS_EVERY
                 progress(expansions, now - started)
-            if stop.requested or (deadline is not None and time.perf_counter() > deadline):
-                limit = expansions  # out of time: end as when the budget runs out
-                timed_out = True
-            elif checkpoint is not None and checkpoint():
-                limit = expansions
-                timed_out = halted = True
+            read_clock()
         if expansions >= limit:
             if found and limit < settings.budget:
                 break  # the alternatives' share of the search is spent
@@ -592,10 +617,10 @@ def _search(
         popped_entry = heappop(heap)
         if isinstance(popped_entry, _More):
             more = popped_entry
-            way = next(more.ways, None)
-            if dropped is not None:
-                while way is not None and dropped(more.task, more.parent.dynamic, way + more.rest_tasks):
-                    way = next(more.ways, None)
+            if dropped is None:
+                way = next(more.ways, None)
+            else:
+                way = next_kept(more.ways, more.task, more.parent.dynamic, more.rest_tasks)
             if way is not None:
                 up = more.parent
                 rec = _new(_Pending, (more.task, more.method, more.record))
@@ -707,10 +732,7 @@ def _search(
                 ]
             for method_name, run in runs:
                 ways = run(task, st)
-                first_way = next(ways, None)
-                if dropped is not None:
-                    while first_way is not None and dropped(task, dynamic, first_way + rest_t):
-                        first_way = next(ways, None)
+                first_way = next(ways, None) if dropped is None else next_kept(ways, task, dynamic, rest_t)
                 if first_way is None:
                     continue
                 child_tasks = first_way + rest_t
@@ -771,11 +793,13 @@ def _search(
     found.sort(key=lambda p: p.cost)
     if found:
         status = PlanStatus.SOLVED
+    elif timed_out:  # out of time among a method's ways, its node the last on the list
+        status = PlanStatus.INTERRUPTED if stop.requested or halted else PlanStatus.TIMED_OUT
     elif heap or cut:
         status = PlanStatus.BUDGET_EXHAUSTED
     else:
         status = PlanStatus.UNSOLVABLE  # (under the bound, if one was given)
-    exhausted = not heap and not cut
+    exhausted = not heap and not cut and not timed_out
     return PlanResult(status, tuple(found), expansions, time.perf_counter() - started, exhausted)
 
 
