@@ -5,6 +5,8 @@ none lost that a plan could take."""
 from __future__ import annotations
 
 import math
+import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -128,3 +130,39 @@ def test_cheaper_plans_after_a_grounded_first_plan_go_on_as_the_search_that_foun
     assert improving.search is Search.DFS
     assert improving.decompositions is c.decompositions and improving.guide is not None
     assert improving.cost_bound == first.best.cost
+
+
+def test_depth_first_search_goes_on_by_the_ground_methods_once_grounded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The portfolio (design §7): where the grounder decomposes methods by their ground
+    # methods, the lifted depth-first search is lost; once the grounding is ready, depth-first
+    # search's thread goes on by the ground methods.  Here every other search is made lost
+    # (each waits at its checkpoint until told to stop): the answer can only come from
+    # depth-first search by the ground methods, in depth-first search's thread.
+    planning = _workshop(13)  # 13**3 bindings of finish-m an item by types: decomposed
+    calls: list[tuple[str, Search, bool]] = []
+    real = plan
+
+    def lost_but_grounded_dfs(*args: Any, **kwargs: Any) -> PlanResult:
+        settings: PlannerSettings = args[3]
+        grounded = settings.decompositions is not None
+        calls.append((threading.current_thread().name, settings.search, grounded))
+        if settings.search is Search.DFS and grounded:
+            return real(*args, **kwargs)
+        checkpoint = kwargs.get("checkpoint")
+        ends = time.monotonic() + 20
+        while time.monotonic() < ends and not (checkpoint is not None and checkpoint()):
+            time.sleep(0.005)
+        return PlanResult(PlanStatus.INTERRUPTED)
+
+    monkeypatch.setattr(hddl_solving, "plan", lost_but_grounded_dfs)
+    solved = hddl_solving.solve(planning.hddl, planning.problem, timeout=30)
+    assert solved.result.status is PlanStatus.SOLVED and solved.result.best is not None
+    assert solved.search is Search.DFS and solved.settings.decompositions is not None
+    assert ("htnagent-dfs", Search.DFS, False) in calls  # the lifted one first
+    assert ("htnagent-dfs", Search.DFS, True) in calls  # then by the ground methods
+    # The grounded search's own thread goes straight to its greedy search.
+    assert [c for c in calls if c[0] == "htnagent-grounded"] == [("htnagent-grounded", Search.GBFS, True)]
+    best = solved.result.best
+    assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(best))] == []

@@ -55,14 +55,16 @@ greedy search has its time."""
 
 
 GROUNDED_DFS_SECONDS = 0.5
-"""The seconds of its own work the grounded search spends first depth-first in method order
-(guided only to drop the dead ends the grounding sees, decomposing by the ground methods),
-before its greedy best-first search -- where the searches decompose some method by its
-ground methods (:attr:`~htnagent.planning.composition.Composition.decompositions`): the
-lifted depth-first search, binding such a method by types, is lost there.  Greedy search
-can lose itself in a region where the estimate falls but the goal is out of reach
-(Woodworking's 10th problem: an estimate of 15 two tasks from the end, and no plan below);
-depth-first search, pruned by the grounding, answered that one in 2,000 expansions."""
+"""Where the searches decompose some method by its ground methods
+(:attr:`~htnagent.planning.composition.Composition.decompositions`), the lifted depth-first
+search, binding such a method by types, is lost: once the grounding is ready, depth-first
+search's thread goes on in method order by the ground methods (guided only to drop the dead
+ends the grounding sees), with its share of the time.  Where that thread has already ended,
+the grounded search spends these seconds of its own work depth-first first, before its
+greedy best-first search.  Greedy search can lose itself in a region where the estimate
+falls but the goal is out of reach (Woodworking's 10th problem: an estimate of 15 two tasks
+from the end, and no plan below); depth-first search, pruned by the grounding, answered that
+one in 2,000 expansions."""
 
 
 SolveProgress = Callable[[Search, int, float], None]
@@ -103,7 +105,8 @@ def solve(
     search is never abandoned -- a search that is getting there gets there (one that needs
     8 s alone answers within 30 s) -- but once it has had :data:`DFS_SECONDS` of work it
     keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
-    ones that scale.
+    ones that scale.  Where the grounding decomposes methods by their ground methods,
+    depth-first search goes on by them once it is ready (:data:`GROUNDED_DFS_SECONDS`).
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -274,8 +277,26 @@ def _portfolio(
     def greedy_told(n: int, _: float) -> None:
         say(Search.GBFS, dfs_seen[0] + grounded_seen[0] + n)
 
+    # Where the grounder decomposes methods by their ground methods, the lifted depth-first
+    # search, binding them by type, is lost: once the grounding is ready, depth-first search
+    # goes on by the ground methods instead, pruned by the grounding, with its own share.
+    by_ground: list[PlannerSettings] = []  # said by the grounded search, once grounded
+    switch = threading.Event()
+    dfs_used = [dfs_settings]
+
     def depth_first(paced: _Paced) -> PlanResult:
-        return run(dfs_settings, checkpoint=paced.pace, progress=dfs_told)
+        lifted = run(dfs_settings, checkpoint=lambda: paced.pace() or switch.is_set(), progress=dfs_told)
+        if not switch.is_set() or paced.stop.is_set() or lifted.status in _FINAL:
+            return lifted
+        left = budget - lifted.expansions
+        settings = dataclasses.replace(by_ground[0], budget=left, time_limit=time_left())
+        dfs_used[0] = settings
+
+        def told(n: int, seconds: float) -> None:
+            dfs_told(lifted.expansions + n, seconds)
+
+        found = run(settings, checkpoint=paced.pace, progress=told)
+        return dataclasses.replace(found, expansions=lifted.expansions + found.expansions)
 
     guided_settings: list[PlannerSettings] = []
 
@@ -305,12 +326,16 @@ def _portfolio(
                 decompositions=composition.decompositions,
             )
 
-        # Where the searches decompose methods by their ground methods, first depth-first in
-        # method order by them, dropping the dead ends the grounding sees, for a moment of
-        # work (design §7.2): where it wins, it wins at once.  Elsewhere the lifted
+        # Where the searches decompose methods by their ground methods, depth-first search in
+        # method order by them, dropping the dead ends the grounding sees (design §7.2),
+        # takes over depth-first search's thread and its share; only where that thread has
+        # ended does this one spend a moment of its work on it first.  Elsewhere the lifted
         # depth-first search already goes the same way.
         first = PlanResult(PlanStatus.INTERRUPTED)
-        if composition.decompositions:
+        if composition.decompositions and not dfs.ended.is_set():
+            by_ground.append(grounded(Search.DFS, 0))
+            switch.set()  # depth-first search's thread takes it from here
+        elif composition.decompositions:
             settings = grounded(Search.DFS, 0)
             begun_dfs = time.thread_time()
 
@@ -364,7 +389,7 @@ def _portfolio(
             gc.enable()
     grounded_settings = guided_settings[0] if guided_settings else greedy
     others = [
-        (Search.DFS, dfs_settings, dfs.out),
+        (Search.DFS, dfs_used[0], dfs.out),
         (grounded_settings.search, grounded_settings, grounded.out),
     ]
     both = found.expansions + sum(out[0].expansions for _, _, out in others if out)
