@@ -286,9 +286,9 @@ def _portfolio(
 
     def depth_first(paced: _Paced) -> PlanResult:
         lifted = run(dfs_settings, checkpoint=lambda: paced.pace() or switch.is_set(), progress=dfs_told)
-        if not switch.is_set() or paced.stop.is_set() or lifted.status in _FINAL:
-            return lifted
         left = budget - lifted.expansions
+        if not switch.is_set() or paced.stop.is_set() or lifted.status in _FINAL or left <= 0:
+            return lifted
         settings = dataclasses.replace(by_ground[0], budget=left, time_limit=time_left())
         dfs_used[0] = settings
 
