@@ -67,9 +67,8 @@ through, each way of binding, before it gives up: about what the portfolio's two
 of grounding (``GROUNDING_SECONDS`` in :mod:`htnagent.planning.hddl_solving`) bind, 0.5 to
 2 s on the IPC's problems.  Past it, the grounding would take longer than the search it
 guides has, and one estimate from a state (worked out anew for every state the search
-reaches) costs more than the guidance is worth.  It was 20,000: AssemblyHierarchical's
-25th-30th problems need 21,388-30,468 bindings, and 99 problems of the two IPC suites
-ground between the two (docs/benchmarks.md)."""
+reaches) costs more than the guidance is worth.  AssemblyHierarchical's 25th-30th problems
+need 21,388-30,468 bindings (docs/benchmarks.md, "The cap")."""
 
 JOIN_ABOVE = 0.04
 """The share of the cap past which the bindings some method's types make for one task send

@@ -455,6 +455,7 @@ def solve_anytime(
     if grounded is not None and search is None:
         order = grounded.search
     planning = first.planning
+    run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
     found_by: Search = first.search
     used = first.settings
     if search is None and grounded is None:
@@ -470,7 +471,6 @@ def solve_anytime(
             cost_bound=best.cost,
         )
         told = None if progress is None else _after(progress, Search.ASTAR, spent, started)
-        run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
         cheapest = run(astar, progress=told, improving=better)
         spent += cheapest.expansions
         if cheapest.best is not None:
@@ -490,7 +490,7 @@ def solve_anytime(
         decompositions=None if grounded is None else grounded.decompositions,
     )
     told = None if progress is None else _after(progress, order, spent, started)
-    found = plan(planning.domain, planning.state, planning.tasks, settings, progress=told, improving=better)
+    found = run(settings, progress=told, improving=better)
     if found.best is not None:
         best, found_by, used = found.best, order, settings
     seconds = time.perf_counter() - started
