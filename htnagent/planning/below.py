@@ -61,7 +61,8 @@ class Below:
         """``children``: each compound task's subtasks over all its ground methods;
         ``adds``: each primitive task's facts added (over its actions); ``first``: what
         each task needs at its start (:func:`starting_needs`)."""
-        self._children = {t: tuple(set(subs)) for t, subs in children.items()}
+        self.children: dict[int, tuple[int, ...]] = {t: tuple(set(subs)) for t, subs in children.items()}
+        """Task id: its subtasks over all its ground methods, each once."""
         self._adds = {t: frozenset(facts) for t, facts in adds.items()}
         self._memo: dict[int, frozenset[int]] = {}
         self._kept = 0
@@ -97,7 +98,7 @@ class Below:
         if known is not None:
             return known
         memo = self._memo
-        children = self._children
+        children = self.children
         seen = {task}
         todo = [task]
         out: set[int] = set()

@@ -36,6 +36,10 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
 6. **What the list can still make true** (:mod:`htnagent.planning.below`): ``inf`` too where
    a task needs at its start a fact the state lacks that no action below the tasks before
    it adds -- step 4 lets any action add it, even one no task left comes down to.
+7. **What the list can still reach** (:mod:`htnagent.planning.reach`): step 4's relaxation
+   again, kept to the actions and methods below the list's tasks -- a task of the list it
+   does not reach has no plan (:meth:`Composition.dead_end`).  A pass a list: the searches
+   ask it of the nodes they expand where an action led to them, not of every child.
 
 Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings, each way
 of binding tried: past that :func:`ground` gives None, and the searches keep the lifted
@@ -60,6 +64,7 @@ from htnagent.planning.ground_methods import Decompositions, GroundWay, decompos
 from htnagent.planning.hddl_translation import EQ, TYPE
 from htnagent.planning.one_way import OneWay
 from htnagent.planning.producible import Producible, enumerated
+from htnagent.planning.reach import WithinReach
 
 MAX_GROUND = 50_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
@@ -231,6 +236,8 @@ class Composition:
             self._starts = [None] * self._size
             for i, need in self._below.needs.items():
                 self._starts[i] = need
+        # What the list can still reach (step 7), on the same graph.
+        self._reach = WithinReach(needs, self._consumers, outputs, self._free, self._below.children)
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing
@@ -255,10 +262,7 @@ class Composition:
         base = self._int_base
         outputs = self._outputs
         consumers = self._consumers
-        facts = self._facts
-        start = [i for f in dynamic if (i := facts.get(f)) is not None]
-        start += [i for f, i in self._negated if f not in dynamic]
-        buckets: list[list[int]] = [start]
+        buckets: list[list[int]] = [self._start(dynamic)]
         for k in self._free:
             v = base[k]
             while len(buckets) <= v:
@@ -294,16 +298,9 @@ class Composition:
         consumers = self._consumers
         heap: list[tuple[float, int]] = []
         push, pop = heapq.heappush, heapq.heappop
-        facts = self._facts
-        for f in dynamic:
-            i = facts.get(f)
-            if i is not None:
-                pushed[i] = 0.0
-                heap.append((0.0, i))
-        for f, i in self._negated:
-            if f not in dynamic:
-                pushed[i] = 0.0
-                heap.append((0.0, i))
+        for i in self._start(dynamic):
+            pushed[i] = 0.0
+            heap.append((0.0, i))
         heapq.heapify(heap)
         for k in self._free:
             v = base[k]
@@ -326,6 +323,28 @@ class Composition:
                             pushed[o] = v
                             push(heap, (v, o))
         return dist
+
+    def _start(self, dynamic: frozenset[Atom]) -> list[int]:
+        """The nodes a state whose changing facts are ``dynamic`` holds from the start, by id:
+        its facts, and the negated facts whose fact it lacks."""
+        facts = self._facts
+        start = [i for f in dynamic if (i := facts.get(f)) is not None]
+        start += [i for f, i in self._negated if f not in dynamic]
+        return start
+
+    def dead_end(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> bool:
+        """Whether the task list cannot be done from the state (step 7): the relaxation kept
+        to the actions and methods below its tasks does not reach them all.  False where a
+        task of the list is one the grounding never met: what it does is unknown.  One pass
+        over the grounding: for the nodes a search expands, not for every child it makes."""
+        ids = self._tasks
+        wanted: list[int] = []
+        for t in tasks:
+            i = ids.get(t)
+            if i is None:
+                return False
+            wanted.append(i)
+        return self._reach.lost(wanted, self._start(dynamic))
 
     def _holding(self, dynamic: frozenset[Atom]) -> frozenset[int]:
         """The facts some task needs at its start (step 6) that hold in the state whose

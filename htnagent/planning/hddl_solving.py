@@ -324,6 +324,7 @@ def _portfolio(
                 time_limit=time_left(),
                 guide=composition.estimate,
                 decompositions=composition.decompositions,
+                prune=composition.dead_end,
             )
 
         # Where the searches decompose methods by their ground methods, depth-first search in
@@ -488,6 +489,7 @@ def solve_anytime(
         cost_bound=best.cost,
         guide=None if grounded is None else grounded.guide,
         decompositions=None if grounded is None else grounded.decompositions,
+        prune=None if grounded is None else grounded.prune,
     )
     told = None if progress is None else _after(progress, order, spent, started)
     found = run(settings, progress=told, improving=better)

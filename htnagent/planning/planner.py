@@ -70,6 +70,10 @@ class PlanStatus(Enum):
 Guide = Callable[[Sequence[Atom], frozenset[Atom]], float]
 """A node's estimate from its task list and its state's changing facts (see :func:`plan`)."""
 
+DeadEnd = Callable[[Sequence[Atom], frozenset[Atom]], bool]
+"""Whether a node has no plan below it, from its task list and its state's changing facts
+(:attr:`PlannerSettings.prune`)."""
+
 Progress = Callable[[int, float], None]
 """Told how far a search has got: ``(expansions, seconds)`` so far (see :func:`plan`)."""
 
@@ -146,6 +150,13 @@ class PlannerSettings:
     """Decomposers the searches use for some methods in place of their lifted ones: the
     ground methods a grounding kept (:mod:`htnagent.planning.ground_methods`), beside its
     estimate as the :attr:`guide`."""
+    prune: DeadEnd | None = field(default=None, compare=False)
+    """A sound test asked of a node as the search takes it off its open list to expand, where
+    an action led to it (a state not tested yet) or it is the first: where the test says no
+    plan lies below the node, it is dropped unexpanded.  For a test too costly to ask of
+    every child the search makes: a grounding's
+    (:meth:`~htnagent.planning.composition.Composition.dead_end`), beside its estimate as the
+    :attr:`guide`."""
 
     def __post_init__(self) -> None:
         if self.alternatives < 1:
@@ -399,6 +410,7 @@ def _search(
     lazy = task_costs is not None and k == 1 and guide is None
     lazy_methods: dict[str, list[tuple[str, LazyDecomposer]]] = {}
     deadline = started + settings.time_limit if settings.time_limit is not None else None
+    prune = settings.prune
     # What each task name means to h (heuristic below): its estimate, None for a compound
     # task without one (h is 0), absent for a primitive task (h looks further).
     h_role: dict[str, Estimate | None] = {name: None for name in methods}
@@ -680,6 +692,8 @@ def _search(
             if count >= k:
                 continue
             popped[node_key] = count + 1
+        if prune is not None and (node.step is not None or node is root) and prune(node_tasks, dynamic):
+            continue  # nothing below the list reaches its tasks (design §7.2, step 7)
         expansions += 1
         task = node_tasks[0]
         record = node.records[0]

@@ -233,20 +233,41 @@ class Producible:
             todo.remove(t)
             bound |= t.variables()
             live = way.kept.union(*(x.variables() for x in todo))
-            seen: dict[tuple[tuple[str, Term], ...], Bindings] = {}
+            # A binding kept is told by the values of these (None: left unbound by an ANY).
+            kept = tuple(sorted(live & bound))
+            seen: dict[tuple[Term | None, ...], None] = {}
+            typed: dict[Atom, bool] = {}  # (whether a task has the types is the task's alone)
+            # The match made plain where the subtask's arguments are names (a candidate has
+            # its name and arity): its constants compared, its variables bound.
+            flat = all(isinstance(a, str) for a in t.args)
+            consts = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and not is_variable(a)]
+            variables = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and is_variable(a)]
             for row in rows:
                 for task in self.candidates(t, row):
-                    if not self._typed(way, t, task):
+                    ok = typed.get(task)
+                    if ok is None:
+                        ok = typed[task] = self._typed(way, t, task)
+                    if not ok:
                         continue
                     self._tick()
-                    b = _match(t, task, row)
+                    args = task.args
+                    b: Bindings | None
+                    if flat and ANY not in args:
+                        b = None if any(args[i] != c for i, c in consts) else dict(row)
+                        if b is not None:
+                            for i, v in variables:
+                                if b.setdefault(v, args[i]) != args[i]:
+                                    b = None
+                                    break
+                    else:
+                        b = _match(t, task, row)
                     if b is None:
                         continue
-                    key = tuple(sorted((v, x) for v, x in b.items() if v in live))
+                    key = tuple([b.get(v) for v in kept])
                     if key not in seen:
                         self._count()  # a binding kept: the work that grows with the problem
-                        seen[key] = b
-            rows = [dict(key) for key in seen]
+                        seen[key] = None
+            rows = [{v: x for v, x in zip(kept, key, strict=True) if x is not None} for key in seen]
         return rows
 
     # -- step 3: the join --------------------------------------------------------------------
