@@ -9,6 +9,8 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
@@ -18,6 +20,7 @@ from htnagent.planning.composition import TooLarge, _Grounder, ground
 from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
+from htnagent.planning.producible import _match, _match_names
 from tests.test_composition import _workshop
 
 # A chain of cables from the pc's port s to the printer's port t: wire(d1, d2) plugs any two
@@ -181,3 +184,25 @@ def test_a_grounding_stopped_by_its_checkpoint_is_not_tried_again() -> None:
 def test_past_the_cap_both_ways_there_is_no_grounding() -> None:
     planning = _wiring()
     assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None
+
+
+_NAMES = st.sampled_from(["a", "b", "c", "?x", "?y", "?z"])
+
+
+@given(
+    pattern=st.lists(_NAMES, min_size=0, max_size=4),
+    values=st.data(),
+    row=st.dictionaries(st.sampled_from(["?x", "?y", "?w"]), st.sampled_from(["a", "b", "c"]), max_size=2),
+)
+def test_the_joins_plain_match_is_unification(
+    pattern: list[str], values: st.DataObject, row: dict[str, str]
+) -> None:
+    # The join's inner loop matches a subtask of plain names without the general
+    # unification: the same bindings, or none, as unification gives.
+    args = tuple(
+        values.draw(st.lists(st.sampled_from(["a", "b", "c"]), min_size=len(pattern), max_size=len(pattern)))
+    )
+    consts = [(i, a) for i, a in enumerate(pattern) if not a.startswith("?")]
+    variables = [(i, a) for i, a in enumerate(pattern) if a.startswith("?")]
+    expected = _match(Atom("t", tuple(pattern)), Atom("t", args), row)
+    assert _match_names(consts, variables, args, row) == expected

@@ -238,8 +238,9 @@ class Producible:
             seen: dict[tuple[Term | None, ...], None] = {}
             typed: dict[Atom, bool] = {}  # (whether a task has the types is the task's alone)
             # The match made plain where the subtask's arguments are names (a candidate has
-            # its name and arity): its constants compared, its variables bound.
+            # its name): its constants compared, its variables bound.
             flat = all(isinstance(a, str) for a in t.args)
+            arity = len(t.args)
             consts = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and not is_variable(a)]
             variables = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and is_variable(a)]
             for row in rows:
@@ -251,14 +252,8 @@ class Producible:
                         continue
                     self._tick()
                     args = task.args
-                    b: Bindings | None
-                    if flat and ANY not in args:
-                        b = None if any(args[i] != c for i, c in consts) else dict(row)
-                        if b is not None:
-                            for i, v in variables:
-                                if b.setdefault(v, args[i]) != args[i]:
-                                    b = None
-                                    break
+                    if flat and len(args) == arity and ANY not in args:
+                        b = _match_names(consts, variables, args, row)
                     else:
                         b = _match(t, task, row)
                     if b is None:
@@ -368,6 +363,25 @@ def _match(pattern: Atom, task: Atom, b: Bindings) -> Bindings | None:
                 return None
             out = dict(inner)
         elif p != a:
+            return None
+    return out
+
+
+def _match_names(
+    consts: Sequence[tuple[int, str]],
+    variables: Sequence[tuple[int, str]],
+    args: tuple[Term, ...],
+    b: Bindings,
+) -> Bindings | None:
+    """:func:`_match` of a pattern whose arguments are names -- ``consts`` and ``variables``,
+    each with its place -- against a task of its name and arity with no :data:`ANY`: the
+    join's inner loop, a million times for a Woodworking problem."""
+    for i, c in consts:
+        if args[i] != c:
+            return None
+    out = dict(b)
+    for i, v in variables:
+        if out.setdefault(v, args[i]) != args[i]:
             return None
     return out
 
