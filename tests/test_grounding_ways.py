@@ -14,7 +14,7 @@ from hypothesis import strategies as st
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
-from htnagent.model.terms import Atom
+from htnagent.model.terms import Atom, Bindings
 from htnagent.planning import composition
 from htnagent.planning.composition import TooLarge, _Grounder, ground
 from htnagent.planning.hddl_translation import HddlPlanning, translate
@@ -204,5 +204,6 @@ def test_the_joins_plain_match_is_unification(
     )
     consts = [(i, a) for i, a in enumerate(pattern) if not a.startswith("?")]
     variables = [(i, a) for i, a in enumerate(pattern) if a.startswith("?")]
-    expected = _match(Atom("t", tuple(pattern)), Atom("t", args), row)
-    assert _match_names(consts, variables, args, row) == expected
+    bindings: Bindings = dict(row)
+    expected = _match(Atom("t", tuple(pattern)), Atom("t", args), bindings)
+    assert _match_names(consts, variables, args, bindings) == expected
