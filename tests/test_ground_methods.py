@@ -4,6 +4,7 @@ none lost that a plan could take."""
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 import time
@@ -114,6 +115,7 @@ def test_cheaper_plans_after_a_grounded_first_plan_go_on_as_the_search_that_foun
     settings = PlannerSettings(
         alternatives=1, search=Search.DFS, guide=c.estimate, decompositions=c.decompositions
     )
+    settings = dataclasses.replace(settings, prune=c.dead_end)
     first = plan(planning.domain, planning.state, planning.tasks, settings)
     assert first.best is not None
     monkeypatch.setattr(hddl_solving, "solve", lambda *_, **__: Solved(planning, Search.DFS, settings, first))
@@ -129,6 +131,7 @@ def test_cheaper_plans_after_a_grounded_first_plan_go_on_as_the_search_that_foun
     (improving,) = used
     assert improving.search is Search.DFS
     assert improving.decompositions is c.decompositions and improving.guide is not None
+    assert improving.prune is settings.prune  # and the test of what the list can still reach (step 7)
     assert improving.cost_bound == first.best.cost
 
 
@@ -160,6 +163,7 @@ def test_depth_first_search_goes_on_by_the_ground_methods_once_grounded(
     solved = hddl_solving.solve(planning.hddl, planning.problem, timeout=30)
     assert solved.result.status is PlanStatus.SOLVED and solved.result.best is not None
     assert solved.search is Search.DFS and solved.settings.decompositions is not None
+    assert solved.settings.prune is not None  # the grounded searches drop what step 7 finds dead
     assert ("htnagent-dfs", Search.DFS, False) in calls  # the lifted one first
     assert ("htnagent-dfs", Search.DFS, True) in calls  # then by the ground methods
     # The grounded search's own thread goes straight to its greedy search.
