@@ -14,7 +14,8 @@ import pytest
 from htnagent.hddl import parse_domain, parse_problem, read_domain, read_problem
 from htnagent.hddl.check import check_plan
 from htnagent.model.terms import Atom
-from htnagent.planning import reach
+from htnagent.planning import below as below_module
+from htnagent.planning.below import Gathered
 from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
@@ -185,17 +186,18 @@ def test_a_node_said_out_of_reach_has_no_plan(domain_file: str, problem_file: st
         assert said_lost  # the varnishing problem has such nodes: the oracle was asked
 
 
-def test_what_lies_below_a_task_and_what_the_pass_reaches() -> None:
+def test_the_pass_reaches_only_through_what_lies_below_the_tasks() -> None:
     # Facts 0-1, tasks 2-5.  Action k0 (task 4) needs fact 0 and adds fact 1; action k1
     # (task 5) needs fact 1; method k2 makes task 2 from task 4, method k3 task 3 from task 5.
+    below = Gathered({2: (4,), 3: (5,)}, lambda t: (t,))
     r = WithinReach(
         needs=[1, 1, 1, 1],
         consumers=[[0], [1], [], [], [2], [3]],
         outputs=[(1, 4), (5,), (2,), (3,)],
         free=[],
-        children={2: (4,), 3: (5,)},
+        below=below,
     )
-    assert r.below(2) == frozenset({2, 4})
+    assert below(2) == frozenset({2, 4})
     assert not r.lost([2], [0])
     assert r.lost([3], [0])  # fact 1 comes only from the action below task 2
     assert not r.lost([2, 3], [0])
@@ -204,9 +206,11 @@ def test_what_lies_below_a_task_and_what_the_pass_reaches() -> None:
     assert not r.lost([], [])
 
 
-def test_below_forgets_past_its_bound_and_answers_the_same(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(reach, "MAX_KEPT", 1)
-    r = WithinReach([], [[] for _ in range(4)], [], [], {0: (1, 2), 3: (1,)})
-    assert r.below(0) == frozenset({0, 1, 2})
-    assert r.below(3) == frozenset({1, 3})
-    assert r.below(0) == frozenset({0, 1, 2})
+def test_what_lies_below_is_forgotten_past_its_bound_and_answered_the_same(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setattr(below_module, "MAX_KEPT", 1)
+    below = Gathered({0: (1, 2), 3: (1,)}, lambda t: (t,))
+    assert below(0) == frozenset({0, 1, 2})
+    assert below(3) == frozenset({1, 3})
+    assert below(0) == frozenset({0, 1, 2})

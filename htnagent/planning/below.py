@@ -35,7 +35,7 @@ lacks; what lies below each task is worked out once, when a list first needs it.
 from __future__ import annotations
 
 from collections import defaultdict
-from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 
 from htnagent.model.terms import Atom
 from htnagent.planning.one_way import GroundSplit, GroundStep, greatest_fixed_point
@@ -43,9 +43,10 @@ from htnagent.planning.one_way import GroundSplit, GroundStep, greatest_fixed_po
 _NONE: frozenset[int] = frozenset()
 
 MAX_KEPT = 1_000_000
-"""About how many facts, summed over the tasks worked out, :class:`Below` keeps (some tens
-of megabytes): past it (a large grounding whose every task reaches most of the actions) it
-forgets them and works them out again as lists ask -- time over memory."""
+"""About how many ids (facts, or tasks), summed over the tasks worked out, each
+:class:`Gathered` keeps (some tens of megabytes): past it (a large grounding whose every
+task reaches most of the actions) it forgets them and works them out again as lists ask --
+time over memory."""
 
 
 class Below:
@@ -63,9 +64,11 @@ class Below:
         each task needs at its start (:func:`starting_needs`)."""
         self.children: dict[int, tuple[int, ...]] = {t: tuple(set(subs)) for t, subs in children.items()}
         """Task id: its subtasks over all its ground methods, each once."""
-        self._adds = {t: frozenset(facts) for t, facts in adds.items()}
-        self._memo: dict[int, frozenset[int]] = {}
-        self._kept = 0
+        own_adds = {t: frozenset(facts) for t, facts in adds.items()}
+        self.adds = Gathered(self.children, lambda t: own_adds.get(t, _NONE))
+        """Task id: the facts the actions below the task add."""
+        self.tasks_below = Gathered(self.children, lambda t: (t,))
+        """Task id: the task and every task below it."""
         self.needs: dict[int, frozenset[int]] = {t: frozenset(f) for t, f in first.items() if f}
         """Task id: the facts it needs at its start (only the tasks that need some)."""
 
@@ -92,13 +95,38 @@ class Below:
         )
         return Below(children, adds, first)
 
-    def adds(self, task: int) -> frozenset[int]:
-        """The facts the actions below the task add."""
-        known = self._memo.get(task)
+    def lost(self, missing: frozenset[int], before: Sequence[int]) -> bool:
+        """Whether some of the ``missing`` facts (that a task needs at its start and the
+        state lacks) is added below none of the tasks ``before`` it."""
+        adds = self.adds
+        memo = adds.memo
+        # The nearest task before it first: the likeliest to add what is missing.
+        for e in reversed(before):
+            missing -= memo.get(e) or adds(e)
+            if not missing:
+                return False
+        return True
+
+
+class Gathered:
+    """For each task asked, what ``own`` gives for the task and every task below it (top
+    down through ``children``, each compound task's subtasks), kept for the tasks asked:
+    past :data:`MAX_KEPT` ids in all it forgets them and works them out again as asked."""
+
+    def __init__(self, children: Mapping[int, Sequence[int]], own: Callable[[int], Iterable[int]]) -> None:
+        self._children = children
+        self._own = own
+        self.memo: dict[int, frozenset[int]] = {}
+        """What has been worked out, by task id."""
+        self._kept = 0
+
+    def __call__(self, task: int) -> frozenset[int]:
+        known = self.memo.get(task)
         if known is not None:
             return known
-        memo = self._memo
-        children = self.children
+        memo = self.memo
+        children = self._children
+        own = self._own
         seen = {task}
         todo = [task]
         out: set[int] = set()
@@ -108,7 +136,7 @@ class Below:
             if done is not None:
                 out |= done  # worked out already: all of it, whatever lies below
                 continue
-            out |= self._adds.get(t, _NONE)
+            out.update(own(t))
             for c in children.get(t, ()):
                 if c not in seen:
                     seen.add(c)
@@ -120,17 +148,6 @@ class Below:
             self._kept = len(found)
         memo[task] = found
         return found
-
-    def lost(self, missing: frozenset[int], before: Sequence[int]) -> bool:
-        """Whether some of the ``missing`` facts (that a task needs at its start and the
-        state lacks) is added below none of the tasks ``before`` it."""
-        memo = self._memo
-        # The nearest task before it first: the likeliest to add what is missing.
-        for e in reversed(before):
-            missing -= memo.get(e) or self.adds(e)
-            if not missing:
-                return False
-        return True
 
 
 class Split:
@@ -172,4 +189,4 @@ def starting_needs(
     return greatest_fixed_point(of_task, starts, way, found)
 
 
-__all__ = ["MAX_KEPT", "Below", "Split", "starting_needs"]
+__all__ = ["MAX_KEPT", "Below", "Gathered", "Split", "starting_needs"]

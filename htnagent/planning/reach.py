@@ -24,18 +24,13 @@ where children are many (AssemblyHierarchical, Entertainment; design §7.2, step
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Mapping, Sequence
-
-MAX_KEPT = 1_000_000
-"""About how many task ids, summed over the tasks worked out, :class:`WithinReach` keeps of
-what lies below them (some tens of megabytes): past it, it forgets them and works them out
-again as lists ask -- time over memory."""
+from collections.abc import Callable, Iterable, Sequence
 
 
 class WithinReach:
     """The relaxed composition's graph, by the estimate's ids (facts, then tasks): for each
     action and method, how many inputs it needs, which nodes need it, what it reaches, and
-    the task it belongs to; and each compound task's subtasks."""
+    the task it belongs to; and what lies below each task."""
 
     def __init__(
         self,
@@ -43,47 +38,18 @@ class WithinReach:
         consumers: Sequence[Sequence[int]],
         outputs: Sequence[tuple[int, ...]],
         free: Sequence[int],
-        children: Mapping[int, Sequence[int]],
+        below: Callable[[int], frozenset[int]],
     ) -> None:
         """``needs[k]``: how many inputs action or method ``k`` waits for; ``consumers[n]``:
         the actions and methods that read node ``n``; ``outputs[k]``: what ``k`` reaches, its
-        own task last; ``free``: those that need nothing; ``children``: each compound task's
-        subtasks over all its ground methods (each once)."""
+        own task last; ``free``: those that need nothing; ``below``: a task and every task
+        below it (:attr:`~htnagent.planning.below.Below.tasks_below`)."""
         self._needs = list(needs)
         self._consumers = consumers
         self._outputs = outputs
         self._free = free
         self._owner = [out[-1] for out in outputs]  # the task each action or method reaches
-        self._children = children
-        self._memo: dict[int, frozenset[int]] = {}
-        self._kept = 0
-
-    def below(self, task: int) -> frozenset[int]:
-        """The task and every task reachable from it top down through the ground methods."""
-        known = self._memo.get(task)
-        if known is not None:
-            return known
-        memo = self._memo
-        children = self._children
-        out = {task}
-        todo = [task]
-        while todo:
-            t = todo.pop()
-            done = memo.get(t)
-            if done is not None:
-                out |= done  # worked out already: all of it, whatever lies below
-                continue
-            for c in children.get(t, ()):
-                if c not in out:
-                    out.add(c)
-                    todo.append(c)
-        found = frozenset(out)
-        self._kept += len(found)
-        if self._kept > MAX_KEPT:
-            memo.clear()
-            self._kept = len(found)
-        memo[task] = found
-        return found
+        self._below = below
 
     def lost(self, tasks: Sequence[int], start: Iterable[int]) -> bool:
         """Whether, from the nodes ``start`` (the state's facts), the relaxation kept to the
@@ -92,8 +58,9 @@ class WithinReach:
         if not wanted:
             return False
         allowed: set[int] = set()
+        below = self._below
         for t in wanted:
-            allowed |= self.below(t)
+            allowed |= below(t)
         owner = self._owner
         outputs = self._outputs
         consumers = self._consumers
@@ -119,4 +86,4 @@ class WithinReach:
         return True
 
 
-__all__ = ["MAX_KEPT", "WithinReach"]
+__all__ = ["WithinReach"]
