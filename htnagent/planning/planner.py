@@ -301,7 +301,7 @@ class _Graveyard:
                     while made:
                         for _ in range(min(_CHUNK, len(made))):
                             made.popitem()
-            del remains, made
+            del remains  # (each list or dict of it is empty now)
             with self._lock:
                 self._waiting -= 1
                 if not self._waiting:
