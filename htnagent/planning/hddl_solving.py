@@ -61,10 +61,9 @@ search, binding such a method by types, is lost: once the grounding is ready, de
 search's thread goes on in method order by the ground methods (guided only to drop the dead
 ends the grounding sees), with its share of the time.  Where that thread has already ended,
 the grounded search spends these seconds of its own work depth-first first, before its
-greedy best-first search.  Greedy search can lose itself in a region where the estimate
-falls but the goal is out of reach (Woodworking's 10th problem: an estimate of 15 two tasks
-from the end, and no plan below); depth-first search, pruned by the grounding, answered that
-one in 2,000 expansions."""
+greedy best-first search: greedy search can lose itself in a region where the estimate falls
+but the goal is out of reach and no dead-end test of the grounding sees it, where depth-first
+search in method order, pruned by the grounding, goes another way."""
 
 
 SolveProgress = Callable[[Search, int, float], None]
