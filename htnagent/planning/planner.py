@@ -41,6 +41,7 @@ from htnagent.model.terms import Atom, Bindings, substitute, unify
 from htnagent.planning.goal_support import GoalSupport, checks_goal
 from htnagent.planning.ground_methods import Decompositions
 from htnagent.planning.landmarks import GoalLandmarks
+from htnagent.planning.one_step import OneStepAhead
 
 TaskEntry = tuple[Atom, Decomposition | None]
 
@@ -481,6 +482,24 @@ def _search(
     # A guide tells the ways of one method apart: each is made into a node at once.
     lazy = task_costs is not None and k == 1 and guide is None
     lazy_methods: dict[str, list[tuple[str, LazyDecomposer]]] = {}
+    ground = settings.decompositions or {}
+
+    def runs_of(name: str) -> list[tuple[str, LazyDecomposer]]:
+        """The task name's methods as lazy decomposers, made once."""
+        runs = lazy_methods.get(name)
+        if runs is None:
+            runs = lazy_methods[name] = [
+                (m.name, _lazy(ground[m]) if m in ground else m.compiled_lazy(dyn_preds))
+                for m in methods.get(name, ())
+            ]
+        return runs
+
+    # Design §7.5: greedy search by the lifted estimate also weighs the next decomposition,
+    # where the problem is a task network alone (with a goal, the estimate counts what the
+    # goal still needs, and a cost added would hold back the nodes that move towards it).
+    one_step = None
+    if lazy and task_costs is not None and search is Search.GBFS and not domain.goal_facts:
+        one_step = OneStepAhead(domain, static, dyn_preds, task_costs, runs_of)
     deadline = started + settings.time_limit if settings.time_limit is not None else None
     prune = settings.prune
     # What each task name means to h (heuristic below): its estimate, None for a compound
@@ -637,7 +656,6 @@ def _search(
     ground_actions = domain.actions
     known = ground_actions.known
     compiled: _Compiled = {}
-    ground = settings.decompositions or {}
     popped: dict[_Key, int] = {}
     primitive_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[Atom, float, frozenset[Atom]]]] = {}
     compound_cache: dict[tuple[frozenset[Atom], Atom], list[tuple[str, list[tuple[Atom, ...]]]]] = {}
@@ -710,17 +728,20 @@ def _search(
                 rec = _new(_Pending, (more.task, more.method, more.record))
                 # The node before the ways still to come, whichever way ties are broken.
                 seq, later = sorted((next(counter), next(counter)))
-                child = (
-                    more.f,
-                    more.neg_g,
-                    seq,
-                    up.dynamic,
-                    way + more.rest_tasks,
-                    (rec,) * len(way) + more.rest_records,
-                    None,
-                    up,
-                )
-                heappush(heap, _new(_Node, child))
+                child_tasks = way + more.rest_tasks
+                extra = 0.0 if one_step is None else one_step.extra(child_tasks, up.dynamic)
+                if extra != _INF:
+                    child = (
+                        more.f + extra,
+                        more.neg_g,
+                        seq,
+                        up.dynamic,
+                        child_tasks,
+                        (rec,) * len(way) + more.rest_records,
+                        None,
+                        up,
+                    )
+                    heappush(heap, _new(_Node, child))
                 heappush(heap, more._replace(seq=later))
             continue
         node = popped_entry
@@ -810,13 +831,7 @@ def _search(
             continue
         st = State(static, dynamic, dyn_preds)
         if lazy:
-            runs = lazy_methods.get(task.name)
-            if runs is None:
-                runs = lazy_methods[task.name] = [
-                    (m.name, _lazy(ground[m]) if m in ground else m.compiled_lazy(dyn_preds))
-                    for m in methods.get(task.name, ())
-                ]
-            for method_name, run in runs:
+            for method_name, run in runs_of(task.name):
                 ways = run(task, st)
                 first_way = next(ways, None) if dropped is None else next_kept(ways, task, dynamic, rest_t)
                 if first_way is None:
@@ -834,10 +849,13 @@ def _search(
                 rec = _new(_Pending, (task, method_name, record))
                 child_records = (rec,) * len(first_way) + rest_r
                 seq, later = sorted((next(counter), next(counter)))
-                heappush(
-                    heap,
-                    _new(_Node, (f, -g, seq, dynamic, child_tasks, child_records, None, node)),
-                )
+                # One step ahead tells the ways apart; the ways to come keep the f they share.
+                extra = 0.0 if one_step is None else one_step.extra(child_tasks, dynamic)
+                if extra != _INF:
+                    heappush(
+                        heap,
+                        _new(_Node, (f + extra, -g, seq, dynamic, child_tasks, child_records, None, node)),
+                    )
                 more_entry = (f, -g, later, ways, node, task, method_name, record, rest_t, rest_r)
                 heappush(heap, _new(_More, more_entry))
             continue
@@ -892,7 +910,8 @@ def _search(
     if seconds > LET_GO_AFTER:
         # What the search made goes to the graveyard to be freed there: this frame keeps
         # no reference to it, so its answer does not wait for the freeing.
-        _GRAVEYARD.bury((heap, popped, best_g, h_cache, primitive_cache, compound_cache))
+        seen_ahead = {} if one_step is None else one_step.let_go()
+        _GRAVEYARD.bury((heap, popped, best_g, h_cache, primitive_cache, compound_cache, seen_ahead))
         heap, popped, best_g, h_cache, primitive_cache, compound_cache = [], {}, {}, {}, {}, {}
     return PlanResult(status, tuple(found), expansions, seconds, exhausted)
 
