@@ -42,8 +42,8 @@ MOST_ACTIONS = 16
 added (a long run of actions is rare, and each is applied for every list estimated)."""
 
 Ways = Callable[[str], Sequence[tuple[str, LazyDecomposer]]]
-"""A task name's methods as the search decomposes by them: each method's name and its lazy
-decomposer."""
+"""A task name's methods as the search decomposes by them, in the domain's order: each
+method's name and its lazy decomposer."""
 
 
 class OneStepAhead:
@@ -103,15 +103,16 @@ class OneStepAhead:
                 cost for cost, run in self._methods(task.name) if next(run(task, state), None) is not None
             )
             least = next(applies, _INF)
-            found = self._cache[key] = least - self._costs.get(task.name, 0.0)
+            found = self._cache[key] = _INF if least == _INF else least - self._costs.get(task.name, 0.0)
         return found
 
     def _methods(self, name: str) -> list[tuple[float, LazyDecomposer]]:
         listed = self._by_cost.get(name)
         if listed is None:
             costs = self._costs
-            subtasks = {me.name: me.subtasks for me in self._domain.methods.get(name, ())}
-            least = [(sum(costs.get(t.name, 0.0) for t in subtasks[n]), run) for n, run in self._ways(name)]
+            # The ways come in the domain's order of its methods (one name may stand for several).
+            pairs = zip(self._domain.methods.get(name, ()), self._ways(name), strict=True)
+            least = [(sum(costs.get(t.name, 0.0) for t in me.subtasks), run) for me, (_, run) in pairs]
             listed = self._by_cost[name] = sorted(least, key=lambda pair: pair[0])
         return listed
 
