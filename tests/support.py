@@ -17,10 +17,11 @@ from typing import Any
 import anyio
 import pytest
 
+from htnagent.hddl import parse_domain, parse_problem
 from htnagent.model.domain import Domain, State
 from htnagent.model.terms import Atom
 from htnagent.planning.composition import Composition, ground
-from htnagent.planning.hddl_translation import HddlPlanning
+from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.planner import PlannerSettings, plan
 from htnagent.runtime.events import TraceEvent
 from htnagent.runtime.trace import WALL_CLOCK_FIELDS
@@ -158,3 +159,9 @@ def grounded(planning: HddlPlanning) -> Composition:
 def fact(name: str, *args: str) -> Atom:
     """The ground atom ``name(args...)``."""
     return Atom(name, args)
+
+
+def translated(domain_text: str, problem_text: str) -> HddlPlanning:
+    """An HDDL domain and problem, given as text, read and translated for the planner."""
+    domain = parse_domain(domain_text, "domain.hddl")
+    return translate(domain, parse_problem(problem_text, domain, "problem.hddl"))

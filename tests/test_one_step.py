@@ -9,15 +9,14 @@ import random
 
 import pytest
 
-from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
 from htnagent.model.terms import Atom
 from htnagent.planning import one_step as one_step_module
-from htnagent.planning.hddl_translation import HddlPlanning, translate
+from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.one_step import OneStepAhead
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
-from tests.support import fact
+from tests.support import fact, translated
 
 AIRPORTS = 8
 
@@ -40,15 +39,12 @@ PLANES = """
 
 
 def _planes(tasks: str, start: str = "a1") -> HddlPlanning:
-    domain = parse_domain(PLANES, "planes.hddl")
     airports = " ".join(f"a{k}" for k in range(1, AIRPORTS + 1))
-    problem = parse_problem(
+    return translated(
+        PLANES,
         f"(define (problem p) (:domain planes) (:objects pl - plane {airports} - airport)"
         f" (:htn :ordered-subtasks (and {tasks})) (:init (at pl {start})))",
-        domain,
-        "p.hddl",
     )
-    return translate(domain, problem)
 
 
 def _ahead(planning: HddlPlanning) -> OneStepAhead:
@@ -150,12 +146,11 @@ def test_not_where_the_problem_has_a_goal(monkeypatch: pytest.MonkeyPatch) -> No
     _greedy(_planes("(be-at pl a3)"))
     assert asked
     asked.clear()
-    domain = parse_domain(PLANES, "planes.hddl")
-    problem = parse_problem(
-        "(define (problem p) (:domain planes) (:objects pl - plane a1 a2 a3 - airport)"
-        " (:htn :ordered-subtasks (and (be-at pl a3))) (:init (at pl a1)) (:goal (at pl a3)))",
-        domain,
-        "p.hddl",
+    _greedy(
+        translated(
+            PLANES,
+            "(define (problem p) (:domain planes) (:objects pl - plane a1 a2 a3 - airport)"
+            " (:htn :ordered-subtasks (and (be-at pl a3))) (:init (at pl a1)) (:goal (at pl a3)))",
+        )
     )
-    _greedy(translate(domain, problem))
     assert not asked
