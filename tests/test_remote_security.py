@@ -465,6 +465,24 @@ async def _serving(
         tg.cancel_scope.cancel()
 
 
+class _Refusals(list[TraceEvent]):
+    """Trace events, and an event set once the refusals reported count ``expected`` (the
+    serving side reports them from its event loop, once a second a peer)."""
+
+    def __init__(self, expected: int) -> None:
+        super().__init__()
+        self.expected = expected
+        self.refused = 0
+        self.all_reported = anyio.Event()
+
+    def append(self, event: TraceEvent) -> None:
+        super().append(event)
+        if isinstance(event, PeerRefused):
+            self.refused += event.count
+            if self.refused >= self.expected:
+                self.all_reported.set()
+
+
 def _executed(events: list[TraceEvent]) -> list[TraceEvent]:
     return [e for e in events if isinstance(e, GoalReceived | ActionStarted | RobotMoving)]
 
@@ -614,8 +632,9 @@ def test_on_the_link_only_the_parent_commands_nothing_twice_and_a_flood_is_repor
     endpoint = f"tcp/127.0.0.1:{port}"
     scenario = load_scenario(remote_scenario(tmp_path, port))
     keys = Keys(scenario.key_space, "navigator")
-    events: list[TraceEvent] = []
     flood = 3000
+    # The rogue's token and flood; under the parent's id, the replay and the order given again.
+    events = _Refusals(flood + 3)
 
     async def main() -> tuple[list[int], int, str, str]:
         async with _serving(scenario, endpoint, events), Link(connect=[endpoint]) as link:
@@ -628,15 +647,28 @@ def test_on_the_link_only_the_parent_commands_nothing_twice_and_a_flood_is_repor
             token = rogue.liveliness().declare_token(f"{keys.parent_alive}/{rogue_id}")  # a second parent
             await anyio.sleep(0.3)
             parent.order(seq=1)
-            # Meanwhile: a flood from the rogue, its own orders and replays of the parent's.
-            for n in range(1, flood + 1):
-                rogue.put(keys.down, encode(0.0, Execute(action=ACTION, seq=100 + n), rogue_id, n))
-            rogue.put(keys.down, encode(0.0, Execute(action=ACTION, seq=1), parent.me, 1))  # replayed
+            # Meanwhile: a flood from the rogue, its own orders and replays of the parent's --
+            # sent blocking where the link is full, not dropped as a put is by default (on a
+            # busy machine the transport would lose some, and the count below with them), and
+            # so from a thread, the serving side's loop being this one.
+            block = zenoh.CongestionControl.BLOCK
+
+            def flooding() -> None:
+                for n in range(1, flood + 1):
+                    payload = encode(0.0, Execute(action=ACTION, seq=100 + n), rogue_id, n)
+                    rogue.put(keys.down, payload, congestion_control=block)
+                replayed = encode(0.0, Execute(action=ACTION, seq=1), parent.me, 1)
+                rogue.put(keys.down, replayed, congestion_control=block)
+
+            await anyio.to_thread.run_sync(flooding)
             first = await parent.answer()
             parent.order(seq=1)  # the same order again, newly numbered: not executed twice
             parent.order(seq=2)
             second = await parent.answer()
-            await anyio.sleep(1.5)  # the refusals' report
+            # The refusals' report comes once a second per peer; on a busy machine the flood
+            # takes longer to refuse: wait for every refusal to be reported, not for a while.
+            with anyio.fail_after(30):
+                await events.all_reported.wait()
             token.undeclare()
             for session in (rogue, silent):
                 await anyio.to_thread.run_sync(session.close)
