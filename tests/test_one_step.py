@@ -10,6 +10,7 @@ import random
 import pytest
 
 from htnagent.hddl.check import check_plan
+from htnagent.model.preconditions import LazyDecomposer
 from htnagent.model.terms import Atom
 from htnagent.planning import one_step as one_step_module
 from htnagent.planning.hddl_translation import HddlPlanning
@@ -52,10 +53,10 @@ def _ahead(planning: HddlPlanning) -> OneStepAhead:
     assert domain.task_costs is not None
     dyn = state.dynamic_predicates
 
-    def ways(name: str) -> list[tuple[str, object]]:
+    def ways(name: str) -> list[tuple[str, LazyDecomposer]]:
         return [(m.name, m.compiled_lazy(dyn)) for m in domain.methods.get(name, ())]
 
-    return OneStepAhead(domain, state.static, dyn, domain.task_costs, ways)  # type: ignore[arg-type]
+    return OneStepAhead(domain, state.static, dyn, domain.task_costs, ways)
 
 
 def _greedy(planning: HddlPlanning) -> list[str]:

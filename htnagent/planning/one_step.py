@@ -19,11 +19,11 @@ adds 1.
 Never an over-estimate: the first compound task is decomposed in exactly that state, by a
 method that applies there, into subtasks that each cost at least their name's least cost.
 Only greedy search uses it: A* keeps the lifted sum, which under a cost bound is also the
-bound's own test (``--anytime``), and the step was measured for greedy search alone.  And only where the
-problem is a task network alone: with a goal, greedy search's estimate counts what the goal
-still needs (§7.4), and a cost added holds back the nodes that move towards it
-(Monroe-Partially-Observable's 10th problem: 2,484 expansions without it, none found in
-200,000 with it).
+bound's own test (``--anytime``), and the step was measured for greedy search alone.  And
+only where the problem is a task network alone: with a goal, greedy search's estimate
+counts what the goal still needs (§7.4), and a cost added holds back the nodes that move
+towards it (Monroe-Partially-Observable's 10th problem: 2,484 expansions without it, none
+found in 200,000 with it).
 """
 
 from __future__ import annotations
