@@ -9,18 +9,19 @@ from collections.abc import Sequence
 from typing import ClassVar
 
 import pytest
-from hypothesis import given
+from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
+from htnagent.model.domain import Method
 from htnagent.model.terms import Atom, Bindings
 from htnagent.planning import composition
 from htnagent.planning.composition import TooLarge, _Grounder, ground
 from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
-from htnagent.planning.producible import _match, _match_names
+from htnagent.planning.producible import ANY, Producible, _Bottom, _match
 from tests.test_composition import _workshop
 
 # A chain of cables from the pc's port s to the printer's port t: wire(d1, d2) plugs any two
@@ -186,24 +187,55 @@ def test_past_the_cap_both_ways_there_is_no_grounding() -> None:
     assert ground(planning.domain, planning.state, planning.tasks, cap=1_000) is None
 
 
-_NAMES = st.sampled_from(["a", "b", "c", "?x", "?y", "?z"])
+_VARS = ["?x", "?y", "?z", "?w"]
+_ARG = st.sampled_from([*_VARS, "a", "b"])
+_VALUE = st.sampled_from(["a", "b", "c", ANY])
+_OBJECT = st.sampled_from(["a", "b", "c"])
+_NAME = st.sampled_from(["p", "q"])
 
 
+def _naive_join(
+    producible: Producible, rows: list[Bindings], subtasks: list[Atom], kept: frozenset[str]
+) -> set[frozenset[tuple[str, object]]]:
+    """Every row extended by every choice of a task for each subtask, by unification, then
+    projected on ``kept``: what the join must give, worked out the slow way."""
+    out: set[frozenset[tuple[str, object]]] = set()
+    for row in rows:
+        found = [dict(row)]
+        for t in subtasks:
+            tasks = producible._tasks.get(t.name, ())
+            found = [b for a in found for task in tasks if (b := _match(t, task, a)) is not None]
+        out |= {frozenset((v, x) for v, x in b.items() if v in kept) for b in found}
+    return out
+
+
+@settings(max_examples=300)
 @given(
-    pattern=st.lists(_NAMES, min_size=0, max_size=4),
-    values=st.data(),
-    row=st.dictionaries(st.sampled_from(["?x", "?y", "?w"]), st.sampled_from(["a", "b", "c"]), max_size=2),
+    subtasks=st.lists(st.tuples(_NAME, st.lists(_ARG, min_size=1, max_size=3)), min_size=1, max_size=3),
+    tasks=st.lists(st.tuples(_NAME, st.lists(_VALUE, min_size=1, max_size=3)), max_size=12),
+    rows=st.lists(st.dictionaries(st.sampled_from(_VARS), _OBJECT, min_size=1, max_size=2), max_size=4),
+    kept=st.sets(st.sampled_from(_VARS)),
 )
-def test_the_joins_plain_match_is_unification(
-    pattern: list[str], values: st.DataObject, row: dict[str, str]
+def test_the_hash_join_gives_what_unification_gives(
+    subtasks: list[tuple[str, list[str]]],
+    tasks: list[tuple[str, list[str]]],
+    rows: list[dict[str, str]],
+    kept: set[str],
 ) -> None:
-    # The join's inner loop matches a subtask of plain names without the general
-    # unification: the same bindings, or none, as unification gives.
-    args = tuple(
-        values.draw(st.lists(st.sampled_from(["a", "b", "c"]), min_size=len(pattern), max_size=len(pattern)))
-    )
-    consts = [(i, a) for i, a in enumerate(pattern) if not a.startswith("?")]
-    variables = [(i, a) for i, a in enumerate(pattern) if a.startswith("?")]
-    bindings: Bindings = dict(row)
-    expected = _match(Atom("t", tuple(pattern)), Atom("t", args), bindings)
-    assert _match_names(consts, variables, args, bindings) == expected
+    # The join projects each subtask's producible tasks on the variables that matter and
+    # looks them up by the rows' key: the same bindings, counted once, as joining every
+    # row with every task by unification and projecting after.  ANY binds nothing.
+    rows = rows or [{}]  # the first round's one empty row, or rows bound in the round before
+    producible = object.__new__(Producible)
+    producible._tasks = {}
+    for name, args in tasks:
+        producible._tasks.setdefault(name, set()).add(Atom(name, tuple(args)))
+    producible._tick = producible._count = lambda: None
+    pattern = [Atom(name, tuple(args)) for name, args in subtasks]
+    head = Atom("m", tuple(sorted({v for t in pattern for v in t.variables()})))  # the method as written
+    method = Method(name="m", head=head, pre=(), subtasks=tuple(pattern))
+    way = _Bottom(method, {t: () for t in pattern}, (), frozenset(kept))
+    joined = producible._project_join([dict(r) for r in rows], list(pattern), way)
+    got = [frozenset(b.items()) for b in joined]
+    assert len(got) == len(set(got))  # each binding kept once
+    assert set(got) == _naive_join(producible, [dict(r) for r in rows], pattern, frozenset(kept))

@@ -18,7 +18,8 @@ actually occur; so does this module:
 2. **Producible tasks,** a bottom-up fixed point: a primitive task is producible when one of
    its actions is reachable; a compound task when one of its methods has every subtask
    producible and its relaxed precondition holding among the reached facts.  Each round
-   joins a method's subtasks only where one of them is newly producible (semi-naive).
+   joins a method's subtasks only where one of them is newly producible (semi-naive),
+   a subtask at a time, as a hash join on the variables the subtasks share.
 3. **Binding by joining** (:meth:`Producible.join`): a method's subtasks matched, one after
    the other, against the producible tasks -- the most constrained first, through an index
    on each argument -- binds every parameter the subtasks name.
@@ -226,44 +227,62 @@ class Producible:
         dropping the variables nothing later reads (neither the head, nor the precondition,
         nor a subtask to come), and then the repeats: bindings that differ only in a
         subtask's own variables (method16's any part coloured by any machine) count once."""
-        bound = set(rows[0]) if rows else set()
+        bound: set[str] = set().union(*rows)  # (a row may leave unbound what an ANY did not bind)
         todo = list(subtasks)
         while todo and rows:
             t = max(todo, key=lambda x: (len(x.variables() & bound), -len(x.variables())))
             todo.remove(t)
+            shared = tuple(sorted(t.variables() & bound))
             bound |= t.variables()
             live = way.kept.union(*(x.variables() for x in todo))
-            # A binding kept is told by the values of these (None: left unbound by an ANY).
-            kept = tuple(sorted(live & bound))
-            seen: dict[tuple[Term | None, ...], None] = {}
-            typed: dict[Atom, bool] = {}  # (whether a task has the types is the task's alone)
-            # The match made plain where the subtask's arguments are names (a candidate has
-            # its name): its constants compared, its variables bound.
-            flat = all(isinstance(a, str) for a in t.args)
-            arity = len(t.args)
-            consts = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and not is_variable(a)]
-            variables = [(i, a) for i, a in enumerate(t.args) if isinstance(a, str) and is_variable(a)]
-            for row in rows:
-                for task in self.candidates(t, row):
-                    ok = typed.get(task)
-                    if ok is None:
-                        ok = typed[task] = self._typed(way, t, task)
-                    if not ok:
-                        continue
-                    self._tick()
-                    args = task.args
-                    if flat and len(args) == arity and ANY not in args:
-                        b = _match_names(consts, variables, args, row)
-                    else:
-                        b = _match(t, task, row)
-                    if b is None:
-                        continue
-                    key = tuple([b.get(v) for v in kept])
-                    if key not in seen:
-                        self._count()  # a binding kept: the work that grows with the problem
-                        seen[key] = None
-            rows = [{v: x for v, x in zip(kept, key, strict=True) if x is not None} for key in seen]
+            rows = self._join_step(rows, t, way, shared, tuple(sorted(live & bound)))
         return rows
+
+    def _join_step(
+        self, rows: list[Bindings], t: Atom, way: _Bottom, shared: tuple[str, ...], kept: tuple[str, ...]
+    ) -> list[Bindings]:
+        """One subtask joined, as a hash join: each producible task of its name is first
+        projected on the variables that matter -- those the rows have bound (``shared``, the
+        key) and the new ones ``kept`` -- and the projections, each counted once, are then
+        looked up by each row's key.  A Woodworking method's subtask matches a thousand
+        tasks a row that differ only in variables nothing reads: projected first, the step
+        goes through the tasks once, not once a row.  A value None is an argument
+        :data:`ANY`: it matches whatever the row has, and binds nothing."""
+        fresh = tuple(v for v in kept if v not in shared and v in t.variables())
+        by_key: dict[tuple[Term | None, ...], dict[tuple[Term | None, ...], None]] = defaultdict(dict)
+        loose: dict[tuple[tuple[Term | None, ...], tuple[Term | None, ...]], None] = {}  # ANY in the key
+        for task in self._tasks.get(t.name, ()):
+            self._tick()
+            if not self._typed(way, t, task):
+                continue
+            b = _match(t, task, {})
+            if b is None:
+                continue
+            key = tuple([b.get(v) for v in shared])
+            out = tuple([b.get(v) for v in fresh])
+            if None in key:
+                loose[(key, out)] = None
+            else:
+                by_key[key][out] = None
+        seen: dict[tuple[Term | None, ...], None] = {}
+        for row in rows:
+            row_key = tuple([row.get(v) for v in shared])
+            if None in row_key:  # a variable an ANY left unbound: the task binds it, if it can
+                matches = [(k, out) for k, outs in by_key.items() for out in outs if _fits(row_key, k)]
+            else:
+                matches = [(row_key, out) for out in by_key.get(row_key, ())]
+            matches += [(k, out) for k, out in loose if _fits(row_key, k)]
+            for k, out in matches:
+                self._tick()
+                b = dict(row)
+                for v, x in (*zip(shared, k, strict=True), *zip(fresh, out, strict=True)):
+                    if x is not None:
+                        b.setdefault(v, x)
+                key = tuple([b.get(v) for v in kept])
+                if key not in seen:
+                    self._count()  # a binding kept: the work that grows with the problem
+                    seen[key] = None
+        return [{v: x for v, x in zip(kept, key, strict=True) if x is not None} for key in seen]
 
     # -- step 3: the join --------------------------------------------------------------------
 
@@ -367,23 +386,10 @@ def _match(pattern: Atom, task: Atom, b: Bindings) -> Bindings | None:
     return out
 
 
-def _match_names(
-    consts: Sequence[tuple[int, str]],
-    variables: Sequence[tuple[int, str]],
-    args: tuple[Term, ...],
-    b: Bindings,
-) -> Bindings | None:
-    """:func:`_match` of a pattern whose arguments are names -- ``consts`` and ``variables``,
-    each with its place -- against a task of its name and arity with no :data:`ANY`: the
-    join's inner loop, a million times for a Woodworking problem."""
-    for i, c in consts:
-        if args[i] != c:
-            return None
-    out = dict(b)
-    for i, v in variables:
-        if out.setdefault(v, args[i]) != args[i]:
-            return None
-    return out
+def _fits(row_key: tuple[Term | None, ...], task_key: tuple[Term | None, ...]) -> bool:
+    """Whether a row and a projected task agree on the variables both have bound (None is
+    unbound in the row, :data:`ANY` in the task)."""
+    return all(r is None or x is None or r == x for r, x in zip(row_key, task_key, strict=True))
 
 
 def _fixed(head: Atom, pattern: Atom) -> Bindings | None:
