@@ -269,6 +269,7 @@ RENDERERS: dict[str, Callable[[], str]] = {
             "ipc_monroe_po",
             "ipc_assembly",
             "ipc_cap",
+            "ipc_cap100",
             "ipc_other_rest",
             "ipc_interrupt",
         )

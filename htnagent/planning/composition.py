@@ -66,20 +66,20 @@ from htnagent.planning.one_way import OneWay
 from htnagent.planning.producible import Producible, enumerated
 from htnagent.planning.reach import WithinReach
 
-MAX_GROUND = 50_000
+MAX_GROUND = 100_000
 """The most ground actions plus bindings of methods' preconditions :func:`ground` goes
-through, each way of binding, before it gives up: about what the portfolio's two seconds
-of grounding (``GROUNDING_SECONDS`` in :mod:`htnagent.planning.hddl_solving`) bind, 0.5 to
-2 s on the IPC's problems.  Past it, the grounding would take longer than the search it
-guides has, and one estimate from a state (worked out anew for every state the search
-reaches) costs more than the guidance is worth.  AssemblyHierarchical's 25th-30th problems
-need 21,388-30,468 bindings (docs/benchmarks.md, "The cap")."""
+through, each way of binding, before it gives up.  In the portfolio the grounding also
+stops after ``GROUNDING_SECONDS`` (2 s, :mod:`htnagent.planning.hddl_solving`) of its own
+work: the cap bounds the memory, and the grounding of a caller without a clock.  Past it,
+one estimate from a state (worked out anew for every state the search reaches) costs more
+than the guidance is worth.  Woodworking's 17th problem needs 52,030 bindings (1.3 s);
+AssemblyHierarchical's 25th-30th 21,388-30,468 (docs/benchmarks.md, "The cap")."""
 
-JOIN_ABOVE = 0.04
+JOIN_ABOVE = 0.02
 """The share of the cap past which the bindings some method's types make for one task send
 the grounder to bind methods by joining their subtasks with the producible tasks
 (:mod:`htnagent.planning.producible`) first: 2,000 bindings of one task at the default
-cap, which leaves room for 25 such tasks at most.  Working out what can be produced is a pass
+cap, which leaves room for 50 such tasks at most.  Working out what can be produced is a pass
 over the whole problem, which costs more than it saves where the types add only a few
 ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  It is a
 guess from one task: where the join goes past the cap, :func:`ground` binds by types
