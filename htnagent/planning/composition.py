@@ -85,7 +85,7 @@ ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  
 guess from one task: where the join goes past the cap, :func:`ground` binds by types
 (where one task's bindings fit under the cap).  AssemblyHierarchical has one task whose
 method takes any two ports (2,304 bindings in its 12th problem, 14,400 in its 30th), and
-bottom up the join pairs every plugged port with every pair of devices: past its 17th
+bottom up the join pairs every plugged port with every pair of devices: past its 22nd
 problem the join goes past the cap (55,565 bindings in the 18th, 217,000 in the 30th),
 where binding by types takes 11,364 to 30,468.  The other way round never helped: of the
 210 problems of both suites past a cap of 20,000 by types, none fits by the join."""
