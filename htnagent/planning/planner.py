@@ -751,7 +751,8 @@ def _search(
             heap.clear()
             break
         node_tasks = node.tasks
-        if bounded and -node.neg_g + lb(node_tasks) >= bound:
+        # (Where f is exactly that sum, the test above has made this one.)
+        if bounded and not exact_f and -node.neg_g + lb(node_tasks) >= bound:
             continue  # the bound fell since it was pushed
         if not node_tasks:
             # Complete plans all share the key of their final state: they are told apart
