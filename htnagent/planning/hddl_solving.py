@@ -19,7 +19,8 @@ from dataclasses import dataclass
 from htnagent.hddl import model as m
 from htnagent.model.plans import Plan
 from htnagent.planning.composition import ground
-from htnagent.planning.hddl_translation import HddlPlanning, OutOfTime, translate
+from htnagent.planning.hddl_translation import TOP, HddlPlanning, OutOfTime, translate
+from htnagent.planning.one_at_a_time import cheaper_one_at_a_time
 from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
 
 HDDL_BUDGET = 20_000_000
@@ -149,6 +150,12 @@ def solve(
         settings = PlannerSettings(alternatives=1, budget=budget, search=search, time_limit=time_left())
         return Solved(planning, search, settings, run(settings, progress=told(search, 0)))
     return _portfolio(planning, budget, time_left, progress, started)
+
+
+ANYTIME_PARTS_SHARE = 1 / 4
+"""The most of the time left after the first plan that :func:`solve_anytime` gives to
+planning each task of the network alone in turn (:mod:`htnagent.planning.one_at_a_time`),
+before A*.  Mostly it takes a fraction of a second."""
 
 
 ANYTIME_ASTAR_SHARE = 1 / 4
@@ -458,6 +465,16 @@ def solve_anytime(
     run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
     found_by: Search = first.search
     used = first.settings
+    # Design §7.6: each task of the network planned alone, the cheapest, in turn (Logistics'
+    # 18-1: 4,277 actions, then 242 within 0.2 s, the cheapest there is).
+    share = None if left is None else left * ANYTIME_PARTS_SHARE
+    cheaper = cheaper_one_at_a_time(
+        planning.domain, planning.state, best, TOP, time_limit=share, budget=budget - spent, grounded=grounded
+    )
+    if cheaper is not None:
+        best, found_by = cheaper, Search.ASTAR  # (A*, a task at a time)
+        better(best)
+    left = None if timeout is None else timeout - (time.perf_counter() - started)
     if search is None and grounded is None:
         # A* first, under the first plan's cost, for a share of the time and budget left:
         # where the space under that cost is small enough it ends with the cheapest plan,
@@ -505,6 +522,7 @@ def _after(progress: SolveProgress, search: Search, before: int, started: float)
 
 __all__ = [
     "ANYTIME_ASTAR_SHARE",
+    "ANYTIME_PARTS_SHARE",
     "DFS_EARLY_SHARE",
     "DFS_SECONDS",
     "DFS_SHARE",

@@ -19,6 +19,7 @@ planner also tries, before the first task, every applicable ``resume`` and
 from __future__ import annotations
 
 import collections
+import functools
 import gc
 import heapq
 import itertools
@@ -386,6 +387,7 @@ def plan(
     improving: Callable[[Plan], None] | None = None,
     checkpoint: Callable[[], bool] | None = None,
     guide: Guide | None = None,
+    then: Sequence[Atom | TaskEntry] = (),
 ) -> PlanResult:
     """Plan the task list from the state: up to K plans in cost order.
 
@@ -412,6 +414,11 @@ def plan(
     ``avoid``: actions not to take in the state itself (its executor has just said it
     cannot do them from there); elsewhere in the plan they are allowed.
 
+    ``then``: tasks that come after the list, not planned: a plan ends where they are
+    all that is left.  They are there to be counted: by the estimate, by the cost bound
+    (a bound is then on the plan's cost plus their least cost), and by the goal's check
+    (design §7.3), which drops a node that leaves them no way to the goal.
+
     ``tasks`` are atoms or ``(atom, record)`` pairs (a record places re-planned
     tasks under an existing decomposition, for repair).  With ``recover`` the
     planner may start with an applicable ``resume``/``rollback``.  Raises
@@ -424,11 +431,14 @@ def plan(
     """
     if guide is None and settings is not None:
         guide = settings.guide
+    search = functools.partial(
+        _search, domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide, then
+    )
     if not gc.isenabled():
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide)
+        return search()
     gc.disable()
     try:
-        return _search(domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide)
+        return search()
     finally:
         gc.enable()
 
@@ -444,12 +454,16 @@ def _search(
     improving: Callable[[Plan], None] | None = None,
     checkpoint: Callable[[], bool] | None = None,
     guide: Guide | None = None,
+    then: Sequence[Atom | TaskEntry] = (),
 ) -> PlanResult:
     settings = settings or PlannerSettings()
     if improving is not None and settings.alternatives != 1:
         raise SettingsError("planner settings: improving plans are searched for one plan (K = 1)")
     started = time.perf_counter()
-    entries: list[TaskEntry] = [(t, None) if isinstance(t, Atom) else t for t in tasks]
+    entries: list[TaskEntry] = [(t, None) if isinstance(t, Atom) else t for t in (*tasks, *then)]
+    # The tasks after the list are never reached: the first task is always the one decomposed
+    # or applied, so the list is down to them exactly when every task before them is done.
+    left_at_end = len(then)
     for t, _ in entries:
         if not domain.knows(t):
             raise PlanningError(f"domain {domain.name} has no operator or method for {t}")
@@ -754,7 +768,7 @@ def _search(
         # (Where f is exactly that sum, the test above has made this one.)
         if bounded and not exact_f and -node.neg_g + lb(node_tasks) >= bound:
             continue  # the bound fell since it was pushed
-        if not node_tasks:
+        if len(node_tasks) == left_at_end:
             # Complete plans all share the key of their final state: they are told apart
             # by their actions, so a repeat never takes an alternative's place.
             steps = tidy(domain, _steps(node, made))

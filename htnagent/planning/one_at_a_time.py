@@ -1,0 +1,153 @@
+"""A plan made cheaper one task of its network at a time (docs/design.md §7.6).
+
+A plan for a network of tasks done in order is a plan for each of them in turn, each from
+where the ones before it left the world.  A search of the whole network weighs every task's
+choices against every other's; its first plan, from a greedy search, is often far from the
+cheapest (Logistics' 18-1: 4,277 actions, where the cheapest has 242).  Each task alone is a
+small search: A* finds its cheapest plan at once (Logistics: a few thousand nodes a package).
+
+:func:`cheaper_one_at_a_time` takes the network's tasks in order.  For each, from the state
+the new plan has reached, A* plans that task alone; where A* runs out of its share of the
+time, the task keeps its old plan if the state is still the one it was planned from, else
+greedy search plans it.  The tasks after it are passed to the search as tasks that follow
+(:func:`~htnagent.planning.planner.plan`'s ``then``): they are not planned, but the goal's
+check (§7.3) sees them, so that a task's cheapest plan does not undo a goal fact that no
+later task can bring back.  The new plan is the old one's only if cheaper in all.
+
+Each task's cheapest plan is not always the cheapest for the ones after it (Barman: a shaker
+left dirty costs the next cocktail more), so the result can be dearer than the plan given:
+then it is not taken.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from htnagent.model.domain import Domain
+from htnagent.model.plans import Decomposition, Plan, Step, replay
+from htnagent.model.state import State
+from htnagent.model.terms import Atom
+from htnagent.planning.goal_support import checks_goal
+from htnagent.planning.planner import PlannerSettings, Search, plan
+
+
+@dataclass(frozen=True, slots=True)
+class Part:
+    """One task of the network and the steps of the plan that do it."""
+
+    task: Atom
+    parent: Decomposition | None
+    """The record the task was decomposed under (None: a task of the list planned)."""
+    steps: tuple[Step, ...]
+
+    @property
+    def cost(self) -> float:
+        return sum(s.cost for s in self.steps)
+
+
+def parts_of(plan: Plan, top: str) -> list[Part]:
+    """The plan cut into its network's tasks, in order: the tasks decomposed by the record
+    of the task named ``top`` (an HDDL problem's ``__top``), and the tasks of the list
+    planned that are not below it.  A step with no record is a part of its own."""
+    parts: list[Part] = []
+    at: object = None  # the part being gathered: its record, or its step
+    gathered: list[Step] = []
+    task: Atom | None = None
+    parent: Decomposition | None = None
+    for s in plan.steps:
+        unit: Decomposition | None = None
+        record = s.record
+        while record is not None:
+            unit = record
+            if record.parent is not None and record.parent.task.name == top:
+                break
+            record = record.parent
+        key: object = s if unit is None else unit
+        if key is not at:
+            if task is not None:
+                parts.append(Part(task, parent, tuple(gathered)))
+            at, gathered = key, []
+            task, parent = (s.action, None) if unit is None else (unit.task, unit.parent)
+        gathered.append(s)
+    if task is not None:
+        parts.append(Part(task, parent, tuple(gathered)))
+    return parts
+
+
+def cheaper_one_at_a_time(
+    domain: Domain,
+    state: State,
+    given: Plan,
+    top: str,
+    *,
+    time_limit: float | None,
+    budget: int,
+    grounded: PlannerSettings | None = None,
+) -> Plan | None:
+    """A plan cheaper than ``given``, found by planning each of its network's tasks
+    (:func:`parts_of`) alone in turn, or None.  Within about ``time_limit`` seconds, each
+    task with an equal share of what is left when its turn comes; each search within
+    ``budget`` expansions.  With ``grounded`` (a grounded search's settings, design §7.2),
+    the searches decompose by its ground methods, with its estimate and dead-end test."""
+    parts = parts_of(given, top)
+    if len(parts) < 2:
+        return None  # one task: the whole problem, which the other searches plan already
+    deadline = None if time_limit is None else time.perf_counter() + time_limit
+    follow = checks_goal(domain, [p.task for p in parts])
+    costs = domain.task_costs or {}
+    here = state
+    steps: list[Step] = []
+    unchanged = True  # the state is still the one the given plan had reached here
+    for i, part in enumerate(parts):
+        later = tuple((p.task, p.parent) for p in parts[i + 1 :]) if follow else ()
+        share = None if deadline is None else max((deadline - time.perf_counter()) / (len(parts) - i), 1e-3)
+        # Where the state is unchanged the old plan is still good: only a cheaper one is wanted.
+        at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later) if unchanged else None
+        cheapest = _search(domain, here, part, later, Search.ASTAR, share, budget, at_most, grounded)
+        if cheapest is not None:
+            done = cheapest
+        elif unchanged:
+            done = part.steps
+        else:
+            found = _search(domain, here, part, later, Search.GBFS, share, budget, None, grounded)
+            if found is None:
+                return None  # (the old plan's tasks may have no plan from here)
+            done = found
+        unchanged = unchanged and done is part.steps
+        after = replay(domain, here, [s.action for s in done])
+        if after is None:  # (a plan of the search: it applies)
+            return None
+        here = after
+        steps.extend(done)
+    cheaper = Plan(tuple(steps))
+    return cheaper if cheaper.cost < given.cost else None
+
+
+def _search(
+    domain: Domain,
+    state: State,
+    part: Part,
+    later: tuple[tuple[Atom, Decomposition | None], ...],
+    order: Search,
+    seconds: float | None,
+    budget: int,
+    at_most: float | None,
+    grounded: PlannerSettings | None,
+) -> tuple[Step, ...] | None:
+    """The steps of one plan of the part's task from ``state`` by ``order`` (A*: the
+    cheapest), under ``at_most`` if given; None if none is found in time."""
+    settings = PlannerSettings(
+        alternatives=1,
+        budget=budget,
+        search=order,
+        time_limit=seconds,
+        cost_bound=at_most if at_most is not None and at_most > 0 else None,
+        guide=None if grounded is None else grounded.guide,
+        decompositions=None if grounded is None else grounded.decompositions,
+        prune=None if grounded is None else grounded.prune,
+    )
+    if at_most is not None and at_most <= 0:
+        return None  # nothing costs less than nothing
+    found = plan(domain, state, [(part.task, part.parent)], settings, recover=False, then=later)
+    return None if found.best is None else found.best.steps

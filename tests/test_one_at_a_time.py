@@ -1,0 +1,156 @@
+"""A plan made cheaper one task of its network at a time (docs/design.md §7.6), and the
+planner's tasks that follow a list without being planned (``plan``'s ``then``)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from htnagent.hddl import read_domain, read_problem
+from htnagent.hddl.check import check_plan
+from htnagent.model.plans import Plan
+from htnagent.model.terms import Atom
+from htnagent.planning.hddl_solving import solve, solve_anytime
+from htnagent.planning.hddl_translation import TOP, HddlPlanning, translate
+from htnagent.planning.ipc_output import actions_of, ipc_plan
+from htnagent.planning.one_at_a_time import cheaper_one_at_a_time, parts_of
+from htnagent.planning.planner import PlannerSettings, Search, plan
+from tests.test_anytime import LIFT, lift
+
+# Chores, done in turn.  Each task has a long way and a short one; the long one comes
+# first, so depth-first search in method order, the portfolio's first plan, takes it.
+#  - keep: the short way (rush) loses the flag, which nothing brings back;
+#  - meal: the short way (hasty) leaves the kitchen dirty, and a dessert cooked in a
+#    dirty kitchen takes three scrubs first.
+CHORES = """
+(define (domain chores)
+  (:requirements :typing :hierarchy :negative-preconditions :method-preconditions)
+  (:types thing)
+  (:predicates (flag) (dirty) (done ?t - thing))
+  (:task keep :parameters (?t - thing))
+  (:task tidy :parameters (?t - thing))
+  (:task meal :parameters (?t - thing))
+  (:task dessert :parameters (?t - thing))
+  (:method keep-carefully :parameters (?t - thing) :task (keep ?t)
+    :ordered-subtasks (and (careful ?t) (careful ?t)))
+  (:method keep-rushing :parameters (?t - thing) :task (keep ?t)
+    :ordered-subtasks (and (rush ?t)))
+  (:method tidy-long :parameters (?t - thing) :task (tidy ?t)
+    :ordered-subtasks (and (wipe ?t) (wipe ?t) (wipe ?t)))
+  (:method tidy-short :parameters (?t - thing) :task (tidy ?t)
+    :ordered-subtasks (and (wipe ?t)))
+  (:method meal-careful :parameters (?t - thing) :task (meal ?t)
+    :ordered-subtasks (and (prepare ?t) (serve ?t)))
+  (:method meal-hasty :parameters (?t - thing) :task (meal ?t)
+    :ordered-subtasks (and (serve-hasty ?t)))
+  (:method dessert-clean :parameters (?t - thing) :task (dessert ?t)
+    :precondition (not (dirty))
+    :ordered-subtasks (and (serve ?t)))
+  (:method dessert-dirty :parameters (?t - thing) :task (dessert ?t)
+    :precondition (dirty)
+    :ordered-subtasks (and (scrub) (scrub) (scrub) (serve ?t)))
+  (:action careful :parameters (?t - thing) :effect (done ?t))
+  (:action rush :parameters (?t - thing) :effect (and (done ?t) (not (flag))))
+  (:action wipe :parameters (?t - thing) :effect (done ?t))
+  (:action prepare :parameters (?t - thing) :effect ())
+  (:action serve :parameters (?t - thing) :effect (done ?t))
+  (:action serve-hasty :parameters (?t - thing) :effect (and (done ?t) (dirty)))
+  (:action scrub :parameters () :effect (not (dirty)))
+)
+"""
+
+
+def chores(tmp_path: Path, tasks: str, goal: str = "") -> tuple[HddlPlanning, Plan]:
+    """The chores problem of ``tasks`` (and ``goal``), translated, and its portfolio's first plan."""
+    (tmp_path / "domain.hddl").write_text(CHORES)
+    goal_part = f"  (:goal {goal})\n" if goal else ""
+    (tmp_path / "problem.hddl").write_text(
+        "(define (problem p) (:domain chores) (:objects a b - thing)\n"
+        f"  (:htn :ordered-subtasks (and {tasks}))\n"
+        f"{goal_part}  (:init (flag)))\n"
+    )
+    domain = read_domain(tmp_path / "domain.hddl")
+    problem = read_problem(tmp_path / "problem.hddl", domain)
+    first = solve(domain, problem).result.best
+    assert first is not None
+    return translate(domain, problem), first
+
+
+def valid(tmp_path: Path, found: Plan) -> bool:
+    domain = read_domain(tmp_path / "domain.hddl")
+    return not check_plan(domain, read_problem(tmp_path / "problem.hddl", domain), ipc_plan(found))
+
+
+def cheaper(planning: HddlPlanning, first: Plan) -> Plan | None:
+    return cheaper_one_at_a_time(planning.domain, planning.state, first, TOP, time_limit=10, budget=100_000)
+
+
+def test_a_plan_is_cut_at_its_networks_tasks(tmp_path: Path) -> None:
+    planning, first = chores(tmp_path, "(keep a) (tidy b) (meal a)", goal="(flag)")
+    parts = parts_of(first, TOP)
+    assert [str(p.task) for p in parts] == ["keep(a)", "tidy(b)", "meal(a)", "__goal"]
+    assert tuple(s for p in parts for s in p.steps) == first.steps
+    assert [p.cost for p in parts] == [2, 3, 2, 0]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_each_rider_planned_alone_gives_the_cheapest_lift_plan(tmp_path: Path, seed: int) -> None:
+    # The cheapest plan worked out apart from the planner (test_anytime.lift): riders are
+    # served in turn, so the cheapest for each in turn is the cheapest for all.
+    domain = read_domain(LIFT)
+    path, cheapest = lift(tmp_path, seed, floors=12, riders=6)
+    problem = read_problem(path, domain)
+    planning = translate(domain, problem)
+    first = solve(domain, problem).result.best
+    assert first is not None and first.cost > cheapest
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == cheapest
+    assert not check_plan(domain, problem, ipc_plan(found))
+
+
+def test_each_task_gets_its_cheapest_way_where_the_others_are_unchanged(tmp_path: Path) -> None:
+    planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
+    assert first.cost == 3 + 3 + 2
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == 1 + 1 + 1  # keep's rush too: there is no goal
+    assert valid(tmp_path, found)
+
+
+def test_a_tasks_cheapest_way_does_not_lose_the_goal_for_the_tasks_after_it(tmp_path: Path) -> None:
+    # Rushing loses the flag, which no later task brings back: the goal's check, seeing the
+    # tasks after, keeps the careful way, and tidying still gets its short way.
+    planning, first = chores(tmp_path, "(keep a) (tidy b)", goal="(flag)")
+    assert first.cost == 2 + 3
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == 2 + 1
+    assert [str(a) for a in actions_of(found)] == ["careful(a)", "careful(a)", "wipe(b)"]
+    assert valid(tmp_path, found)
+
+
+def test_a_dearer_result_is_not_taken(tmp_path: Path) -> None:
+    # The hasty meal is the cheapest alone, but leaves the kitchen dirty: the dessert then
+    # takes three scrubs.  2 + 1 before, 1 + 4 one at a time.
+    planning, first = chores(tmp_path, "(meal a) (dessert b)")
+    assert first.cost == 3
+    assert cheaper(planning, first) is None
+    told: list[Plan] = []
+    (tmp_path / "domain.hddl").write_text(CHORES)
+    domain = read_domain(tmp_path / "domain.hddl")
+    solved = solve_anytime(domain, read_problem(tmp_path / "problem.hddl", domain), told.append, timeout=10)
+    assert [p.cost for p in told] == [3] and solved.result.exhausted
+
+
+def test_tasks_that_follow_are_not_planned_but_count_for_the_goal(tmp_path: Path) -> None:
+    planning, _ = chores(tmp_path, "(keep a) (tidy b)", goal="(flag)")
+    domain, state = planning.domain, planning.state
+    astar = PlannerSettings(alternatives=1, search=Search.ASTAR)
+    keep, tidy, goal = Atom("keep", ("a",)), Atom("tidy", ("b",)), Atom("__goal")
+    # Alone, keeping rushes; with the tidying and the goal after it, it keeps the flag.
+    alone = plan(domain, state, [keep], astar).best
+    assert alone is not None and [str(s.action) for s in alone.steps] == ["rush(a)"]
+    followed = plan(domain, state, [keep], astar, then=[tidy, goal]).best
+    assert followed is not None and [str(s.action) for s in followed.steps] == ["careful(a)", "careful(a)"]
+    # A bound is on the plan's cost with the least cost of the tasks after it (1 + 0).
+    under = PlannerSettings(alternatives=1, search=Search.ASTAR, cost_bound=2 + 1)
+    assert plan(domain, state, [keep], under, then=[tidy, goal]).best is None
