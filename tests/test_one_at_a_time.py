@@ -27,11 +27,15 @@ CHORES = """
 (define (domain chores)
   (:requirements :typing :hierarchy :negative-preconditions :method-preconditions)
   (:types thing)
+  (:constants a b - thing)
   (:predicates (flag) (dirty) (done ?t - thing))
   (:task keep :parameters (?t - thing))
   (:task tidy :parameters (?t - thing))
   (:task meal :parameters (?t - thing))
   (:task dessert :parameters (?t - thing))
+  (:task day :parameters ())
+  (:method day-of-chores :parameters () :task (day)
+    :ordered-subtasks (and (tidy a) (keep a) (tidy b)))
   (:method keep-carefully :parameters (?t - thing) :task (keep ?t)
     :ordered-subtasks (and (careful ?t) (careful ?t)))
   (:method keep-rushing :parameters (?t - thing) :task (keep ?t)
@@ -66,7 +70,7 @@ def chores(tmp_path: Path, tasks: str, goal: str = "") -> tuple[HddlPlanning, Pl
     (tmp_path / "domain.hddl").write_text(CHORES)
     goal_part = f"  (:goal {goal})\n" if goal else ""
     (tmp_path / "problem.hddl").write_text(
-        "(define (problem p) (:domain chores) (:objects a b - thing)\n"
+        "(define (problem p) (:domain chores)\n"
         f"  (:htn :ordered-subtasks (and {tasks}))\n"
         f"{goal_part}  (:init (flag)))\n"
     )
@@ -87,11 +91,21 @@ def cheaper(planning: HddlPlanning, first: Plan) -> Plan | None:
 
 
 def test_a_plan_is_cut_at_its_networks_tasks(tmp_path: Path) -> None:
-    planning, first = chores(tmp_path, "(keep a) (tidy b) (meal a)", goal="(flag)")
+    _, first = chores(tmp_path, "(keep a) (tidy b) (meal a)", goal="(flag)")
     parts = parts_of(first, TOP)
     assert [str(p.task) for p in parts] == ["keep(a)", "tidy(b)", "meal(a)", "__goal"]
     assert tuple(s for p in parts for s in p.steps) == first.steps
     assert [p.cost for p in parts] == [2, 3, 2, 0]
+
+
+def test_a_network_of_one_task_is_cut_as_that_tasks_method(tmp_path: Path) -> None:
+    # One task costs anything: its subtasks are the parts (the goal's check is one more).
+    planning, first = chores(tmp_path, "(day)", goal="(flag)")
+    parts = parts_of(first, TOP)
+    assert [str(p.task) for p in parts] == ["tidy(a)", "keep(a)", "tidy(b)", "__goal"]
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == 1 + 2 + 1
+    assert valid(tmp_path, found)
 
 
 @pytest.mark.parametrize("seed", range(6))

@@ -40,6 +40,8 @@ class Part:
     parent: Decomposition | None
     """The record the task was decomposed under (None: a task of the list planned)."""
     steps: tuple[Step, ...]
+    record: Decomposition | None
+    """The task's own record (None: the task is an action, the one step)."""
 
     @property
     def cost(self) -> float:
@@ -49,30 +51,41 @@ class Part:
 def parts_of(plan: Plan, top: str) -> list[Part]:
     """The plan cut into its network's tasks, in order: the tasks decomposed by the record
     of the task named ``top`` (an HDDL problem's ``__top``), and the tasks of the list
-    planned that are not below it.  A step with no record is a part of its own."""
-    parts: list[Part] = []
-    at: object = None  # the part being gathered: its record, or its step
-    gathered: list[Step] = []
-    task: Atom | None = None
-    parent: Decomposition | None = None
+    planned that are not below it.  Where only one of them costs anything, its own subtasks
+    in its place, and so on down: a network of one task is cut as that task's method."""
+    under = next((r for s in plan.steps if s.record for r in s.record.chain() if r.task.name == top), None)
+    parts = _cut(plan, under)
+    while True:
+        costly = [p for p in parts if p.cost > 0]
+        if len(costly) != 1 or costly[0].record is None:
+            return parts
+        parts = _cut(plan, costly[0].record)
+
+
+def _cut(plan: Plan, under: Decomposition | None) -> list[Part]:
+    """The plan cut at the tasks decomposed by the record ``under``; a step outside it, at
+    the highest record of its own (or alone, with none)."""
+    cut: list[tuple[Atom, Decomposition | None, list[Step], Decomposition | None]] = []
     for s in plan.steps:
-        unit: Decomposition | None = None
-        record = s.record
-        while record is not None:
-            unit = record
-            if record.parent is not None and record.parent.task.name == top:
-                break
-            record = record.parent
-        key: object = s if unit is None else unit
-        if key is not at:
-            if task is not None:
-                parts.append(Part(task, parent, tuple(gathered)))
-            at, gathered = key, []
-            task, parent = (s.action, None) if unit is None else (unit.task, unit.parent)
-        gathered.append(s)
-    if task is not None:
-        parts.append(Part(task, parent, tuple(gathered)))
-    return parts
+        task: Atom = s.action
+        parent: Decomposition | None = None
+        own: Decomposition | None = None  # the part's record
+        if s.record is not None and s.record is under:
+            parent = under  # an action of the method itself
+        else:
+            record = s.record
+            while record is not None:
+                own = record
+                if record.parent is under and under is not None:
+                    break
+                record = record.parent
+            if own is not None:
+                task, parent = own.task, own.parent
+        if cut and own is not None and cut[-1][3] is own:
+            cut[-1][2].append(s)
+        else:
+            cut.append((task, parent, [s], own))
+    return [Part(task, parent, tuple(steps), own) for task, parent, steps, own in cut]
 
 
 def cheaper_one_at_a_time(
@@ -91,8 +104,8 @@ def cheaper_one_at_a_time(
     ``budget`` expansions.  With ``grounded`` (a grounded search's settings, design §7.2),
     the searches decompose by its ground methods, with its estimate and dead-end test."""
     parts = parts_of(given, top)
-    if len(parts) < 2:
-        return None  # one task: the whole problem, which the other searches plan already
+    if sum(p.cost > 0 for p in parts) < 2:
+        return None  # one task that costs anything: the whole problem, which A* plans next
     deadline = None if time_limit is None else time.perf_counter() + time_limit
     follow = checks_goal(domain, [p.task for p in parts])
     costs = domain.task_costs or {}
