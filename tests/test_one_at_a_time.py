@@ -87,7 +87,18 @@ def valid(tmp_path: Path, found: Plan) -> bool:
 
 
 def cheaper(planning: HddlPlanning, first: Plan) -> Plan | None:
-    return cheaper_one_at_a_time(planning.domain, planning.state, first, TOP, time_limit=10, budget=100_000)
+    told: list[int] = []
+    found = cheaper_one_at_a_time(
+        planning.domain,
+        planning.state,
+        first,
+        TOP,
+        time_limit=10,
+        budget=100_000,
+        progress=lambda n, _: told.append(n),
+    )
+    assert found.expansions > 0 or found.plan is None
+    return found.plan
 
 
 def test_a_plan_is_cut_at_its_networks_tasks(tmp_path: Path) -> None:

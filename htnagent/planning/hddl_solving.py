@@ -468,11 +468,20 @@ def solve_anytime(
     # Design §7.6: each task of the network planned alone, the cheapest, in turn (Logistics'
     # 18-1: 4,277 actions, then 242 within 0.2 s, the cheapest there is).
     share = None if left is None else left * ANYTIME_PARTS_SHARE
+    told = None if progress is None else _after(progress, Search.ASTAR, spent, started)
     cheaper = cheaper_one_at_a_time(
-        planning.domain, planning.state, best, TOP, time_limit=share, budget=budget - spent, grounded=grounded
+        planning.domain,
+        planning.state,
+        best,
+        TOP,
+        time_limit=share,
+        budget=budget - spent,
+        grounded=grounded,
+        progress=told,
     )
-    if cheaper is not None:
-        best, found_by = cheaper, Search.ASTAR  # (A*, a task at a time)
+    spent += cheaper.expansions
+    if cheaper.plan is not None:
+        best, found_by = cheaper.plan, Search.ASTAR  # (A*, a task at a time)
         better(best)
     left = None if timeout is None else timeout - (time.perf_counter() - started)
     if search is None and grounded is None:

@@ -23,13 +23,29 @@ from __future__ import annotations
 
 import time
 from dataclasses import dataclass
+from typing import NamedTuple
 
 from htnagent.model.domain import Domain
 from htnagent.model.plans import Decomposition, Plan, Step, replay
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
 from htnagent.planning.goal_support import checks_goal
-from htnagent.planning.planner import PlannerSettings, Search, plan
+from htnagent.planning.planner import PlannerSettings, Progress, Search, plan
+
+
+class Cheaper(NamedTuple):
+    """What :func:`cheaper_one_at_a_time` found: a cheaper plan, if any, and the expansions
+    of its searches."""
+
+    plan: Plan | None
+    expansions: int
+
+
+Later = tuple[tuple[Atom, Decomposition | None], ...]
+"""The tasks after a part, with their records: they follow it in its search, not planned."""
+
+Steps = tuple[Step, ...] | None
+"""A part's plan found, or None."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,70 +113,71 @@ def cheaper_one_at_a_time(
     time_limit: float | None,
     budget: int,
     grounded: PlannerSettings | None = None,
-) -> Plan | None:
+    progress: Progress | None = None,
+) -> Cheaper:
     """A plan cheaper than ``given``, found by planning each of its network's tasks
-    (:func:`parts_of`) alone in turn, or None.  Within about ``time_limit`` seconds, each
-    task with an equal share of what is left when its turn comes; each search within
+    (:func:`parts_of`) alone in turn, if there is one.  Within about ``time_limit`` seconds,
+    each task with an equal share of what is left when its turn comes; each search within
     ``budget`` expansions.  With ``grounded`` (a grounded search's settings, design §7.2),
-    the searches decompose by its ground methods, with its estimate and dead-end test."""
+    the searches decompose by its ground methods, with its estimate and dead-end test.
+    ``progress`` hears the expansions of all the searches so far (see
+    :func:`~htnagent.planning.planner.plan`)."""
     parts = parts_of(given, top)
     if sum(p.cost > 0 for p in parts) < 2:
-        return None  # one task that costs anything: the whole problem, which A* plans next
+        return Cheaper(None, 0)  # one task that costs anything: the whole problem, which A* plans next
     deadline = None if time_limit is None else time.perf_counter() + time_limit
     follow = checks_goal(domain, [p.task for p in parts])
     costs = domain.task_costs or {}
     here = state
     steps: list[Step] = []
     unchanged = True  # the state is still the one the given plan had reached here
+    spent = 0
+
+    def search(
+        part: Part, later: Later, order: Search, seconds: float | None, at_most: float | None
+    ) -> Steps:
+        nonlocal spent
+        settings = PlannerSettings(
+            alternatives=1,
+            budget=budget,
+            search=order,
+            time_limit=seconds,
+            cost_bound=at_most,
+            guide=None if grounded is None else grounded.guide,
+            decompositions=None if grounded is None else grounded.decompositions,
+            prune=None if grounded is None else grounded.prune,
+        )
+        before = spent
+        told = None if progress is None else (lambda n, t: progress(before + n, t))
+        found = plan(
+            domain, here, [(part.task, part.parent)], settings, recover=False, progress=told, then=later
+        )
+        spent += found.expansions
+        return None if found.best is None else found.best.steps
+
     for i, part in enumerate(parts):
         later = tuple((p.task, p.parent) for p in parts[i + 1 :]) if follow else ()
         share = None if deadline is None else max((deadline - time.perf_counter()) / (len(parts) - i), 1e-3)
         # Where the state is unchanged the old plan is still good: only a cheaper one is wanted.
         at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later) if unchanged else None
-        cheapest = _search(domain, here, part, later, Search.ASTAR, share, budget, at_most, grounded)
+        if at_most is not None and at_most <= 0:
+            cheapest = None  # nothing costs less than nothing
+        else:
+            cheapest = search(part, later, Search.ASTAR, share, at_most)
         if cheapest is not None:
             done = cheapest
         elif unchanged:
             done = part.steps
         else:
-            found = _search(domain, here, part, later, Search.GBFS, share, budget, None, grounded)
+            found = search(part, later, Search.GBFS, share, None)
             if found is None:
-                return None  # (the old plan's tasks may have no plan from here)
+                return Cheaper(None, spent)  # (the old plan's tasks may have no plan from here)
             done = found
         unchanged = unchanged and done is part.steps
         after = replay(domain, here, [s.action for s in done])
         if after is None:  # (a plan of the search: it applies)
-            return None
+            return Cheaper(None, spent)
         here = after
         steps.extend(done)
     cheaper = Plan(tuple(steps))
-    return cheaper if cheaper.cost < given.cost else None
-
-
-def _search(
-    domain: Domain,
-    state: State,
-    part: Part,
-    later: tuple[tuple[Atom, Decomposition | None], ...],
-    order: Search,
-    seconds: float | None,
-    budget: int,
-    at_most: float | None,
-    grounded: PlannerSettings | None,
-) -> tuple[Step, ...] | None:
-    """The steps of one plan of the part's task from ``state`` by ``order`` (A*: the
-    cheapest), under ``at_most`` if given; None if none is found in time."""
-    settings = PlannerSettings(
-        alternatives=1,
-        budget=budget,
-        search=order,
-        time_limit=seconds,
-        cost_bound=at_most if at_most is not None and at_most > 0 else None,
-        guide=None if grounded is None else grounded.guide,
-        decompositions=None if grounded is None else grounded.decompositions,
-        prune=None if grounded is None else grounded.prune,
-    )
-    if at_most is not None and at_most <= 0:
-        return None  # nothing costs less than nothing
-    found = plan(domain, state, [(part.task, part.parent)], settings, recover=False, then=later)
-    return None if found.best is None else found.best.steps
+    return Cheaper(cheaper if cheaper.cost < given.cost else None, spent)
