@@ -15,7 +15,7 @@ from htnagent.planning.hddl_solving import solve, solve_anytime
 from htnagent.planning.hddl_translation import TOP, HddlPlanning, translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
 from htnagent.planning.one_at_a_time import cheaper_one_at_a_time, parts_of
-from htnagent.planning.planner import PlannerSettings, Search, plan
+from htnagent.planning.planner import PlannerSettings, Search, plan, stop_searches
 from tests.test_anytime import LIFT, lift
 
 # Chores, done in turn.  Each task has a long way and a short one; the long one comes
@@ -179,3 +179,14 @@ def test_tasks_that_follow_are_not_planned_but_count_for_the_goal(tmp_path: Path
     # A bound is on the plan's cost with the least cost of the tasks after it (1 + 0).
     under = PlannerSettings(alternatives=1, search=Search.ASTAR, cost_bound=2 + 1)
     assert plan(domain, state, [keep], under, then=[tidy, goal]).best is None
+
+
+def test_a_stop_asked_for_ends_the_turns_with_no_plan(tmp_path: Path) -> None:
+    # The command line's Ctrl-C or SIGTERM (stop_searches): the plans told so far stand.
+    planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
+    stop_searches()
+    try:
+        assert cheaper(planning, first) is None
+    finally:
+        stop_searches(False)
+    assert cheaper(planning, first) is not None

@@ -30,7 +30,7 @@ from htnagent.model.plans import Decomposition, Plan, Step, replay
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
 from htnagent.planning.goal_support import checks_goal
-from htnagent.planning.planner import PlannerSettings, Progress, Search, plan
+from htnagent.planning.planner import PlannerSettings, Progress, Search, plan, searches_stopped
 
 
 class Cheaper(NamedTuple):
@@ -43,9 +43,6 @@ class Cheaper(NamedTuple):
 
 Later = tuple[tuple[Atom, Decomposition | None], ...]
 """The tasks after a part, with their records: they follow it in its search, not planned."""
-
-Steps = tuple[Step, ...] | None
-"""A part's plan found, or None."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -126,20 +123,84 @@ def cheaper_one_at_a_time(
     if sum(p.cost > 0 for p in parts) < 2:
         return Cheaper(None, 0)  # one task that costs anything: the whole problem, which A* plans next
     deadline = None if time_limit is None else time.perf_counter() + time_limit
-    follow = checks_goal(domain, [p.task for p in parts])
-    costs = domain.task_costs or {}
-    here = state
-    steps: list[Step] = []
-    unchanged = True  # the state is still the one the given plan had reached here
-    spent = 0
+    turns = _Turns(domain, parts, deadline, budget, grounded, progress)
+    steps = turns.run(state)
+    cheaper = None if steps is None else Plan(steps)
+    return Cheaper(cheaper if cheaper is not None and cheaper.cost < given.cost else None, turns.spent)
 
-    def search(
-        part: Part, later: Later, order: Search, seconds: float | None, at_most: float | None
-    ) -> Steps:
-        nonlocal spent
+
+class _Turns:
+    """The parts planned in turn (design §7.6, steps 2 and 3)."""
+
+    def __init__(
+        self,
+        domain: Domain,
+        parts: list[Part],
+        deadline: float | None,
+        budget: int,
+        grounded: PlannerSettings | None,
+        progress: Progress | None,
+    ) -> None:
+        self.domain = domain
+        self.parts = parts
+        self.deadline = deadline
+        self.budget = budget
+        self.grounded = grounded
+        self.progress = progress
+        # Step 3: where the goal is checked at the end, the parts after each follow it.
+        self.follow = checks_goal(domain, [p.task for p in parts])
+        self.spent = 0
+
+    def run(self, state: State) -> tuple[Step, ...] | None:
+        """Each part's steps in turn, from ``state``; None where a part has no plan found
+        (or the searches were told to stop)."""
+        steps: list[Step] = []
+        unchanged = True  # the state is still the one the given plan had reached here
+        for i, part in enumerate(self.parts):
+            if searches_stopped():
+                return None  # a signal: the command ends with the plans it has told
+            done = self._turn(i, part, state, unchanged)
+            if done is None:
+                return None
+            unchanged = unchanged and done is part.steps
+            after = replay(self.domain, state, [s.action for s in done])
+            if after is None:  # (a plan of the search: it applies)
+                return None
+            state = after
+            steps.extend(done)
+        return tuple(steps)
+
+    def _turn(self, i: int, part: Part, state: State, unchanged: bool) -> tuple[Step, ...] | None:
+        """Step 2: the part's cheapest plan from ``state``, else its old one where the state
+        is unchanged, else greedy search's; None if there is none of these."""
+        later = tuple((p.task, p.parent) for p in self.parts[i + 1 :]) if self.follow else ()
+        share = None
+        if self.deadline is not None:
+            share = max((self.deadline - time.perf_counter()) / (len(self.parts) - i), 1e-3)
+        if unchanged:
+            # The old plan is still good here: only a cheaper one is wanted.
+            costs = self.domain.task_costs or {}
+            at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later)
+            cheapest = self._search(part, state, later, Search.ASTAR, share, at_most) if at_most > 0 else None
+            return part.steps if cheapest is None else cheapest
+        cheapest = self._search(part, state, later, Search.ASTAR, share, None)
+        return cheapest or self._search(part, state, later, Search.GBFS, share, None)
+
+    def _search(
+        self,
+        part: Part,
+        state: State,
+        later: Later,
+        order: Search,
+        seconds: float | None,
+        at_most: float | None,
+    ) -> tuple[Step, ...] | None:
+        """The steps of a plan of the part's task by ``order`` (A*: the cheapest), under
+        ``at_most`` if given; None if none is found in time."""
+        grounded = self.grounded
         settings = PlannerSettings(
             alternatives=1,
-            budget=budget,
+            budget=self.budget,
             search=order,
             time_limit=seconds,
             cost_bound=at_most,
@@ -147,37 +208,13 @@ def cheaper_one_at_a_time(
             decompositions=None if grounded is None else grounded.decompositions,
             prune=None if grounded is None else grounded.prune,
         )
-        before = spent
+        before, progress = self.spent, self.progress
         told = None if progress is None else (lambda n, t: progress(before + n, t))
         found = plan(
-            domain, here, [(part.task, part.parent)], settings, recover=False, progress=told, then=later
+            self.domain, state, [(part.task, part.parent)], settings, recover=False, progress=told, then=later
         )
-        spent += found.expansions
+        self.spent += found.expansions
         return None if found.best is None else found.best.steps
 
-    for i, part in enumerate(parts):
-        later = tuple((p.task, p.parent) for p in parts[i + 1 :]) if follow else ()
-        share = None if deadline is None else max((deadline - time.perf_counter()) / (len(parts) - i), 1e-3)
-        # Where the state is unchanged the old plan is still good: only a cheaper one is wanted.
-        at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later) if unchanged else None
-        if at_most is not None and at_most <= 0:
-            cheapest = None  # nothing costs less than nothing
-        else:
-            cheapest = search(part, later, Search.ASTAR, share, at_most)
-        if cheapest is not None:
-            done = cheapest
-        elif unchanged:
-            done = part.steps
-        else:
-            found = search(part, later, Search.GBFS, share, None)
-            if found is None:
-                return Cheaper(None, spent)  # (the old plan's tasks may have no plan from here)
-            done = found
-        unchanged = unchanged and done is part.steps
-        after = replay(domain, here, [s.action for s in done])
-        if after is None:  # (a plan of the search: it applies)
-            return Cheaper(None, spent)
-        here = after
-        steps.extend(done)
-    cheaper = Plan(tuple(steps))
-    return Cheaper(cheaper if cheaper.cost < given.cost else None, spent)
+
+__all__ = ["Cheaper", "Part", "cheaper_one_at_a_time", "parts_of"]

@@ -103,6 +103,11 @@ def stop_searches(requested: bool = True) -> None:
     _STOP.requested = requested
 
 
+def searches_stopped() -> bool:
+    """Whether :func:`stop_searches` has asked every search to stop."""
+    return _STOP.requested
+
+
 class Search(Enum):
     """The order in which the search expands its nodes (docs/design.md §1.1)."""
 
