@@ -4,6 +4,7 @@ planner's tasks that follow a list without being planned (``plan``'s ``then``)."
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -11,10 +12,11 @@ from htnagent.hddl import read_domain, read_problem
 from htnagent.hddl.check import check_plan
 from htnagent.model.plans import Plan
 from htnagent.model.terms import Atom
+from htnagent.planning import hddl_solving
 from htnagent.planning.hddl_solving import solve, solve_anytime
 from htnagent.planning.hddl_translation import TOP, HddlPlanning, translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
-from htnagent.planning.one_at_a_time import cheaper_one_at_a_time, parts_of
+from htnagent.planning.one_at_a_time import Cheaper, cheaper_one_at_a_time, parts_of
 from htnagent.planning.planner import PlannerSettings, Search, plan, stop_searches
 from tests.test_anytime import LIFT, lift
 
@@ -190,3 +192,24 @@ def test_a_stop_asked_for_ends_the_turns_with_no_plan(tmp_path: Path) -> None:
     finally:
         stop_searches(False)
     assert cheaper(planning, first) is not None
+
+
+def test_only_the_default_anytime_search_plans_one_task_at_a_time(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # `--search gbfs --anytime` is greedy branch and bound alone (docs/contracts.md).
+    domain = read_domain(LIFT)
+    path, _ = lift(tmp_path, 0)
+    problem = read_problem(path, domain)
+    called: list[int] = []
+    real = cheaper_one_at_a_time
+
+    def counted(*args: Any, **kwargs: Any) -> Cheaper:
+        called.append(1)
+        return real(*args, **kwargs)
+
+    monkeypatch.setattr(hddl_solving, "cheaper_one_at_a_time", counted)
+    solve_anytime(domain, problem, lambda _: None, search=Search.GBFS, timeout=10)
+    assert called == []
+    solve_anytime(domain, problem, lambda _: None, timeout=10)
+    assert called == [1]

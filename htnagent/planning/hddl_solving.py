@@ -427,7 +427,10 @@ def solve_anytime(
     """:func:`solve`, then cheaper plans until the time runs out: each plan found, the
     first and every cheaper one after it, is told to ``better`` at once.
 
-    The first plan comes as :func:`solve` finds it, as soon.  Then branch and bound
+    The first plan comes as :func:`solve` finds it, as soon.  By default (no ``search``
+    given), each task of the network is then planned alone, the cheapest, in turn
+    (:func:`~htnagent.planning.one_at_a_time.cheaper_one_at_a_time`, for at most
+    :data:`ANYTIME_PARTS_SHARE` of the time left).  Then branch and bound
     (:func:`~htnagent.planning.planner.plan`'s ``improving``): a search that follows only
     nodes whose actions so far plus the least cost of their tasks stay under the cheapest
     plan's cost, which falls with every plan it finds.  After the portfolio's first plan,
@@ -465,25 +468,26 @@ def solve_anytime(
     run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
     found_by: Search = first.search
     used = first.settings
-    # Design §7.6: each task of the network planned alone, the cheapest, in turn (Logistics'
-    # 18-1: 4,277 actions, then 242 within 0.2 s, the cheapest there is).
-    share = None if left is None else left * ANYTIME_PARTS_SHARE
-    told = None if progress is None else _after(progress, Search.ASTAR, spent, started)
-    cheaper = cheaper_one_at_a_time(
-        planning.domain,
-        planning.state,
-        best,
-        TOP,
-        time_limit=share,
-        budget=budget - spent,
-        grounded=grounded,
-        progress=told,
-    )
-    spent += cheaper.expansions
-    if cheaper.plan is not None:
-        best, found_by = cheaper.plan, Search.ASTAR  # (A*, a task at a time)
-        better(best)
-    left = None if timeout is None else timeout - (time.perf_counter() - started)
+    if search is None:
+        # Design §7.6: each task of the network planned alone, the cheapest, in turn
+        # (Logistics' 18-1: 4,277 actions, then 242 within 0.2 s, the cheapest there is).
+        share = None if left is None else left * ANYTIME_PARTS_SHARE
+        told = None if progress is None else _after(progress, Search.ASTAR, spent, started)
+        cheaper = cheaper_one_at_a_time(
+            planning.domain,
+            planning.state,
+            best,
+            TOP,
+            time_limit=share,
+            budget=budget - spent,
+            grounded=grounded,
+            progress=told,
+        )
+        spent += cheaper.expansions
+        if cheaper.plan is not None:
+            best, found_by = cheaper.plan, Search.ASTAR  # (A*, a task at a time)
+            better(best)
+        left = None if timeout is None else timeout - (time.perf_counter() - started)
     if search is None and grounded is None:
         # A* first, under the first plan's cost, for a share of the time and budget left:
         # where the space under that cost is small enough it ends with the cheapest plan,

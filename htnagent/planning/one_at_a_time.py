@@ -184,7 +184,9 @@ class _Turns:
             cheapest = self._search(part, state, later, Search.ASTAR, share, at_most) if at_most > 0 else None
             return part.steps if cheapest is None else cheapest
         cheapest = self._search(part, state, later, Search.ASTAR, share, None)
-        return cheapest or self._search(part, state, later, Search.GBFS, share, None)
+        if cheapest is not None:
+            return cheapest
+        return self._search(part, state, later, Search.GBFS, share, None)
 
     def _search(
         self,
