@@ -25,7 +25,7 @@ from htnagent.model.plans import Plan
 from htnagent.planning import hddl_solving
 from htnagent.planning.hddl_solving import solve, solve_anytime
 from htnagent.planning.hddl_translation import translate
-from htnagent.planning.one_at_a_time import Cheaper
+from htnagent.planning.one_at_a_time import Cheaper, Outcome
 from htnagent.planning.planner import PlannerSettings, PlanStatus, Search, plan
 
 HERE = Path(__file__).resolve().parent / "hddl"
@@ -143,7 +143,9 @@ def test_anytime_goes_on_by_branch_and_bound_when_a_stars_share_runs_out(
     # A* gets a share of the time and budget left; out of it, greedy branch and bound
     # goes on under the cheapest cost so far.
     monkeypatch.setattr(hddl_solving, "ANYTIME_ASTAR_SHARE", 1e-9)
-    monkeypatch.setattr(hddl_solving, "cheaper_one_at_a_time", lambda *_, **__: Cheaper(None, 0))  # (§7.6)
+    monkeypatch.setattr(
+        hddl_solving, "cheaper_one_at_a_time", lambda *_, **__: Cheaper(Outcome.ONE_PART, None, 0)
+    )
     domain = read_domain(LIFT)
     path, cheapest = lift(tmp_path, 0)
     told: list[Plan] = []

@@ -16,7 +16,7 @@ from htnagent.planning import hddl_solving
 from htnagent.planning.hddl_solving import solve, solve_anytime
 from htnagent.planning.hddl_translation import TOP, HddlPlanning, translate
 from htnagent.planning.ipc_output import actions_of, ipc_plan
-from htnagent.planning.one_at_a_time import Cheaper, cheaper_one_at_a_time, parts_of
+from htnagent.planning.one_at_a_time import Cheaper, Outcome, cheaper_one_at_a_time, parts_of
 from htnagent.planning.planner import PlannerSettings, Search, plan, stop_searches
 from tests.test_anytime import LIFT, lift
 
@@ -38,6 +38,16 @@ CHORES = """
   (:task day :parameters ())
   (:method day-of-chores :parameters () :task (day)
     :ordered-subtasks (and (tidy a) (keep a) (tidy b)))
+  (:task rest :parameters ())
+  (:method rest-at-once :parameters () :task (rest) :ordered-subtasks ())
+  (:task nap :parameters (?t - thing))
+  (:method nap-long :parameters (?t - thing) :task (nap ?t)
+    :ordered-subtasks (and (wipe ?t) (wipe ?t)))
+  (:method nap-skipped :parameters (?t - thing) :task (nap ?t) :ordered-subtasks ())
+  (:task treat :parameters (?t - thing))
+  (:method treat-in-a-clean-kitchen :parameters (?t - thing) :task (treat ?t)
+    :precondition (not (dirty))
+    :ordered-subtasks (and (serve ?t)))
   (:method keep-carefully :parameters (?t - thing) :task (keep ?t)
     :ordered-subtasks (and (careful ?t) (careful ?t)))
   (:method keep-rushing :parameters (?t - thing) :task (keep ?t)
@@ -88,18 +98,15 @@ def valid(tmp_path: Path, found: Plan) -> bool:
     return not check_plan(domain, read_problem(tmp_path / "problem.hddl", domain), ipc_plan(found))
 
 
-def cheaper(planning: HddlPlanning, first: Plan) -> Plan | None:
-    told: list[int] = []
-    found = cheaper_one_at_a_time(
-        planning.domain,
-        planning.state,
-        first,
-        TOP,
-        time_limit=10,
-        budget=100_000,
-        progress=lambda n, _: told.append(n),
+def turns(planning: HddlPlanning, first: Plan, seconds: float = 10) -> Cheaper:
+    return cheaper_one_at_a_time(
+        planning.domain, planning.state, first, TOP, time_limit=seconds, budget=100_000
     )
-    assert found.expansions > 0 or found.plan is None
+
+
+def cheaper(planning: HddlPlanning, first: Plan) -> Plan | None:
+    found = turns(planning, first)
+    assert (found.outcome is Outcome.CHEAPER) == (found.plan is not None)
     return found.plan
 
 
@@ -213,3 +220,41 @@ def test_only_the_default_anytime_search_plans_one_task_at_a_time(
     assert called == []
     solve_anytime(domain, problem, lambda _: None, timeout=10)
     assert called == [1]
+
+
+def test_a_task_going_down_a_level_leaves_its_siblings_as_they_are(tmp_path: Path) -> None:
+    # The day is the one task that costs anything: it is cut as its method; the rest, done
+    # by no action, stays a part of its own (not the whole network again).
+    planning, first = chores(tmp_path, "(day) (rest)")
+    assert [str(p.task) for p in parts_of(first, TOP)] == ["tidy(a)", "keep(a)", "tidy(b)", "rest"]
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == 1 + 1 + 1
+    assert valid(tmp_path, found)
+
+
+def test_a_plan_of_no_cost_ends_the_anytime_search(tmp_path: Path) -> None:
+    # Both naps skipped: nothing is cheaper than nothing, and nothing is searched under it.
+    planning, first = chores(tmp_path, "(nap a) (nap b)")
+    assert first.cost == 4
+    found = cheaper(planning, first)
+    assert found is not None and found.cost == 0 and valid(tmp_path, found)
+    domain = read_domain(tmp_path / "domain.hddl")
+    told: list[Plan] = []
+    solved = solve_anytime(domain, read_problem(tmp_path / "problem.hddl", domain), told.append, timeout=10)
+    assert [p.cost for p in told] == [4, 0] and solved.result.exhausted
+
+
+def test_a_part_with_no_plan_after_the_others_changed_the_world_gives_none(tmp_path: Path) -> None:
+    # The hasty meal is the cheapest alone, and leaves the kitchen dirty: the treat, served
+    # only in a clean kitchen, then has no plan (A* sees every node).  No goal is checked at
+    # the end, so nothing told the meal's search that the treat comes after it.
+    planning, first = chores(tmp_path, "(meal a) (treat b)")
+    assert first.cost == 3
+    found = turns(planning, first)
+    assert (found.outcome, found.plan) == (Outcome.NO_PLAN, None)
+
+
+def test_out_of_time_every_part_keeps_its_plan(tmp_path: Path) -> None:
+    planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
+    found = turns(planning, first, seconds=0)
+    assert (found.outcome, found.plan, found.expansions) == (Outcome.NOT_CHEAPER, None, 0)

@@ -488,6 +488,10 @@ def solve_anytime(
             best, found_by = cheaper.plan, Search.ASTAR  # (A*, a task at a time)
             better(best)
         left = None if timeout is None else timeout - (time.perf_counter() - started)
+        if best.cost <= 0 or spent >= budget or (left is not None and left <= 0):
+            seconds = time.perf_counter() - started
+            total = PlanResult(PlanStatus.SOLVED, (best,), spent, seconds, best.cost <= 0)
+            return Solved(planning, found_by, used, total)
     if search is None and grounded is None:
         # A* first, under the first plan's cost, for a share of the time and budget left:
         # where the space under that cost is small enough it ends with the cheapest plan,

@@ -21,22 +21,41 @@ then it is not taken.
 
 from __future__ import annotations
 
+import dataclasses
 import time
+from collections.abc import Sequence
 from dataclasses import dataclass
+from enum import Enum
 from typing import NamedTuple
 
 from htnagent.model.domain import Domain
-from htnagent.model.plans import Decomposition, Plan, Step, replay
+from htnagent.model.plans import Decomposition, Plan, Step
 from htnagent.model.state import State
 from htnagent.model.terms import Atom
 from htnagent.planning.goal_support import checks_goal
 from htnagent.planning.planner import PlannerSettings, Progress, Search, plan, searches_stopped
 
 
-class Cheaper(NamedTuple):
-    """What :func:`cheaper_one_at_a_time` found: a cheaper plan, if any, and the expansions
-    of its searches."""
+class Outcome(Enum):
+    """How :func:`cheaper_one_at_a_time` ended."""
 
+    CHEAPER = "cheaper"
+    """Every part was planned, and the plan costs less than the one given."""
+    NOT_CHEAPER = "not cheaper"
+    """Every part was planned, and the plan costs no less than the one given."""
+    ONE_PART = "one part"
+    """Only one part costs anything: it is the whole problem, which A* plans next."""
+    NO_PLAN = "no plan"
+    """From where the parts before it had changed the world, a part had no plan found."""
+    STOPPED = "stopped"
+    """The searches were told to stop (a signal) or ran out of their budget."""
+
+
+class Cheaper(NamedTuple):
+    """What :func:`cheaper_one_at_a_time` found: how it ended, the cheaper plan (with
+    :attr:`Outcome.CHEAPER`), and the expansions of its searches."""
+
+    outcome: Outcome
     plan: Plan | None
     expansions: int
 
@@ -51,7 +70,8 @@ class Part:
 
     task: Atom
     parent: Decomposition | None
-    """The record the task was decomposed under (None: a task of the list planned)."""
+    """The record the task was decomposed under (None: a task of the list the plan was
+    made for, as the problem's ``__goal``, or a step with no record)."""
     steps: tuple[Step, ...]
     record: Decomposition | None
     """The task's own record (None: the task is an action, the one step)."""
@@ -64,41 +84,55 @@ class Part:
 def parts_of(plan: Plan, top: str) -> list[Part]:
     """The plan cut into its network's tasks, in order: the tasks decomposed by the record
     of the task named ``top`` (an HDDL problem's ``__top``), and the tasks of the list
-    planned that are not below it.  Where only one of them costs anything, its own subtasks
-    in its place, and so on down: a network of one task is cut as that task's method."""
+    planned that are not below it.  Where only one of them costs anything, its own
+    subtasks take its place, and so on down: a network of one task is cut as that task's
+    method."""
     under = next((r for s in plan.steps if s.record for r in s.record.chain() if r.task.name == top), None)
-    parts = _cut(plan, under)
+    parts = _cut(plan.steps, under)
     while True:
-        costly = [p for p in parts if p.cost > 0]
-        if len(costly) != 1 or costly[0].record is None:
+        costly = [i for i, p in enumerate(parts) if p.cost > 0]
+        if len(costly) != 1 or parts[costly[0]].record is None:
             return parts
-        parts = _cut(plan, costly[0].record)
+        alone = parts[costly[0]]
+        parts[costly[0] : costly[0] + 1] = _cut(alone.steps, alone.record)
 
 
-def _cut(plan: Plan, under: Decomposition | None) -> list[Part]:
-    """The plan cut at the tasks decomposed by the record ``under``; a step outside it, at
+def _cut(steps: Sequence[Step], under: Decomposition | None) -> list[Part]:
+    """The steps cut at the tasks decomposed by the record ``under``; a step outside it, at
     the highest record of its own (or alone, with none)."""
-    cut: list[tuple[Atom, Decomposition | None, list[Step], Decomposition | None]] = []
-    for s in plan.steps:
-        task: Atom = s.action
-        parent: Decomposition | None = None
-        own: Decomposition | None = None  # the part's record
-        if s.record is not None and s.record is under:
-            parent = under  # an action of the method itself
+    parts: list[Part] = []
+    gathered: list[Step] = []  # the steps of the last part, which may go on
+    for s in steps:
+        own = _part_record(s, under)
+        if parts and own is not None and parts[-1].record is own:
+            gathered.append(s)
+            continue
+        if parts:
+            parts[-1] = dataclasses.replace(parts[-1], steps=tuple(gathered))
+        gathered = [s]
+        if own is None:
+            parts.append(Part(s.action, s.record, (), None))  # an action of the method itself
         else:
-            record = s.record
-            while record is not None:
-                own = record
-                if record.parent is under and under is not None:
-                    break
-                record = record.parent
-            if own is not None:
-                task, parent = own.task, own.parent
-        if cut and own is not None and cut[-1][3] is own:
-            cut[-1][2].append(s)
-        else:
-            cut.append((task, parent, [s], own))
-    return [Part(task, parent, tuple(steps), own) for task, parent, steps, own in cut]
+            parts.append(Part(own.task, own.parent, (), own))
+    if parts:
+        parts[-1] = dataclasses.replace(parts[-1], steps=tuple(gathered))
+    return parts
+
+
+def _part_record(step: Step, under: Decomposition | None) -> Decomposition | None:
+    """The record of the part ``step`` belongs to when the steps are cut under ``under``:
+    the one just below ``under`` in its chain (the highest, where ``under`` is not in it);
+    None where the step is an action of ``under``'s method itself, or has no record."""
+    if step.record is under:
+        return None
+    record = step.record
+    own = None
+    while record is not None:
+        own = record
+        if under is not None and record.parent is under:
+            break
+        record = record.parent
+    return own
 
 
 def cheaper_one_at_a_time(
@@ -114,19 +148,23 @@ def cheaper_one_at_a_time(
 ) -> Cheaper:
     """A plan cheaper than ``given``, found by planning each of its network's tasks
     (:func:`parts_of`) alone in turn, if there is one.  Within about ``time_limit`` seconds,
-    each task with an equal share of what is left when its turn comes; each search within
-    ``budget`` expansions.  With ``grounded`` (a grounded search's settings, design §7.2),
-    the searches decompose by its ground methods, with its estimate and dead-end test.
+    each task with an equal share of what is left when its turn comes, and ``budget``
+    expansions in all.  With ``grounded`` (a grounded search's settings, design §7.2), the
+    searches decompose by its ground methods, with its estimate and dead-end test.
     ``progress`` hears the expansions of all the searches so far (see
     :func:`~htnagent.planning.planner.plan`)."""
     parts = parts_of(given, top)
     if sum(p.cost > 0 for p in parts) < 2:
-        return Cheaper(None, 0)  # one task that costs anything: the whole problem, which A* plans next
+        return Cheaper(Outcome.ONE_PART, None, 0)
     deadline = None if time_limit is None else time.perf_counter() + time_limit
     turns = _Turns(domain, parts, deadline, budget, grounded, progress)
-    steps = turns.run(state)
-    cheaper = None if steps is None else Plan(steps)
-    return Cheaper(cheaper if cheaper is not None and cheaper.cost < given.cost else None, turns.spent)
+    outcome, steps = turns.run(state)
+    if outcome is Outcome.CHEAPER:
+        found = Plan(steps)
+        if found.cost < given.cost:
+            return Cheaper(Outcome.CHEAPER, found, turns.spent)
+        outcome = Outcome.NOT_CHEAPER
+    return Cheaper(outcome, None, turns.spent)
 
 
 class _Turns:
@@ -150,43 +188,51 @@ class _Turns:
         # Step 3: where the goal is checked at the end, the parts after each follow it.
         self.follow = checks_goal(domain, [p.task for p in parts])
         self.spent = 0
+        self.exhausted = False  # the last search saw every node under its bound
 
-    def run(self, state: State) -> tuple[Step, ...] | None:
-        """Each part's steps in turn, from ``state``; None where a part has no plan found
-        (or the searches were told to stop)."""
+    def run(self, state: State) -> tuple[Outcome, tuple[Step, ...]]:
+        """Each part's steps in turn, from ``state``: :attr:`Outcome.CHEAPER` with all the
+        steps where every part has some (cheaper or not, :func:`cheaper_one_at_a_time`
+        compares), else why not."""
         steps: list[Step] = []
         unchanged = True  # the state is still the one the given plan had reached here
         for i, part in enumerate(self.parts):
-            if searches_stopped():
-                return None  # a signal: the command ends with the plans it has told
+            if searches_stopped() or self.spent >= self.budget:
+                return Outcome.STOPPED, ()  # a signal: the command ends with the plans told
             done = self._turn(i, part, state, unchanged)
             if done is None:
-                return None
+                return Outcome.NO_PLAN, ()
             unchanged = unchanged and done is part.steps
-            after = replay(self.domain, state, [s.action for s in done])
-            if after is None:  # (a plan of the search: it applies)
-                return None
-            state = after
+            for s in done:
+                # (Of an action's variants -- an HDDL `or`, a `when` -- the one that holds.)
+                state = self.domain.actions.progress(state, s.action)
             steps.extend(done)
-        return tuple(steps)
+        return Outcome.CHEAPER, tuple(steps)
 
     def _turn(self, i: int, part: Part, state: State, unchanged: bool) -> tuple[Step, ...] | None:
         """Step 2: the part's cheapest plan from ``state``, else its old one where the state
         is unchanged, else greedy search's; None if there is none of these."""
         later = tuple((p.task, p.parent) for p in self.parts[i + 1 :]) if self.follow else ()
-        share = None
-        if self.deadline is not None:
-            share = max((self.deadline - time.perf_counter()) / (len(self.parts) - i), 1e-3)
+        late = self.deadline is not None and time.perf_counter() >= self.deadline
         if unchanged:
             # The old plan is still good here: only a cheaper one is wanted.
+            if part.cost <= 0 or late:
+                return part.steps
             costs = self.domain.task_costs or {}
             at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later)
-            cheapest = self._search(part, state, later, Search.ASTAR, share, at_most) if at_most > 0 else None
+            cheapest = self._search(part, state, later, Search.ASTAR, self._share(i), at_most)
             return part.steps if cheapest is None else cheapest
-        cheapest = self._search(part, state, later, Search.ASTAR, share, None)
-        if cheapest is not None:
-            return cheapest
-        return self._search(part, state, later, Search.GBFS, share, None)
+        if not late:
+            cheapest = self._search(part, state, later, Search.ASTAR, self._share(i), None)
+            if cheapest is not None or self.exhausted:
+                return cheapest  # (A* saw every node: no plan from here)
+        return self._search(part, state, later, Search.GBFS, self._share(i), None)
+
+    def _share(self, i: int) -> float | None:
+        """The seconds for the search of part ``i``: what is left shared by the parts left."""
+        if self.deadline is None:
+            return None
+        return max((self.deadline - time.perf_counter()) / (len(self.parts) - i), 1e-3)
 
     def _search(
         self,
@@ -202,7 +248,7 @@ class _Turns:
         grounded = self.grounded
         settings = PlannerSettings(
             alternatives=1,
-            budget=self.budget,
+            budget=max(self.budget - self.spent, 1),
             search=order,
             time_limit=seconds,
             cost_bound=at_most,
@@ -216,7 +262,8 @@ class _Turns:
             self.domain, state, [(part.task, part.parent)], settings, recover=False, progress=told, then=later
         )
         self.spent += found.expansions
+        self.exhausted = found.exhausted
         return None if found.best is None else found.best.steps
 
 
-__all__ = ["Cheaper", "Part", "cheaper_one_at_a_time", "parts_of"]
+__all__ = ["Cheaper", "Outcome", "Part", "cheaper_one_at_a_time", "parts_of"]

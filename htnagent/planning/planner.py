@@ -437,7 +437,18 @@ def plan(
     if guide is None and settings is not None:
         guide = settings.guide
     search = functools.partial(
-        _search, domain, state, tasks, settings, recover, avoid, progress, improving, checkpoint, guide, then
+        _search,
+        domain,
+        state,
+        tasks,
+        settings,
+        recover,
+        avoid,
+        progress=progress,
+        improving=improving,
+        checkpoint=checkpoint,
+        guide=guide,
+        then=then,
     )
     if not gc.isenabled():
         return search()
