@@ -215,25 +215,23 @@ def verify(
         f.write(block)
         plan_file = f.name
     try:
-        done = subprocess.run(
-            [str(verifier), str(problem.domain_file), str(problem.problem_file), plan_file],
-            capture_output=True,
-            text=True,
-            timeout=limit,
-            stdin=subprocess.DEVNULL,
+        # In a process group of its own, killed whole at the limit: the IPC verifier is a
+        # script whose parser would otherwise go on after it, a core taken from what follows.
+        done = run_process(
+            [str(verifier), str(problem.domain_file), str(problem.problem_file), plan_file], limit, 0
         )
-    except subprocess.TimeoutExpired:
-        return None, f"verifier: no verdict in {limit:g} s (time-out)"
     except OSError as e:
         return None, f"verifier: cannot run {verifier}: {e.strerror}"
     finally:
         os.unlink(plan_file)
+    if done.code is None:
+        return None, f"verifier: no verdict in {limit:g} s (time-out)"
     verdict = last_line(done.stdout) or last_line(done.stderr)
-    if done.returncode == 0:
+    if done.code == 0:
         return True, None
-    if done.returncode == 1:
+    if done.code == 1:
         return False, f"verifier: {verdict}"
-    return None, f"verifier: {verdict or f'exit {done.returncode}'}"
+    return None, f"verifier: {verdict or f'exit {done.code}'}"
 
 
 @dataclass(frozen=True)

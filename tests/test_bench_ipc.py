@@ -563,6 +563,30 @@ def test_a_verifier_time_out_leaves_the_plan_solved_unverified_and_said(
     assert "(1 verifier time-out)" in (tmp_path / "ipc.md").read_text()
 
 
+def test_a_verifier_out_of_time_leaves_nothing_of_its_own_running(
+    suite: Path, fake: Path, tmp_path: Path
+) -> None:
+    # The IPC verifier is a script that runs its parser as a child: both go at the limit.
+    child = tmp_path / "child.pid"
+    slow = tmp_path / "slow-verify.sh"
+    slow.write_text(f"#!/bin/sh\nsleep 30 &\necho $! > {child}\nwait\n")
+    slow.chmod(0o755)
+    run(
+        tmp_path,
+        *("--suite", str(suite), "--problems", "1", "--verifier", str(slow), "--verify-timeout", "0.3"),
+        *("--planner-cmd", f"{{python}} {fake} plan {HDDL / 'valid.plan'}"),
+    )
+    pid = int(child.read_text())
+    for _ in range(50):
+        try:
+            os.kill(pid, 0)
+        except ProcessLookupError:
+            return
+        time.sleep(0.05)
+    os.kill(pid, signal.SIGKILL)
+    pytest.fail("the verifier's child outlived its time-out")
+
+
 ANYTIME_PLANNER = """\
 import sys, time
 plan = open(sys.argv[1]).read()
