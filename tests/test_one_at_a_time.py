@@ -3,6 +3,8 @@ planner's tasks that follow a list without being planned (``plan``'s ``then``)."
 
 from __future__ import annotations
 
+import itertools
+import time
 from pathlib import Path
 from typing import Any
 
@@ -258,3 +260,16 @@ def test_out_of_time_every_part_keeps_its_plan(tmp_path: Path) -> None:
     planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
     found = turns(planning, first, seconds=0)
     assert (found.outcome, found.plan, found.expansions) == (Outcome.NOT_CHEAPER, None, 0)
+
+
+def test_out_of_time_after_the_world_changed_the_rest_has_no_plan(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # A clock that moves a second each time it is read: the first part (tidying, its short
+    # way) is planned within the 2.5 s, and the world has changed when the time is up.
+    planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
+    ticks = itertools.count()
+    monkeypatch.setattr(time, "perf_counter", lambda: float(next(ticks)))
+    found = turns(planning, first, seconds=2.5)
+    assert (found.outcome, found.plan) == (Outcome.OUT_OF_TIME, None)
+    assert found.expansions > 0

@@ -22,6 +22,7 @@ then it is not taken.
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
@@ -49,6 +50,9 @@ class Outcome(Enum):
     """From where the parts before it had changed the world, a part had no plan found."""
     STOPPED = "stopped"
     """The searches were told to stop (a signal) or ran out of their budget."""
+    OUT_OF_TIME = "out of time"
+    """The time ran out where the parts before had changed the world: the rest has no plan.
+    (Where they had not, the whole is the old plan: :attr:`NOT_CHEAPER`.)"""
 
 
 class Cheaper(NamedTuple):
@@ -187,18 +191,28 @@ class _Turns:
         self.progress = progress
         # Step 3: where the goal is checked at the end, the parts after each follow it.
         self.follow = checks_goal(domain, [p.task for p in parts])
+        self.tasks = [(p.task, p.parent) for p in parts]
+        # The least cost of the parts' tasks from each one on (a bound counts those after).
+        costs = domain.task_costs or {}
+        self.least_from = list(itertools.accumulate(reversed([costs.get(p.task.name, 0.0) for p in parts])))[
+            ::-1
+        ]
+        self.least_from.append(0.0)
         self.spent = 0
         self.exhausted = False  # the last search saw every node under its bound
 
     def run(self, state: State) -> tuple[Outcome, tuple[Step, ...]]:
         """Each part's steps in turn, from ``state``: :attr:`Outcome.CHEAPER` with all the
-        steps where every part has some (cheaper or not, :func:`cheaper_one_at_a_time`
-        compares), else why not."""
+        steps where every part has some (cheaper or not: :func:`cheaper_one_at_a_time`
+        compares), else why not.  Once the time is up, no part is searched."""
         steps: list[Step] = []
         unchanged = True  # the state is still the one the given plan had reached here
         for i, part in enumerate(self.parts):
             if searches_stopped() or self.spent >= self.budget:
                 return Outcome.STOPPED, ()  # a signal: the command ends with the plans told
+            if self.deadline is not None and time.perf_counter() >= self.deadline:
+                # (Unchanged so far, the rest is the old plan's, and so is the whole.)
+                return (Outcome.NOT_CHEAPER if unchanged else Outcome.OUT_OF_TIME), ()
             done = self._turn(i, part, state, unchanged)
             if done is None:
                 return Outcome.NO_PLAN, ()
@@ -212,20 +226,17 @@ class _Turns:
     def _turn(self, i: int, part: Part, state: State, unchanged: bool) -> tuple[Step, ...] | None:
         """Step 2: the part's cheapest plan from ``state``, else its old one where the state
         is unchanged, else greedy search's; None if there is none of these."""
-        later = tuple((p.task, p.parent) for p in self.parts[i + 1 :]) if self.follow else ()
-        late = self.deadline is not None and time.perf_counter() >= self.deadline
+        if unchanged and part.cost <= 0:
+            return part.steps  # nothing costs less than nothing
+        later = tuple(self.tasks[i + 1 :]) if self.follow else ()
         if unchanged:
             # The old plan is still good here: only a cheaper one is wanted.
-            if part.cost <= 0 or late:
-                return part.steps
-            costs = self.domain.task_costs or {}
-            at_most = part.cost + sum(costs.get(t.name, 0.0) for t, _ in later)
+            at_most = part.cost + (self.least_from[i + 1] if self.follow else 0.0)
             cheapest = self._search(part, state, later, Search.ASTAR, self._share(i), at_most)
             return part.steps if cheapest is None else cheapest
-        if not late:
-            cheapest = self._search(part, state, later, Search.ASTAR, self._share(i), None)
-            if cheapest is not None or self.exhausted:
-                return cheapest  # (A* saw every node: no plan from here)
+        cheapest = self._search(part, state, later, Search.ASTAR, self._share(i), None)
+        if cheapest is not None or self.exhausted:
+            return cheapest  # (A* saw every node: no plan from here)
         return self._search(part, state, later, Search.GBFS, self._share(i), None)
 
     def _share(self, i: int) -> float | None:
