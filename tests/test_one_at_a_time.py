@@ -3,8 +3,6 @@ planner's tasks that follow a list without being planned (``plan``'s ``then``)."
 
 from __future__ import annotations
 
-import itertools
-import time
 from pathlib import Path
 from typing import Any
 
@@ -262,14 +260,28 @@ def test_out_of_time_every_part_keeps_its_plan(tmp_path: Path) -> None:
     assert (found.outcome, found.plan, found.expansions) == (Outcome.NOT_CHEAPER, None, 0)
 
 
-def test_out_of_time_after_the_world_changed_the_rest_has_no_plan(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+def clock(monkeypatch: pytest.MonkeyPatch, readings: list[float]) -> None:
+    """The step's clock (not the searches'): these readings in turn, then the last again."""
+    left = iter(readings)
+    last = [readings[-1]]
+
+    def read() -> float:
+        last[0] = next(left, last[0])
+        return last[0]
+
+    monkeypatch.setattr("htnagent.planning.one_at_a_time.perf_counter", read)
+
+
+@pytest.mark.parametrize(("late", "outcome"), [(15.0, Outcome.CHEAPER), (25.0, Outcome.OUT_OF_TIME)])
+def test_past_its_time_with_the_world_changed_greedy_search_finishes_within_as_long_again(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, late: float, outcome: Outcome
 ) -> None:
-    # A clock that moves a second each time it is read: the first part (tidying, its short
-    # way) is planned within the 2.5 s, and the world has changed when the time is up.
+    # 10 s for the step: the first tidying is planned at 1 s (its short way: the world has
+    # changed), and then the clock reads ``late``.  Within the 10 s more, greedy search
+    # plans the rest; past them, the step ends with no plan.
     planning, first = chores(tmp_path, "(tidy a) (tidy b) (keep a)")
-    ticks = itertools.count()
-    monkeypatch.setattr(time, "perf_counter", lambda: float(next(ticks)))
-    found = turns(planning, first, seconds=2.5)
-    assert (found.outcome, found.plan) == (Outcome.OUT_OF_TIME, None)
-    assert found.expansions > 0
+    clock(monkeypatch, [0.0, 1.0, 1.0, late])
+    found = turns(planning, first, seconds=10)
+    assert found.outcome is outcome
+    if outcome is Outcome.CHEAPER:
+        assert found.plan is not None and found.plan.cost == 1 + 1 + 1 and valid(tmp_path, found.plan)
