@@ -163,7 +163,8 @@ def cheaper_one_at_a_time(
         return Cheaper(Outcome.ONE_PART, None, 0)
     now = perf_counter()
     # Past its time with the world changed, the step may take as long again, by greedy
-    # search alone, to finish the plan it has begun (Barman's p15: 133 actions, 136 without).
+    # search alone, to finish the plan it has begun: the parts searched so far are not lost
+    # for the last few.
     deadlines = None if time_limit is None else (now + time_limit, now + 2 * time_limit)
     turns = _Turns(domain, parts, deadlines, budget, grounded, progress)
     outcome, steps = turns.run(state)
