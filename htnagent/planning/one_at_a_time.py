@@ -200,17 +200,16 @@ class _Turns:
         self.tasks = [(p.task, p.parent) for p in parts]
         # The least cost of the parts' tasks from each one on (a bound counts those after).
         costs = domain.task_costs or {}
-        self.least_from = list(itertools.accumulate(reversed([costs.get(p.task.name, 0.0) for p in parts])))[
-            ::-1
-        ]
-        self.least_from.append(0.0)
+        least = [costs.get(p.task.name, 0.0) for p in parts]
+        self.least_from = [*reversed([0.0, *itertools.accumulate(reversed(least))])]
         self.spent = 0
         self.exhausted = False  # the last search saw every node under its bound
 
     def run(self, state: State) -> tuple[Outcome, tuple[Step, ...]]:
         """Each part's steps in turn, from ``state``: :attr:`Outcome.CHEAPER` with all the
         steps where every part has some (cheaper or not: :func:`cheaper_one_at_a_time`
-        compares), else why not.  Once the time is up, no part is searched."""
+        compares), else why not.  Once the time is up: the old plan where nothing has
+        changed, else greedy search alone for the parts left, for as long again at most."""
         steps: list[Step] = []
         unchanged = True  # the state is still the one the given plan had reached here
         for i, part in enumerate(self.parts):
