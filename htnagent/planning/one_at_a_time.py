@@ -197,7 +197,7 @@ class _Turns:
         self.progress = progress
         # Step 3: where the goal is checked at the end, the parts after each follow it.
         self.follow = checks_goal(domain, [p.task for p in parts])
-        self.tasks = [(p.task, p.parent) for p in parts]
+        self.tasks: Later = tuple((p.task, p.parent) for p in parts)
         # The least cost of the parts' tasks from each one on (a bound counts those after).
         costs = domain.task_costs or {}
         least = [costs.get(p.task.name, 0.0) for p in parts]
@@ -236,7 +236,7 @@ class _Turns:
         is unchanged, else greedy search's; None if there is none of these."""
         if unchanged and part.cost <= 0:
             return part.steps  # nothing costs less than nothing
-        later = tuple(self.tasks[i + 1 :]) if self.follow else ()
+        later = self.tasks[i + 1 :] if self.follow else ()
         if unchanged:
             # The old plan is still good here: only a cheaper one is wanted.
             at_most = part.cost + (self.least_from[i + 1] if self.follow else 0.0)
