@@ -237,7 +237,9 @@ class Composition:
             for i, need in self._below.needs.items():
                 self._starts[i] = need
         # What the list can still reach (step 7), on the same graph.
-        self._reach = WithinReach(needs, self._consumers, outputs, self._free, self._below.tasks_below)
+        self._reach = WithinReach(
+            needs, self._consumers, outputs, self._free, self._below.tasks_below, actions=len(actions)
+        )
 
     def task_costs(self, dynamic: frozenset[Atom]) -> list[float]:
         """Each ground task's relaxed-composition cost (h_add) from a state whose changing

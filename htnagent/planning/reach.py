@@ -15,16 +15,35 @@ The test runs the relaxation again from the state with only the ground actions a
 methods below the list's tasks (top down through the ground methods kept, as step 6): a
 task of the list it does not reach cannot be done.  Sound as the grounding is: a plan from
 the node takes only actions below its tasks, each of them grounded below them (step 1),
-and every fact and task it reaches the relaxation reaches.  It is one pass over the
-grounding a list, so the searches ask it once for each node they take off their open list
-to expand (the planner's :attr:`~htnagent.planning.planner.PlannerSettings.prune`), not for
-every child they make -- costing each child this way made greedy search 2-3 times slower
-where children are many (AssemblyHierarchical, Entertainment; design §7.2, step 6).
+and every fact and task it reaches the relaxation reaches.
+
+It runs in two halves, because only actions make facts true:
+
+1. **The facts.**  The actions below the list fire from the state until nothing new comes
+   true.  An action needs only facts, so this half never looks at a task.  The actions are
+   bit sets (Python ints, bit ``k`` for action ``k``): a round is an ``or`` of what each fact
+   not yet reached holds back and an ``and`` for what each fact could come from.
+2. **The tasks.**  With those facts, a task below the list is reached where one of its
+   methods has its precondition among them and its subtasks reached (or, primitive, where
+   its action's precondition is among them).  Everything below such a task is below the
+   list too, so the answer depends on the facts alone: it is one pass over the grounding,
+   kept for each set of facts.  Along a search the facts the list can reach change far
+   less often than the state: on Woodworking's 18th problem, 80 sets over 1,206 lists.
+
+The searches ask it once for each node an action led to, as they take it off their open
+list to expand (the planner's :attr:`~htnagent.planning.planner.PlannerSettings.prune`),
+not for every child they make -- costing each child this way made greedy search 2-3 times
+slower where children are many (AssemblyHierarchical, Entertainment; design §7.2, step 6).
 """
 
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+
+MAX_BITS_KEPT = 400_000_000
+"""About how many bits (50 MB) of the actions below each task, and bytes of the tasks
+reached from each set of facts, :class:`WithinReach` keeps: past it, it forgets them and
+works them out again as lists ask -- time over memory."""
 
 
 class WithinReach:
@@ -39,17 +58,39 @@ class WithinReach:
         outputs: Sequence[tuple[int, ...]],
         free: Sequence[int],
         below: Callable[[int], frozenset[int]],
+        actions: int,
     ) -> None:
         """``needs[k]``: how many inputs action or method ``k`` waits for; ``consumers[n]``:
         the actions and methods that read node ``n``; ``outputs[k]``: what ``k`` reaches, its
         own task last; ``free``: those that need nothing; ``below``: a task and every task
-        below it (:attr:`~htnagent.planning.below.Below.tasks_below`)."""
+        below it (:attr:`~htnagent.planning.below.Below.tasks_below`); ``actions``: how many
+        of them, numbered first, are actions (the rest are methods, which reach only their
+        task)."""
         self._needs = list(needs)
         self._consumers = consumers
-        self._outputs = outputs
         self._free = free
         self._owner = [out[-1] for out in outputs]  # the task each action or method reaches
         self._below = below
+        # Half 1's graph: by fact, the actions that need it and those that add it.
+        needing: dict[int, list[int]] = {}
+        adding: dict[int, list[int]] = {}
+        for k in range(actions):
+            for f in outputs[k][:-1]:
+                adding.setdefault(f, []).append(k)
+        for n, readers in enumerate(consumers):
+            ks = [k for k in readers if k < actions]
+            if ks:
+                needing[n] = ks
+        self._needing = [(f, _bits(ks)) for f, ks in needing.items()]
+        self._adding = [(f, _bits(ks)) for f, ks in adding.items()]
+        self._read = frozenset(n for n, readers in enumerate(consumers) if readers)
+        self._actions_of: dict[int, list[int]] = {}  # a primitive task: its actions
+        for k in range(actions):
+            self._actions_of.setdefault(self._owner[k], []).append(k)
+        self._usable: dict[int, int] = {}
+        self._usable_bits = 0
+        self._reached: dict[frozenset[int], bytearray] = {}
+        self._reached_bytes = 0
 
     def lost(self, tasks: Sequence[int], start: Iterable[int]) -> bool:
         """Whether, from the nodes ``start`` (the state's facts), the relaxation kept to the
@@ -57,33 +98,78 @@ class WithinReach:
         wanted = set(tasks)
         if not wanted:
             return False
-        allowed: set[int] = set()
-        below = self._below
+        usable = 0
         for t in wanted:
-            allowed |= below(t)
+            usable |= self._actions_below(t)
+        reached = self._tasks_reached(self._facts_reached(start, usable))
+        return not all(reached[t] for t in wanted)
+
+    def _actions_below(self, task: int) -> int:
+        """The actions below ``task``, as a bit set; kept for the tasks asked."""
+        known = self._usable.get(task)
+        if known is not None:
+            return known
+        actions_of = self._actions_of
+        found = _bits([k for t in self._below(task) for k in actions_of.get(t, ())])
+        self._usable_bits += found.bit_length()
+        if self._usable_bits > MAX_BITS_KEPT:
+            self._usable.clear()
+            self._usable_bits = found.bit_length()
+        self._usable[task] = found
+        return found
+
+    def _facts_reached(self, start: Iterable[int], usable: int) -> frozenset[int]:
+        """Half 1: the facts the actions ``usable`` (a bit set) make true from ``start``, a
+        round at a time until a round adds none; only those some action or method reads."""
+        reached = set(start)
+        while True:
+            held_back = 0  # the actions needing a fact not reached
+            for f, needing in self._needing:
+                if f not in reached:
+                    held_back |= needing
+            firing = usable & ~held_back
+            new = [f for f, adding in self._adding if f not in reached and adding & firing]
+            if not new:
+                return frozenset(reached & self._read)
+            reached.update(new)
+
+    def _tasks_reached(self, facts: frozenset[int]) -> bytearray:
+        """Half 2: by id, 1 for each node the relaxation reaches from ``facts`` where no
+        action adds a fact (as they are all in); kept for each set of facts."""
+        known = self._reached.get(facts)
+        if known is not None:
+            return known
         owner = self._owner
-        outputs = self._outputs
         consumers = self._consumers
         left = self._needs[:]
         reached = bytearray(len(consumers))
-        todo = list(start)
-        for k in self._free:
-            if owner[k] in allowed:
-                todo.extend(outputs[k])
+        todo = [*facts, *(owner[k] for k in self._free)]
         while todo:
             n = todo.pop()
             if reached[n]:
                 continue
             reached[n] = 1
-            if n in wanted:
-                wanted.discard(n)
-                if not wanted:
-                    return False  # all reached: the rest of the pass would tell nothing more
             for k in consumers[n]:
                 left[k] -= 1
-                if not left[k] and owner[k] in allowed:
-                    todo.extend(outputs[k])
-        return True
+                if not left[k]:
+                    todo.append(owner[k])
+        self._reached_bytes += len(reached) * 8
+        if self._reached_bytes > MAX_BITS_KEPT:
+            self._reached.clear()
+            self._reached_bytes = len(reached) * 8
+        self._reached[facts] = reached
+        return reached
 
 
-__all__ = ["WithinReach"]
+def _bits(ks: Iterable[int]) -> int:
+    """The bit set (an int) with bit ``k`` set for each ``k``."""
+    ks = list(ks)
+    if not ks:
+        return 0
+    out = bytearray(max(ks) // 8 + 1)
+    for k in ks:
+        out[k >> 3] |= 1 << (k & 7)
+    return int.from_bytes(out, "little")
+
+
+__all__ = ["MAX_BITS_KEPT", "WithinReach"]
