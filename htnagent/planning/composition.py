@@ -555,7 +555,8 @@ class _Grounder:
         for index, (me, _) in enumerate(self.by_types):
             if not self.joining:
                 order = _binding_order(self.relaxed(me.pre), me.head.variables())
-                orders[me.head.name].append(_Way(me, me.head, me.pre, order, me.subtasks, None))
+                whole = tuple(range(len(me.subtasks)))
+                orders[me.head.name].append(_Way(me, me.head, me.pre, order, me.subtasks, None, whole))
                 continue
             ways_of = _ways(me, self.relaxed, f"__{me.name}#{index}")
             if any(way.joined is not None for way in ways_of):
@@ -690,6 +691,7 @@ class _Way:
     order: tuple[Literal, ...]
     subtasks: tuple[Atom, ...]
     joined: tuple[Literal, ...] | None
+    positions: tuple[int, ...]  # where its own subtasks stand among the method's (not a group's task)
 
     @property
     def name(self) -> str:
@@ -700,7 +702,7 @@ class _Way:
         subtasks' variables bound, and its precondition in the real state checked from there."""
         bound = self.head.variables().union(*(t.variables() for t in self.subtasks))
         check = _binding_order(self.pre, bound)
-        return GroundWay(self.method, task, check, {v: b[v] for v in bound}, subtasks)
+        return GroundWay(self.method, task, check, {v: b[v] for v in bound}, subtasks, self.positions)
 
 
 def _ways(
@@ -720,13 +722,13 @@ def _ways(
     least.
     """
     bound = method.head.variables()
-    whole = _way(method, method.head, method.pre, method.subtasks, relaxed)
+    n = len(method.subtasks)
+    whole = _way(method, method.head, method.pre, method.subtasks, relaxed, tuple(range(n)))
     if whole.joined is None:
         return [whole]
     groups = _groups([*method.subtasks, *(lit.atom for lit in method.pre)], bound)
     if len(groups) <= 1:
         return [whole]
-    n = len(method.subtasks)
     ways: list[_Way] = []
     tasks: list[Atom] = []
     for k, members in enumerate(groups, 1):
@@ -735,11 +737,12 @@ def _ways(
         shared = bound & set().union(*(t.variables() for t in subtasks), *(x.variables for x in pre))
         head = Atom(f"{prefix}_{k}", tuple(sorted(shared)))
         tasks.append(head)
-        ways.append(_way(method, head, pre, subtasks, relaxed))
+        ways.append(_way(method, head, pre, subtasks, relaxed, tuple(i for i in sorted(members) if i < n)))
     grouped = set().union(*groups)
     core = tuple(lit for i, lit in enumerate(method.pre, n) if i not in grouped)
-    ground = tuple(t for i, t in enumerate(method.subtasks) if i not in grouped)
-    return [_way(method, method.head, core, (*ground, *tasks), relaxed), *ways]
+    own = tuple(i for i in range(n) if i not in grouped)
+    ground = tuple(method.subtasks[i] for i in own)
+    return [_way(method, method.head, core, (*ground, *tasks), relaxed, own), *ways]
 
 
 def _way(
@@ -748,15 +751,17 @@ def _way(
     pre: tuple[Literal, ...],
     subtasks: tuple[Atom, ...],
     relaxed: Callable[[Sequence[Literal]], tuple[Literal, ...]],
+    positions: tuple[int, ...],
 ) -> _Way:
     """The way to bind a method: joined where it has parameters its subtasks name that only
-    an enumeration would bind."""
+    an enumeration would bind.  ``positions``: where its subtasks, but a group's tasks, stand
+    among the method's."""
     bound = head.variables()
     order = _binding_order(relaxed(pre), bound)
     named = {v for t in subtasks for v in t.variables()}
     if not set(enumerated(order, bound)) & named:
-        return _Way(method, head, pre, order, subtasks, None)
-    return _Way(method, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named))
+        return _Way(method, head, pre, order, subtasks, None, positions)
+    return _Way(method, head, pre, order, subtasks, _binding_order(relaxed(pre), bound | named), positions)
 
 
 def _by_types(

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 from htnagent.model.domain import Method
 from htnagent.model.preconditions import Decomposer, Literal, satisfiers
 from htnagent.model.state import State
-from htnagent.model.terms import Atom, Bindings, substitute
+from htnagent.model.terms import Atom, Bindings
 
 
 @dataclass(frozen=True, slots=True)
@@ -51,6 +51,9 @@ class GroundWay:
     bindings: Bindings
     """The variables of its task and subtasks, bound."""
     subtasks: tuple[Atom, ...]
+    positions: tuple[int, ...]
+    """Where its subtasks stand among the method's, by index (a core's, but its groups' tasks
+    that follow them)."""
 
     def holds(self, state: State) -> bool:
         """Whether its precondition holds in the state under its bindings."""
@@ -88,6 +91,8 @@ def _decomposer(
     """The method's decomposer by its ground ways (``cores``: its own task's, by task;
     ``parts``: its groups', by a group's task); by the lifted method where nothing was met."""
 
+    subtasks = method.subtasks
+
     def run(task: Atom, state: State) -> list[tuple[Atom, ...]]:
         listed = cores.get(task)
         if listed is None:
@@ -108,11 +113,15 @@ def _decomposer(
             if not choices:
                 out[core.subtasks] = None  # no groups: its subtasks are the method's, made ground
                 continue
+            # Each subtask of the method is the core's or one group's, made ground already.
+            filled: list[Atom] = [*subtasks]
+            for i, t in zip(core.positions, core.subtasks, strict=False):
+                filled[i] = t
             for chosen in itertools.product(*choices):
-                b = dict(core.bindings)
                 for g in chosen:
-                    b.update(g.bindings)
-                out[tuple(substitute(t, b) for t in method.subtasks)] = None
+                    for i, t in zip(g.positions, g.subtasks, strict=True):
+                        filled[i] = t
+                out[tuple(filled)] = None
         return list(out)
 
     return run
