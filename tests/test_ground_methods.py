@@ -17,7 +17,7 @@ from htnagent.hddl.check import check_plan
 from htnagent.model.domain import Method
 from htnagent.model.terms import Atom
 from htnagent.planning import hddl_solving
-from htnagent.planning.composition import Composition, ground
+from htnagent.planning.composition import Composition, ground, lifted_is_lost
 from htnagent.planning.hddl_solving import Solved, solve_anytime
 from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.ipc_output import ipc_plan
@@ -170,3 +170,79 @@ def test_depth_first_search_goes_on_by_the_ground_methods_once_grounded(
     assert [c for c in calls if c[0] == "htnagent-grounded"] == [("htnagent-grounded", Search.GBFS, True)]
     best = solved.result.best
     assert [str(v) for v in check_plan(planning.hddl, planning.problem, ipc_plan(best))] == []
+
+
+def test_the_lifted_searches_are_lost_where_types_make_thousands_of_ways_of_one_task() -> None:
+    # finish-m binds colour, brush and tool by their types: n**3 ways of each finish task.
+    assert lifted_is_lost(_workshop(13).domain, _workshop(13).state)  # 2,197: past 2,000
+    assert not lifted_is_lost(_workshop(12).domain, _workshop(12).state)  # 1,728
+
+
+def _portfolio_with(
+    monkeypatch: pytest.MonkeyPatch,
+    planning: HddlPlanning,
+    real_ones: set[tuple[str, Search, bool]],
+    slow_grounded: float = 0.0,
+) -> tuple[Solved, dict[str, int]]:
+    """The portfolio where only the searches ``real_ones`` (thread, search, by the grounding)
+    plan; every other one is lost: it asks its checkpoint every 5 ms until told to stop.
+    Also how many times each thread's lost search was let go on by its checkpoint.  The
+    grounded greedy search, where real, first spends ``slow_grounded`` seconds so."""
+    real = plan
+    went_on: dict[str, int] = {}
+
+    def searches(*args: Any, **kwargs: Any) -> PlanResult:
+        settings: PlannerSettings = args[3]
+        thread = threading.current_thread().name
+        which = (thread, settings.search, settings.decompositions is not None)
+        checkpoint = kwargs.get("checkpoint")
+        lost = which not in real_ones
+        ends = time.monotonic() + (20 if lost else slow_grounded if settings.guide is not None else 0)
+        while time.monotonic() < ends:
+            if checkpoint is not None and checkpoint():
+                return PlanResult(PlanStatus.INTERRUPTED)
+            went_on[thread] = went_on.get(thread, 0) + 1
+            time.sleep(0.005)
+        return PlanResult(PlanStatus.INTERRUPTED) if lost else real(*args, **kwargs)
+
+    monkeypatch.setattr(hddl_solving, "plan", searches)
+    return hddl_solving.solve(planning.hddl, planning.problem, timeout=30), went_on
+
+
+@pytest.mark.parametrize("n", [13, 12])
+def test_where_the_lifted_searches_are_lost_the_lifted_greedy_search_waits_for_the_grounded_one(
+    n: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Only the grounded greedy search answers, after half a second of work.  Where the
+    # lifted searches are lost (13), the lifted greedy search, in the main thread, waits at
+    # its checkpoint meanwhile (its time is the grounded search's); elsewhere (12) it goes on.
+    grounded_only = {("htnagent-grounded", Search.GBFS, True)}
+    solved, went_on = _portfolio_with(monkeypatch, _workshop(n), grounded_only, slow_grounded=0.5)
+    assert solved.result.status is PlanStatus.SOLVED and solved.settings.guide is not None
+    if n == 13:
+        assert went_on.get("MainThread", 0) <= 2  # let go on only before the grounding began
+    else:
+        assert went_on["MainThread"] > 40
+
+
+def test_where_the_grounding_fails_the_lifted_greedy_search_goes_on(monkeypatch: pytest.MonkeyPatch) -> None:
+    # The lifted searches lost, but the grounding past its cap: the lifted greedy search,
+    # waiting, goes on, and answers (the others are lost).
+    monkeypatch.setattr(hddl_solving, "MAX_GROUND_ALONE", 50)
+    solved, _ = _portfolio_with(monkeypatch, _workshop(13), {("MainThread", Search.GBFS, False)})
+    assert solved.result.status is PlanStatus.SOLVED
+    assert solved.search is Search.GBFS and solved.settings.guide is None  # the lifted one
+
+
+@pytest.mark.parametrize("n", [13, 12])
+def test_where_the_lifted_searches_are_lost_the_grounding_keeps_on_past_its_seconds(
+    n: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # GROUNDING_SECONDS at 0: elsewhere (12) the grounding gives up at once and the lifted
+    # greedy search answers; where the lifted searches are lost (13) it goes on, and the
+    # grounded greedy search answers.
+    monkeypatch.setattr(hddl_solving, "GROUNDING_SECONDS", 0.0)
+    real_ones = {("MainThread", Search.GBFS, False), ("htnagent-grounded", Search.GBFS, True)}
+    solved, _ = _portfolio_with(monkeypatch, _workshop(n), real_ones)
+    assert solved.result.status is PlanStatus.SOLVED
+    assert (solved.settings.guide is not None) == (n == 13)

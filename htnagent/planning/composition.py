@@ -38,13 +38,13 @@ itself, as PANDA's relaxed-composition heuristics do (docs/design.md §7.2):
    it adds -- step 4 lets any action add it, even one no task left comes down to.
 7. **What the list can still reach** (:mod:`htnagent.planning.reach`): step 4's relaxation
    again, kept to the actions and methods below the list's tasks -- a task of the list it
-   does not reach has no plan (:meth:`Composition.dead_end`).  A pass a list: the searches
-   ask it of the nodes they expand where an action led to them, not of every child.
+   does not reach has no plan (:meth:`Composition.dead_end`).  The searches ask it of the
+   nodes they expand where an action led to them, not of every child.
 
-Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings, each way
-of binding tried: past that :func:`ground` gives None, and the searches keep the lifted
-estimate.  Grounding reads ``checkpoint()`` as it goes, so a portfolio can pace it or stop
-it.
+Everything is bounded by :data:`MAX_GROUND` ground actions and method bindings (or
+:data:`MAX_GROUND_ALONE`, where :func:`lifted_is_lost`), each way of binding tried: past
+that :func:`ground` gives None, and the searches keep the lifted estimate.  Grounding
+reads ``checkpoint()`` as it goes, so a portfolio can pace it or stop it.
 """
 
 from __future__ import annotations
@@ -75,20 +75,26 @@ one estimate from a state (worked out anew for every state the search reaches) c
 than the guidance is worth.  Woodworking's 17th problem needs 52,030 bindings (1.3 s);
 AssemblyHierarchical's 25th-30th 21,388-30,468 (docs/benchmarks.md, "The cap")."""
 
+MAX_GROUND_ALONE = 300_000
+"""The cap the portfolio grounds under where :func:`lifted_is_lost`: there the grounded
+searches are the only ones with a chance, so the grounding has no clock of its own but the
+time limit, and this cap bounds only its memory (Woodworking's 19th problem, 250,812
+bindings: about 200 MB, 8 s)."""
+
 JOIN_ABOVE = 0.02
-"""The share of the cap past which the bindings some method's types make for one task send
-the grounder to bind methods by joining their subtasks with the producible tasks
-(:mod:`htnagent.planning.producible`) first: 2,000 bindings of one task at the default
-cap, which leaves room for 50 such tasks at most.  Working out what can be produced is a pass
-over the whole problem, which costs more than it saves where the types add only a few
-ways (Entertainment's methods: six bindings); Woodworking's make up to 48,600.  It is a
-guess from one task: where the join goes past the cap, :func:`ground` binds by types
-(where one task's bindings fit under the cap).  AssemblyHierarchical has one task whose
-method takes any two ports (2,304 bindings in its 12th problem, 14,400 in its 30th), and
-bottom up the join pairs every plugged port with every pair of devices: past its 22nd
-problem the join goes past the cap (55,565 bindings in the 18th, 217,000 in the 30th),
-where binding by types takes 11,364 to 30,468.  The other way round never helped: of the
-210 problems of both suites past a cap of 20,000 by types, none fits by the join."""
+"""The share of the cap (of :data:`MAX_GROUND` at most) past which the bindings some method's
+types make for one task send the grounder to bind methods by joining their subtasks with the
+producible tasks (:mod:`htnagent.planning.producible`) first: 2,000 bindings of one task at
+the default cap, which leaves room for 50 such tasks at most.  Working out what can be
+produced is a pass over the whole problem, which costs more than it saves where the types
+add only a few ways (Entertainment's methods: six bindings); Woodworking's make up to
+48,600.  It is a guess from one task: where the join goes past the cap, :func:`ground` binds
+by types (where one task's bindings fit under the cap).  AssemblyHierarchical has one task
+whose method takes any two ports (2,304 bindings in its 12th problem, 14,400 in its 30th),
+and bottom up the join pairs every plugged port with every pair of devices: past its 22nd
+problem the join goes past the cap (55,565 bindings in the 18th, 217,000 in the 30th), where
+binding by types takes 11,364 to 30,468.  The other way round never helped: of the 210
+problems of both suites past a cap of 20,000 by types, none fits by the join."""
 
 MAX_WHOLE = 100
 """The dearest action, in whole numbers, for which :meth:`Composition.task_costs` lists nodes
@@ -434,6 +440,15 @@ def ground(
         return None
 
 
+def lifted_is_lost(domain: Domain, state: State) -> bool:
+    """Whether the types of some method's parameters that only its subtasks name make more
+    than :data:`JOIN_ABOVE` of :data:`MAX_GROUND` bindings of one task (2,000): the lifted
+    searches, binding them so, make that many children of each such decomposition, nearly
+    all dead (Woodworking: up to millions).  There the grounder binds them by the join, and
+    the searches decompose by its ground methods (design §7.2)."""
+    return _Grounder(domain, state, MAX_GROUND, None).most > MAX_GROUND * JOIN_ABOVE
+
+
 class _Grounder:
     def __init__(
         self,
@@ -473,7 +488,7 @@ class _Grounder:
         # some method's types alone would use a good share of the cap on one task; once
         # done, every method that would enumerate is joined (the join also drops the
         # bindings nothing can finish, which keeps the rest of the grounding small).
-        many = self.cap * JOIN_ABOVE
+        many = min(self.cap, MAX_GROUND) * JOIN_ABOVE
         self.joining = self.most > many if joining is None else joining
         if not self.joining:
             # Bound by types, the method's many ground ways, most of which nothing can
@@ -875,4 +890,4 @@ def _least_costs(
     return cost
 
 
-__all__ = ["MAX_GROUND", "Composition", "ground"]
+__all__ = ["MAX_GROUND", "MAX_GROUND_ALONE", "Composition", "ground", "lifted_is_lost"]

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 
 from htnagent.hddl import model as m
 from htnagent.model.plans import Plan
-from htnagent.planning.composition import ground
+from htnagent.planning.composition import MAX_GROUND, MAX_GROUND_ALONE, ground, lifted_is_lost
 from htnagent.planning.hddl_translation import TOP, HddlPlanning, OutOfTime, translate
 from htnagent.planning.one_at_a_time import cheaper_one_at_a_time
 from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
@@ -200,6 +200,12 @@ def dfs_allowance(elapsed: float) -> float:
     return DFS_SECONDS + (elapsed - early_end) * DFS_SHARE
 
 
+def _all_but_dfs(elapsed: float) -> float:
+    """The grounded search's allowance where the lifted greedy search waits for it: all the
+    time but depth-first search's."""
+    return elapsed - dfs_allowance(elapsed)
+
+
 _FINAL = (PlanStatus.SOLVED, PlanStatus.UNSOLVABLE)
 
 
@@ -208,8 +214,11 @@ class _Paced:
     at each of its checkpoints it waits while its thread's work is ahead of
     ``allowance(seconds since the portfolio began)``, and stops once told to."""
 
-    def __init__(self, name: str, allowance: Callable[[float], float], begun: float) -> None:
+    def __init__(
+        self, name: str, allowance: Callable[[float], float], begun: float, news: threading.Event
+    ) -> None:
         self.allowance = allowance
+        self.news = news  # set when it ends (shared by the helpers)
         self.begun = begun
         self.out: list[PlanResult] = []
         self.ended = threading.Event()
@@ -236,6 +245,7 @@ class _Paced:
                     self.out.append(result)
             finally:
                 self.ended.set()
+                self.news.set()
 
         threading.Thread(target=body, name=self.name, daemon=True).start()
 
@@ -256,8 +266,10 @@ def _portfolio(
     run = functools.partial(plan, planning.domain, planning.state, planning.tasks)
     dfs_settings = PlannerSettings(alternatives=1, budget=budget, search=Search.DFS, time_limit=time_left())
     begun = time.perf_counter()
-    dfs = _Paced("htnagent-dfs", dfs_allowance, begun)
-    grounded = _Paced("htnagent-grounded", grounded_allowance, begun)
+    news = threading.Event()
+    dfs = _Paced("htnagent-dfs", dfs_allowance, begun, news)
+    grounded = _Paced("htnagent-grounded", grounded_allowance, begun, news)
+    helpers = (dfs, grounded)
 
     # Progress as one count: depth-first search's own while it runs alone, then, said by the
     # greedy search, the searches' expansions together.
@@ -277,11 +289,37 @@ def _portfolio(
         if not dfs.others_on.is_set():
             say(Search.DFS, n)
 
+    greedy_seen = [0]
+
     def grounded_told(n: int, _: float) -> None:
         grounded_seen[0] = n
+        if lifted_waits.is_set():  # the greedy search, waiting, says nothing meanwhile
+            say(Search.GBFS, dfs_seen[0] + n + greedy_seen[0])
 
     def greedy_told(n: int, _: float) -> None:
+        greedy_seen[0] = n
         say(Search.GBFS, dfs_seen[0] + grounded_seen[0] + n)
+
+    # Where the lifted searches bind some method's parameters by the thousand (they are
+    # lost: `lifted_is_lost`), the lifted greedy search waits and the grounded search --
+    # its grounding first -- has its share too; the lifted greedy search goes on only where
+    # the grounding fails.
+    lifted_waits = threading.Event()
+
+    def greedy_checkpoint() -> bool:
+        if lifted_waits.is_set():
+            while lifted_waits.is_set() and not grounded.ended.is_set() and not answered():
+                if dfs.ended.is_set():
+                    grounded.others_on.clear()  # alone now: no one else would use the time
+                news.wait()
+                news.clear()
+            for h in helpers:
+                if not h.ended.is_set():
+                    h.others_on.set()  # the greedy search runs again beside them
+        return answered()
+
+    def answered() -> bool:
+        return dfs.answered() or grounded.answered()
 
     # Where the grounder decomposes methods by their ground methods, the lifted depth-first
     # search, binding them by type, is lost: once the grounding is ready, depth-first search
@@ -311,12 +349,21 @@ def _portfolio(
         left = time_left()
         deadline = None if left is None else time.perf_counter() + left
 
+        alone = lifted_is_lost(planning.domain, planning.state)
+        if alone:
+            paced.allowance = _all_but_dfs
+            lifted_waits.set()
+
         def checkpoint() -> bool:
-            if time.thread_time() - paced.cpu_start > GROUNDING_SECONDS:
+            if not alone and time.thread_time() - paced.cpu_start > GROUNDING_SECONDS:
                 return True
             return paced.pace() or (deadline is not None and time.perf_counter() > deadline)
 
-        composition = ground(planning.domain, planning.state, planning.tasks, checkpoint=checkpoint)
+        cap = MAX_GROUND_ALONE if alone else MAX_GROUND
+        composition = ground(planning.domain, planning.state, planning.tasks, cap=cap, checkpoint=checkpoint)
+        if composition is None or not composition.decompositions:
+            lifted_waits.clear()  # the lifted greedy search goes on
+            news.set()
         if composition is None or paced.stop.is_set():
             return None
 
@@ -365,7 +412,6 @@ def _portfolio(
     # One collector pause for all the searches (each pauses it itself only when it runs).
     collecting = gc.isenabled()
     gc.disable()
-    helpers = (dfs, grounded)
     try:
         dfs.start(depth_first)
         dfs.ended.wait(DFS_ALONE)
@@ -375,11 +421,7 @@ def _portfolio(
         for helper in helpers:
             helper.others_on.set()
         grounded.start(guided)
-
-        def answered() -> bool:
-            return dfs.answered() or grounded.answered()
-
-        found = run(greedy, progress=greedy_told, checkpoint=answered)
+        found = run(greedy, progress=greedy_told, checkpoint=greedy_checkpoint)
         # Out of time (or stopped), the others are too: a grounding under way has no clock.
         settled = found.status in (*_FINAL, PlanStatus.TIMED_OUT, PlanStatus.INTERRUPTED) or answered()
         for helper in helpers:
