@@ -107,6 +107,11 @@ def solve(
     keeps only a quarter of the time (:func:`dfs_allowance`): the greedy searches are the
     ones that scale.  Where the grounding decomposes methods by their ground methods,
     depth-first search goes on by them once it is ready (:data:`GROUNDED_DFS_SECONDS`).
+    Where the lifted searches are lost
+    (:func:`~htnagent.planning.composition.lifted_is_lost`: some method's types make
+    thousands of ways of one task), the lifted greedy search waits from the start of the
+    grounding, whose search then has all the time but depth-first search's; it goes on
+    only where the grounding fails.
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -165,7 +170,10 @@ gives A* under that plan's cost, before greedy branch and bound."""
 
 GROUNDING_SECONDS = 2.0
 """The most seconds of work the grounded search spends grounding: past them it gives up
-(and its share of the time goes back to the others), whatever is left under the cap."""
+(and its share of the time goes back to the others), whatever is left under the cap --
+but where the lifted searches are lost
+(:func:`~htnagent.planning.composition.lifted_is_lost`): there the grounding goes on until
+the time limit, under :data:`~htnagent.planning.composition.MAX_GROUND_ALONE`."""
 
 
 def _early_end() -> float:
