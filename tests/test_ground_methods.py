@@ -13,16 +13,25 @@ from typing import Any
 
 import pytest
 
+from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
 from htnagent.model.domain import Method
 from htnagent.model.terms import Atom
-from htnagent.planning import hddl_solving
+from htnagent.planning import composition, hddl_solving
 from htnagent.planning.composition import Composition, ground, lifted_is_lost
 from htnagent.planning.hddl_solving import Solved, solve_anytime
-from htnagent.planning.hddl_translation import HddlPlanning
+from htnagent.planning.hddl_translation import HddlPlanning, translate
 from htnagent.planning.ipc_output import ipc_plan
-from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Search, plan
-from tests.test_composition import _workshop
+from htnagent.planning.planner import (
+    PlannerSettings,
+    PlanResult,
+    PlanStatus,
+    Search,
+    plan,
+    searches_stopped,
+    stop_searches,
+)
+from tests.test_composition import WORKSHOP, _workshop
 
 N = 12
 """Colours, brushes and tools of the workshop: finish-m has N**3 bindings an item by types."""
@@ -59,6 +68,39 @@ def test_a_task_decomposes_in_the_ways_the_grounding_kept_not_by_types() -> None
         kept = {w for w in lifted if c.estimate(w, state) < math.inf}
         assert kept == {w for w in ground_ways if c.estimate(w, state) < math.inf}
         assert kept
+
+
+def test_a_split_methods_own_subtasks_keep_their_places_among_its_groups() -> None:
+    # finish-m with subtasks of its own (rinse, bound by its task) between those of its two
+    # groups (sanding: any tool; coating: any colour and brush): each ground way puts each
+    # subtask where the method has it -- every one a lifted way, and the same ways the
+    # estimate keeps.
+    text = WORKSHOP.replace(
+        ":ordered-subtasks (and (coat ?i ?c ?b) (sand ?i ?t)))",
+        ":ordered-subtasks (and (sand ?i ?t) (rinse ?i) (coat ?i ?c ?b) (rinse ?i)))",
+    ).replace("  (:action paint", "  (:action rinse :parameters (?i - item) :effect (and))\n  (:action paint")
+    domain = parse_domain(text, "workshop.hddl")
+    objects = " ".join(f"c{k} - colour b{k} - brush t{k} - tool" for k in range(1, N + 1))
+    fits = " ".join(f"(fits b{k} c{k})" for k in range(1, N + 1))
+    problem = parse_problem(
+        f"(define (problem p) (:domain workshop) (:objects i1 i2 - item {objects})"
+        " (:htn :ordered-subtasks (and (finish i1) (finish i2)))"
+        f" (:init {fits} (wanted i1 c1) (wanted i2 c2) (sharp t1)))",
+        domain,
+        "p.hddl",
+    )
+    planning = translate(domain, problem)
+    c = _grounded(planning)
+    method = _finish_m(planning)
+    finish = Atom("finish", ("i1",))
+    start = planning.state
+    lifted = method.compiled(start.dynamic_predicates)(finish, start)
+    ground_ways = c.decompositions[method](finish, start)
+    assert ground_ways and all(w[1] == w[3] == Atom("rinse", ("i1",)) for w in ground_ways)
+    assert set(ground_ways) <= set(lifted)
+    assert {w for w in lifted if c.estimate(w, start.dynamic) < math.inf} == {
+        w for w in ground_ways if c.estimate(w, start.dynamic) < math.inf
+    }
 
 
 def test_a_task_the_grounding_never_met_decomposes_by_the_lifted_method() -> None:
@@ -199,7 +241,7 @@ def _portfolio_with(
         lost = which not in real_ones
         ends = time.monotonic() + (20 if lost else slow_grounded if settings.guide is not None else 0)
         while time.monotonic() < ends:
-            if checkpoint is not None and checkpoint():
+            if searches_stopped() or (checkpoint is not None and checkpoint()):
                 return PlanResult(PlanStatus.INTERRUPTED)
             went_on[thread] = went_on.get(thread, 0) + 1
             time.sleep(0.005)
@@ -227,11 +269,48 @@ def test_where_the_lifted_searches_are_lost_the_lifted_greedy_search_waits_for_t
 
 def test_where_the_grounding_fails_the_lifted_greedy_search_goes_on(monkeypatch: pytest.MonkeyPatch) -> None:
     # The lifted searches lost, but the grounding past its cap: the lifted greedy search,
-    # waiting, goes on, and answers (the others are lost).
+    # waiting, goes on, and answers (the others are lost) -- at once, not once the others'
+    # time is up.
     monkeypatch.setattr(hddl_solving, "MAX_GROUND_ALONE", 50)
-    solved, _ = _portfolio_with(monkeypatch, _workshop(13), {("MainThread", Search.GBFS, False)})
+    solved, went_on = _portfolio_with(monkeypatch, _workshop(13), {("MainThread", Search.GBFS, False)})
     assert solved.result.status is PlanStatus.SOLVED
     assert solved.search is Search.GBFS and solved.settings.guide is None  # the lifted one
+    assert "htnagent-grounded" not in went_on  # no grounded search: the grounding failed
+    assert solved.result.seconds < 10
+
+
+def test_where_the_grounding_gives_no_ground_methods_the_lifted_greedy_search_goes_on(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Said lost, but the grounding decomposes nothing by its ground methods (12: finish-m's
+    # 1,728 ways are bound by types): the lifted greedy search goes on once it is grounded,
+    # and answers while the grounded search, lost here, still runs (not once its time is up).
+    monkeypatch.setattr(hddl_solving, "lifted_is_lost", lambda *_: True)
+    solved, _ = _portfolio_with(monkeypatch, _workshop(12), {("MainThread", Search.GBFS, False)})
+    assert solved.result.status is PlanStatus.SOLVED and solved.settings.guide is None
+    assert solved.result.seconds < 10
+
+
+def test_a_stop_asked_for_ends_the_portfolio_while_the_lifted_greedy_search_waits(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # The lifted searches lost, every search lost, and a grounding that takes its time (it
+    # reads its checkpoint every 5 ms): a stop asked for half a second in ends it all.
+    def slow_ground(*args: Any, checkpoint: Any = None, **kwargs: Any) -> None:
+        ends = time.monotonic() + 20
+        while time.monotonic() < ends and not checkpoint():
+            time.sleep(0.005)
+
+    monkeypatch.setattr(hddl_solving, "ground", slow_ground)
+    stopping = threading.Timer(0.5, stop_searches)
+    stopping.start()
+    try:
+        solved, _ = _portfolio_with(monkeypatch, _workshop(13), set())
+    finally:
+        stopping.cancel()
+        stop_searches(False)
+    assert solved.result.status is PlanStatus.INTERRUPTED
+    assert solved.result.seconds < 5
 
 
 @pytest.mark.parametrize("n", [13, 12])
@@ -246,3 +325,23 @@ def test_where_the_lifted_searches_are_lost_the_grounding_keeps_on_past_its_seco
     solved, _ = _portfolio_with(monkeypatch, _workshop(n), real_ones)
     assert solved.result.status is PlanStatus.SOLVED
     assert (solved.settings.guide is not None) == (n == 13)
+
+
+def test_a_checkpoint_saying_stop_stops_the_grounding_in_its_last_steps_too(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Past the fixed point, pruning and compiling come in large steps (a second or more on
+    # the largest groundings): the checkpoint is asked between them.  Here it says stop once
+    # the least costs are worked out.
+    least_costs = composition._least_costs
+    pruning: list[bool] = []
+
+    def noted(*args: Any) -> Any:
+        pruning.append(True)
+        return least_costs(*args)
+
+    monkeypatch.setattr(composition, "_least_costs", noted)
+    planning = _workshop(N)
+    assert ground(planning.domain, planning.state, planning.tasks, checkpoint=lambda: bool(pruning)) is None
+    pruning.clear()
+    assert ground(planning.domain, planning.state, planning.tasks, checkpoint=lambda: False) is not None

@@ -252,9 +252,9 @@ def test_the_two_halves_answer_as_one_pass_over_what_lies_below(
 ) -> None:
     # Random groundings, recursive methods and actions of no precondition among them, asked
     # of random lists from random states, against the one pass (the oracle above); where
-    # forgetful, nothing worked out is kept from one list to the next.
+    # forgetful, each memory keeps only what it worked out last.
     if forgetful:
-        monkeypatch.setattr(reach_module, "MAX_BITS_KEPT", 1)
+        monkeypatch.setattr(reach_module, "MAX_KEPT_BYTES", 1)
     rng = random.Random(seed)
     n_facts, n_tasks = rng.randint(1, 12), rng.randint(1, 10)
     facts = range(n_facts)

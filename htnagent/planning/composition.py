@@ -154,7 +154,10 @@ class Composition:
         fallback: dict[str, float],
         producible: Producible | None = None,
         by_ground: Decompositions | None = None,
+        stop_if_asked: Callable[[], None] = lambda: None,
     ) -> None:
+        """``stop_if_asked`` is called between the steps of the compiling, each up to about
+        a second on the largest groundings: it raises to stop it."""
         self.least = least
         self.decompositions: Decompositions = by_ground or {}
         """The decomposers of the methods the grounder bound by the join, or by types where
@@ -225,6 +228,7 @@ class Composition:
         # ``dist``, where a fact nothing adds costs 0 exactly when the state holds it.  By
         # task id, what it needs and what it ends (a list: looked up for every task of every
         # list estimated); None for every task where no task needs any.
+        stop_if_asked()
         one_way = OneWay.of(actions, methods, ids, task_ids)
         self._one_way: list[tuple[tuple[int, ...], frozenset[int]] | None] | None = None
         if one_way:
@@ -232,6 +236,7 @@ class Composition:
             for i in {*one_way.needs, *one_way.ends}:
                 self._one_way[i] = (one_way.needs.get(i, ()), one_way.ends.get(i, frozenset()))
         # What the list can still make true (step 6).
+        stop_if_asked()
         self._below = Below.of(actions, methods, ids, task_ids)
         needed = set().union(*self._below.needs.values())
         self._needed = {f: i for f, i in self._facts.items() if i in needed}
@@ -243,6 +248,7 @@ class Composition:
             for i, need in self._below.needs.items():
                 self._starts[i] = need
         # What the list can still reach (step 7), on the same graph.
+        stop_if_asked()
         self._reach = WithinReach(
             needs, self._consumers, outputs, self._free, self._below.tasks_below, actions=len(actions)
         )
@@ -343,8 +349,8 @@ class Composition:
     def dead_end(self, tasks: Sequence[Atom], dynamic: frozenset[Atom]) -> bool:
         """Whether the task list cannot be done from the state (step 7): the relaxation kept
         to the actions and methods below its tasks does not reach them all.  False where a
-        task of the list is one the grounding never met: what it does is unknown.  One pass
-        over the grounding: for the nodes a search expands, not for every child it makes."""
+        task of the list is one the grounding never met: what it does is unknown.  For the
+        nodes a search expands, not for every child it makes (:mod:`htnagent.planning.reach`)."""
         ids = self._tasks
         wanted: list[int] = []
         for t in tasks:
@@ -531,6 +537,12 @@ class _Grounder:
             self.stopped = True
             raise TooLarge
 
+    def stop_if_asked(self) -> None:
+        """Ask the checkpoint now, where work comes in large steps: stop if it says so."""
+        if self.checkpoint is not None and self.checkpoint():
+            self.stopped = True
+            raise TooLarge
+
     def relaxed(self, pre: Sequence[Literal]) -> tuple[Literal, ...]:
         """The precondition under delete relaxation: negative literals on changing facts go."""
         return tuple(lit for lit in pre if lit.positive or lit.atom.name not in self.dyn)
@@ -677,6 +689,7 @@ class _Grounder:
         self, actions: dict[Atom, list[_GroundAction]], methods: list[_GroundMethod], tasks: list[Atom]
     ) -> Composition:
         least = _least_costs(actions, methods, tasks)
+        self.stop_if_asked()
         kept = [
             me
             for me in methods
@@ -689,7 +702,10 @@ class _Grounder:
         fallback = self.domain.task_costs or {}
         ground_ways = [me.way for me in kept if me.way is not None]
         by_ground = decompositions(ground_ways, least) if self.by_ground else {}
-        return Composition(kept_actions, kept, least, fallback, self._producible, by_ground)
+        self.stop_if_asked()
+        return Composition(
+            kept_actions, kept, least, fallback, self._producible, by_ground, stop_if_asked=self.stop_if_asked
+        )
 
 
 @dataclass(frozen=True, slots=True)

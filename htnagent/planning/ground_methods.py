@@ -113,9 +113,11 @@ def _decomposer(
             if not choices:
                 out[core.subtasks] = None  # no groups: its subtasks are the method's, made ground
                 continue
-            # Each subtask of the method is the core's or one group's, made ground already.
+            # Each subtask of the method is the core's or one group's, made ground already:
+            # the core's own come first among its subtasks, its groups' tasks after them.
+            own = len(core.positions)
             filled: list[Atom] = [*subtasks]
-            for i, t in zip(core.positions, core.subtasks, strict=False):
+            for i, t in zip(core.positions, core.subtasks[:own], strict=True):
                 filled[i] = t
             for chosen in itertools.product(*choices):
                 for g in chosen:

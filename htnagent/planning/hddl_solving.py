@@ -21,7 +21,15 @@ from htnagent.model.plans import Plan
 from htnagent.planning.composition import MAX_GROUND, MAX_GROUND_ALONE, ground, lifted_is_lost
 from htnagent.planning.hddl_translation import TOP, HddlPlanning, OutOfTime, translate
 from htnagent.planning.one_at_a_time import cheaper_one_at_a_time
-from htnagent.planning.planner import PlannerSettings, PlanResult, PlanStatus, Progress, Search, plan
+from htnagent.planning.planner import (
+    PlannerSettings,
+    PlanResult,
+    PlanStatus,
+    Progress,
+    Search,
+    plan,
+    searches_stopped,
+)
 
 HDDL_BUDGET = 20_000_000
 """The expansions :func:`solve` allows by default: a limit on memory more than on time."""
@@ -53,6 +61,11 @@ the grounding was affordable came from the grounded search (AssemblyHierarchical
 Entertainment, Factories-simple, Woodworking): the best-informed search gets the most time.
 Where the grounding was not affordable, the grounded search has stopped, and the lifted
 greedy search has its time."""
+
+
+WAKE_SECONDS = 0.1
+"""How often the lifted greedy search, waiting while the grounded search has its share,
+looks at the clock and for a stop asked for."""
 
 
 GROUNDED_DFS_SECONDS = 0.5
@@ -111,7 +124,7 @@ def solve(
     (:func:`~htnagent.planning.composition.lifted_is_lost`: some method's types make
     thousands of ways of one task), the lifted greedy search waits from the start of the
     grounding, whose search then has all the time but depth-first search's; it goes on
-    only where the grounding fails.
+    only where the grounding fails (or leaves no method to decompose by ground methods).
 
     The ``timeout`` bounds the translation and the searches together: the translation reads
     the clock as it goes (every :data:`~htnagent.planning.hddl_translation.CLOCK_EVERY`
@@ -311,15 +324,21 @@ def _portfolio(
     # Where the lifted searches bind some method's parameters by the thousand (they are
     # lost: `lifted_is_lost`), the lifted greedy search waits and the grounded search --
     # its grounding first -- has its share too; the lifted greedy search goes on only where
-    # the grounding fails.
+    # the grounding fails (or leaves no method to decompose by its ground methods).
     lifted_waits = threading.Event()
+    alone = lifted_is_lost(planning.domain, planning.state)
 
     def greedy_checkpoint() -> bool:
         if lifted_waits.is_set():
+            # Woken by a helper's end; and a few times a second to see the clock and a stop
+            # asked for (the greedy search, back, then ends on them itself).
             while lifted_waits.is_set() and not grounded.ended.is_set() and not answered():
+                left = time_left()
+                if searches_stopped() or (left is not None and left <= 1e-3):
+                    break
                 if dfs.ended.is_set():
                     grounded.others_on.clear()  # alone now: no one else would use the time
-                news.wait()
+                news.wait(WAKE_SECONDS)
                 news.clear()
             for h in helpers:
                 if not h.ended.is_set():
@@ -357,20 +376,18 @@ def _portfolio(
         left = time_left()
         deadline = None if left is None else time.perf_counter() + left
 
-        alone = lifted_is_lost(planning.domain, planning.state)
-        if alone:
-            paced.allowance = _all_but_dfs
-            lifted_waits.set()
-
         def checkpoint() -> bool:
             if not alone and time.thread_time() - paced.cpu_start > GROUNDING_SECONDS:
                 return True
-            return paced.pace() or (deadline is not None and time.perf_counter() > deadline)
+            if searches_stopped() or paced.pace():
+                return True
+            return deadline is not None and time.perf_counter() > deadline
 
         cap = MAX_GROUND_ALONE if alone else MAX_GROUND
         composition = ground(planning.domain, planning.state, planning.tasks, cap=cap, checkpoint=checkpoint)
-        if composition is None or not composition.decompositions:
-            lifted_waits.clear()  # the lifted greedy search goes on
+        if alone and (composition is None or not composition.decompositions):
+            paced.allowance = grounded_allowance  # the lifted greedy search goes on, with its share
+            lifted_waits.clear()
             news.set()
         if composition is None or paced.stop.is_set():
             return None
@@ -428,6 +445,9 @@ def _portfolio(
         greedy = PlannerSettings(alternatives=1, budget=budget, search=Search.GBFS, time_limit=time_left())
         for helper in helpers:
             helper.others_on.set()
+        if alone:
+            grounded.allowance = _all_but_dfs
+            lifted_waits.set()
         grounded.start(guided)
         found = run(greedy, progress=greedy_told, checkpoint=greedy_checkpoint)
         # Out of time (or stopped), the others are too: a grounding under way has no clock.

@@ -38,12 +38,13 @@ slower where children are many (AssemblyHierarchical, Entertainment; design §7.
 
 from __future__ import annotations
 
+import sys
 from collections.abc import Callable, Iterable, Sequence
 
-MAX_BITS_KEPT = 400_000_000
-"""About how many bits (50 MB) of the actions below each task, and bytes of the tasks
-reached from each set of facts, :class:`WithinReach` keeps: past it, it forgets them and
-works them out again as lists ask -- time over memory."""
+MAX_KEPT_BYTES = 50_000_000
+"""About how many bytes each of :class:`WithinReach`'s two memories keeps (the actions below
+each task asked; the tasks reached from each set of facts, with the set): past it, that
+memory forgets what it holds and works it out again as lists ask -- time over memory."""
 
 
 class WithinReach:
@@ -88,7 +89,7 @@ class WithinReach:
         for k in range(actions):
             self._actions_of.setdefault(self._owner[k], []).append(k)
         self._usable: dict[int, int] = {}
-        self._usable_bits = 0
+        self._usable_bytes = 0
         self._reached: dict[frozenset[int], bytearray] = {}
         self._reached_bytes = 0
 
@@ -111,10 +112,11 @@ class WithinReach:
             return known
         actions_of = self._actions_of
         found = _bits([k for t in self._below(task) for k in actions_of.get(t, ())])
-        self._usable_bits += found.bit_length()
-        if self._usable_bits > MAX_BITS_KEPT:
+        size = sys.getsizeof(found)
+        self._usable_bytes += size
+        if self._usable_bytes > MAX_KEPT_BYTES:
             self._usable.clear()
-            self._usable_bits = found.bit_length()
+            self._usable_bytes = size
         self._usable[task] = found
         return found
 
@@ -153,10 +155,11 @@ class WithinReach:
                 left[k] -= 1
                 if not left[k]:
                     todo.append(owner[k])
-        self._reached_bytes += len(reached) * 8
-        if self._reached_bytes > MAX_BITS_KEPT:
+        size = sys.getsizeof(reached) + sys.getsizeof(facts)
+        self._reached_bytes += size
+        if self._reached_bytes > MAX_KEPT_BYTES:
             self._reached.clear()
-            self._reached_bytes = len(reached) * 8
+            self._reached_bytes = size
         self._reached[facts] = reached
         return reached
 
@@ -172,4 +175,4 @@ def _bits(ks: Iterable[int]) -> int:
     return int.from_bytes(out, "little")
 
 
-__all__ = ["MAX_BITS_KEPT", "WithinReach"]
+__all__ = ["MAX_KEPT_BYTES", "WithinReach"]
