@@ -231,12 +231,12 @@ WORKSHOP = """
 """
 
 
-def _workshop(n: int) -> HddlPlanning:
+def _workshop(n: int, domain_text: str = WORKSHOP) -> HddlPlanning:
     """Two items, each wanted in its own colour; brush k fits colour k; tool t1 alone is
-    sharp; n colours, brushes and tools."""
+    sharp; n colours, brushes and tools (in the workshop domain, or ``domain_text``)."""
     objects = " ".join([f"c{k} - colour b{k} - brush t{k} - tool" for k in range(1, n + 1)])
     fits = " ".join(f"(fits b{k} c{k})" for k in range(1, n + 1))
-    domain = parse_domain(WORKSHOP, "workshop.hddl")
+    domain = parse_domain(domain_text, "workshop.hddl")
     problem = parse_problem(
         f"(define (problem p) (:domain workshop) (:objects i1 i2 - item {objects})"
         " (:htn :ordered-subtasks (and (finish i1) (finish i2)))"

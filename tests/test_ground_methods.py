@@ -13,14 +13,13 @@ from typing import Any
 
 import pytest
 
-from htnagent.hddl import parse_domain, parse_problem
 from htnagent.hddl.check import check_plan
 from htnagent.model.domain import Method
 from htnagent.model.terms import Atom
 from htnagent.planning import composition, hddl_solving
 from htnagent.planning.composition import Composition, ground, lifted_is_lost
 from htnagent.planning.hddl_solving import Solved, solve_anytime
-from htnagent.planning.hddl_translation import HddlPlanning, translate
+from htnagent.planning.hddl_translation import HddlPlanning
 from htnagent.planning.ipc_output import ipc_plan
 from htnagent.planning.planner import (
     PlannerSettings,
@@ -79,17 +78,7 @@ def test_a_split_methods_own_subtasks_keep_their_places_among_its_groups() -> No
         ":ordered-subtasks (and (coat ?i ?c ?b) (sand ?i ?t)))",
         ":ordered-subtasks (and (sand ?i ?t) (rinse ?i) (coat ?i ?c ?b) (rinse ?i)))",
     ).replace("  (:action paint", "  (:action rinse :parameters (?i - item) :effect (and))\n  (:action paint")
-    domain = parse_domain(text, "workshop.hddl")
-    objects = " ".join(f"c{k} - colour b{k} - brush t{k} - tool" for k in range(1, N + 1))
-    fits = " ".join(f"(fits b{k} c{k})" for k in range(1, N + 1))
-    problem = parse_problem(
-        f"(define (problem p) (:domain workshop) (:objects i1 i2 - item {objects})"
-        " (:htn :ordered-subtasks (and (finish i1) (finish i2)))"
-        f" (:init {fits} (wanted i1 c1) (wanted i2 c2) (sharp t1)))",
-        domain,
-        "p.hddl",
-    )
-    planning = translate(domain, problem)
+    planning = _workshop(N, text)
     c = _grounded(planning)
     method = _finish_m(planning)
     finish = Atom("finish", ("i1",))

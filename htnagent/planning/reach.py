@@ -39,7 +39,8 @@ slower where children are many (AssemblyHierarchical, Entertainment; design §7.
 from __future__ import annotations
 
 import sys
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Hashable, Iterable, Sequence
+from typing import Generic, TypeVar
 
 MAX_KEPT_BYTES = 50_000_000
 """About how many bytes each of :class:`WithinReach`'s two memories keeps (the actions below
@@ -88,10 +89,8 @@ class WithinReach:
         self._actions_of: dict[int, list[int]] = {}  # a primitive task: its actions
         for k in range(actions):
             self._actions_of.setdefault(self._owner[k], []).append(k)
-        self._usable: dict[int, int] = {}
-        self._usable_bytes = 0
-        self._reached: dict[frozenset[int], bytearray] = {}
-        self._reached_bytes = 0
+        self._usable: _Kept[int, int] = _Kept()
+        self._reached: _Kept[frozenset[int], bytearray] = _Kept()
 
     def lost(self, tasks: Sequence[int], start: Iterable[int]) -> bool:
         """Whether, from the nodes ``start`` (the state's facts), the relaxation kept to the
@@ -112,13 +111,7 @@ class WithinReach:
             return known
         actions_of = self._actions_of
         found = _bits([k for t in self._below(task) for k in actions_of.get(t, ())])
-        size = sys.getsizeof(found)
-        self._usable_bytes += size
-        if self._usable_bytes > MAX_KEPT_BYTES:
-            self._usable.clear()
-            self._usable_bytes = size
-        self._usable[task] = found
-        return found
+        return self._usable.keep(task, found, sys.getsizeof(found))
 
     def _facts_reached(self, start: Iterable[int], usable: int) -> frozenset[int]:
         """Half 1: the facts the actions ``usable`` (a bit set) make true from ``start``, a
@@ -155,13 +148,32 @@ class WithinReach:
                 left[k] -= 1
                 if not left[k]:
                     todo.append(owner[k])
-        size = sys.getsizeof(reached) + sys.getsizeof(facts)
-        self._reached_bytes += size
-        if self._reached_bytes > MAX_KEPT_BYTES:
-            self._reached.clear()
-            self._reached_bytes = size
-        self._reached[facts] = reached
-        return reached
+        return self._reached.keep(facts, reached, sys.getsizeof(reached) + sys.getsizeof(facts))
+
+
+K = TypeVar("K", bound=Hashable)
+V = TypeVar("V")
+
+
+class _Kept(Generic[K, V]):
+    """What was worked out, by key, up to about :data:`MAX_KEPT_BYTES`: past them it forgets
+    all it holds but the newest."""
+
+    def __init__(self) -> None:
+        self._values: dict[K, V] = {}
+        self._bytes = 0
+
+    def get(self, key: K) -> V | None:
+        return self._values.get(key)
+
+    def keep(self, key: K, value: V, size: int) -> V:
+        """Keep ``value`` (about ``size`` bytes, its key's included) and give it back."""
+        self._bytes += size
+        if self._bytes > MAX_KEPT_BYTES:
+            self._values.clear()
+            self._bytes = size
+        self._values[key] = value
+        return value
 
 
 def _bits(ks: Iterable[int]) -> int:
